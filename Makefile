@@ -1,0 +1,34 @@
+# Set-up and entry points. `make run` and `make test` each work from a fresh clone.
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+ARGS   ?=
+
+.PHONY: install run full test bench clean
+
+install: $(STAMP)
+
+$(STAMP): pyproject.toml
+	$(PYTHON) integrators/llvm.py --ensure
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install -q --upgrade pip
+	$(BIN)/python -m pip install -q -e '.[test]'
+	touch $@
+
+# The main job: the default experiments on the bundled scene, report in results/.
+run: install
+	$(BIN)/python -m experiments.run_all $(ARGS)
+
+# The writeup's 1024x512 / 1000 spp bias checks as well (long).
+full: install
+	$(BIN)/python -m experiments.run_all --full $(ARGS)
+
+test: install
+	$(BIN)/python -m pytest -q tests $(ARGS)
+
+bench: install
+	$(BIN)/python -m benchmarks.run $(ARGS)
+
+clean:
+	rm -rf results .pytest_cache

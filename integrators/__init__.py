@@ -1,0 +1,82 @@
+"""Variance-reduction plugins for Mitsuba 3.
+
+Usage::
+
+    import mitsuba as mi
+    mi.set_variant("llvm_ad_rgb")
+    import integrators        # registers vr_path, phong and halton for this variant
+
+Importing registers every plugin for the current Mitsuba variant. A later
+``mi.set_variant(...)`` to another JIT variant (``llvm_*``, ``cuda_*``)
+registers them there too. Imported before any variant is set, the package
+registers the plugins as soon as one is (this order also lets it choose
+libLLVM, see below). Scalar variants are not supported: the plugins are
+vectorised Dr.Jit code with symbolic loops; importing under one raises
+ImportError and switching to one warns.
+
+The first thing this package does is choose a libLLVM >= 17 for Dr.Jit (see
+:mod:`integrators.llvm`); that only helps when ``integrators`` is imported
+before mitsuba/drjit, otherwise it checks what drjit loaded and explains.
+"""
+from __future__ import annotations
+
+import importlib
+import sys
+import warnings
+
+from . import llvm as _llvm
+
+_llvm.configure()
+
+import mitsuba as mi  # noqa: E402  (must come after choosing libLLVM)
+
+__all__ = ["register", "PLUGIN_MODULES", "supported_variant"]
+
+#: Modules that each define and register one plugin for the current variant.
+PLUGIN_MODULES = ("phong", "path")
+
+_registered: set[str] = set()
+
+
+def supported_variant(variant: str | None) -> bool:
+    """True for the JIT variants the plugins run on (``llvm_*``, ``cuda_*``)."""
+    return variant is not None and variant.split("_")[0] in ("llvm", "cuda", "metal")
+
+
+def _check_variant(variant: str | None) -> None:
+    if not supported_variant(variant):
+        raise ImportError(
+            f"integrators: variant '{variant}' is not supported; the plugins need a JIT "
+            f"variant (llvm_* or cuda_*), e.g. mi.set_variant('llvm_ad_rgb').")
+
+
+def register() -> None:
+    """Define and register every plugin for the current variant (idempotent)."""
+    variant = mi.variant()
+    _check_variant(variant)
+    if variant in _registered:
+        return
+    for name in PLUGIN_MODULES:
+        qualified = f"{__name__}.{name}"
+        module = sys.modules.get(qualified)
+        if module is None:
+            importlib.import_module(qualified)
+        else:
+            # Plugin classes derive from the variant's mi.BSDF / mi.Sampler /
+            # mi.SamplingIntegrator: define them again for the new variant.
+            importlib.reload(module)
+    _registered.add(variant)
+
+
+def _on_variant_change(old: str | None, new: str | None) -> None:
+    if supported_variant(new):
+        register()
+    elif new is not None:
+        warnings.warn(f"integrators: variant '{new}' is not supported, the plugins "
+                      f"(vr_path, phong, halton) are not available in it; use a JIT "
+                      f"variant such as 'llvm_ad_rgb'.", stacklevel=2)
+
+
+if mi.variant() is not None:
+    register()
+mi.detail.add_variant_callback(_on_variant_change)
