@@ -11,9 +11,13 @@ STRATEGIES = ("uniform", "cosine", "bsdf")
 
 
 def mis_weight(pdf_a, pdf_b):
-    """Power heuristic (beta = 2) weight of technique a against b."""
-    a2 = dr.square(pdf_a)
-    return dr.select(pdf_a > 0, a2 / dr.maximum(a2 + dr.square(pdf_b), 1e-30), 0.0)
+    """Power heuristic (beta = 2) weight of technique a against b.
+
+    Written as 1 / (1 + (b/a)^2) so that an infinite density (an emitter seen
+    exactly edge-on) gives 1 or 0 instead of inf / inf = NaN.
+    """
+    ratio = pdf_b / dr.select(pdf_a > 0, pdf_a, 1.0)
+    return dr.select(pdf_a > 0, dr.rcp(1.0 + dr.square(ratio)), 0.0)
 
 
 class VRPathIntegrator(mi.SamplingIntegrator):

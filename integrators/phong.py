@@ -148,8 +148,11 @@ class PhongBSDF(mi.BSDF):
         callback.put("exponent", self.exponent, mi.ParamFlags.NonDifferentiable)
 
     def parameters_changed(self, keys=[]):
-        self._check_exponent(dr.slice(self.exponent, 0) if dr.width(self.exponent) else -1)
-        self.exponent = dr.opaque(mi.Float, dr.slice(self.exponent, 0))
+        if dr.width(self.exponent) != 1:
+            raise ValueError(f"phong: 'exponent' must be a single number, got "
+                             f"{dr.width(self.exponent)} values")
+        self._check_exponent(dr.slice(self.exponent, 0))
+        dr.make_opaque(self.exponent)   # edits must not recompile render kernels
         self._check_reflectances()
 
     # --------------------------------------------------------------- helpers

@@ -1,0 +1,68 @@
+"""Chi-square helpers shared by the warp and BSDF tests.
+
+Mitsuba's ``SphericalDomain`` bins (phi, cos theta) over the whole sphere; a
+Phong lobe with exponent 10^4 is about 0.01 rad wide and falls into one row of
+cells, where the tabulated pdf cannot be integrated accurately. ``CapDomain``
+bins (phi, cos alpha) over a spherical cap about the lobe axis instead (the
+same unit Jacobian: d omega = d phi d cos alpha), sized to a dozen lobe widths.
+Samples outside the cap get weight 0, so histogram and pdf both integrate to
+the mass inside the cap. Where the cap is the whole sphere, use the z axis: the
+horizon, where BSDF densities jump to 0, is then a cell boundary; elsewhere the
+cells are integrated with ires x ires points so that cells cut by the horizon
+are tabulated accurately.
+"""
+import drjit as dr
+import mitsuba as mi
+
+SIGNIFICANCE = 0.01
+
+
+def cap_cos_min(exponent: float, lobe_widths: float = 12.0) -> float:
+    """cos of the cap's half-angle: 1 - lobe_widths / (n + 1), at least -1."""
+    return max(-1.0, 1.0 - lobe_widths / (exponent + 1.0))
+
+
+class CapDomain:
+    """(phi, cos alpha) about ``axis``, cos alpha in [cos_min, 1]."""
+
+    def __init__(self, axis, cos_min):
+        self.axis = mi.Vector3f(*axis)
+        self.frame = mi.Frame3f(dr.normalize(self.axis))
+        self.cos_min = cos_min
+
+    def bounds(self):
+        return mi.ScalarBoundingBox2f([-dr.pi, self.cos_min], [dr.pi, 1.0])
+
+    def aspect(self):
+        return 1.0
+
+    def map_forward(self, p):
+        sin_a = dr.safe_sqrt(1.0 - dr.square(p.y))
+        sin_phi, cos_phi = dr.sincos(p.x)
+        return self.frame.to_world(mi.Vector3f(cos_phi * sin_a, sin_phi * sin_a, p.y))
+
+    def map_backward(self, v):
+        local = self.frame.to_local(v)
+        return mi.Vector2f(dr.atan2(local.y, local.x), dr.clip(local.z, self.cos_min, 1.0))
+
+    def restrict(self, v, weight):
+        """Zero the weight of (and park) samples that fall outside the cap."""
+        inside = self.frame.to_local(v).z >= self.cos_min
+        return dr.select(inside, v, dr.normalize(self.axis)), dr.select(inside, weight, 0.0)
+
+
+def run_chi2(domain, sample, pdf, sample_dim, monkeypatch, tmp_path, test_count=1,
+             sample_count=1_000_000, ires=16):
+    """Run Mitsuba's ChiSquareTest (from tmp_path: it writes chi2_data.py on failure).
+
+    ``sample(u)`` returns (directions, weights). Returns the p-value; fails the
+    test when the null hypothesis is rejected at SIGNIFICANCE (Sidak-corrected
+    for ``test_count`` tests).
+    """
+    monkeypatch.chdir(tmp_path)
+    test = mi.chi2.ChiSquareTest(domain=domain, sample_func=sample, pdf_func=pdf,
+                                 sample_dim=sample_dim, sample_count=sample_count, res=101,
+                                 ires=ires)
+    ok = test.run(SIGNIFICANCE, test_count=test_count, quiet=True)
+    assert ok, test.messages
+    return test.p_value
