@@ -33,7 +33,7 @@ import mitsuba as mi  # noqa: E402  (must come after choosing libLLVM)
 __all__ = ["register", "PLUGIN_MODULES", "supported_variant"]
 
 #: Modules that each define and register one plugin for the current variant.
-PLUGIN_MODULES = ("phong", "path")
+PLUGIN_MODULES = ("phong", "path", "halton")
 
 _registered: set[str] = set()
 

@@ -1,0 +1,176 @@
+"""Tests of the QMC maths in ``integrators.qmc`` (radical inverses, randomizations).
+
+Statistical checks use a significance level of 1e-3 (chi-square p-values; a
+z of 3.29 for two-sided normal bounds), with fixed seeds so they are
+deterministic.
+"""
+import drjit as dr
+import mitsuba as mi
+import numpy as np
+import pytest
+from scipy import stats
+from scipy.stats import qmc as scipy_qmc
+
+from integrators import qmc
+
+ALPHA = 1e-3
+
+
+def _values(dimension, index, seed=0, randomization="owen"):
+    return np.array(qmc.halton_sample(mi.UInt32(dimension), mi.UInt32(index),
+                                      mi.UInt32(seed), randomization), dtype=np.float64)
+
+
+def _brev32(a: np.ndarray) -> np.ndarray:
+    a = a.astype(np.uint64)
+    out = np.zeros_like(a)
+    for bit in range(32):
+        out |= ((a >> np.uint64(bit)) & np.uint64(1)) << np.uint64(31 - bit)
+    return out
+
+
+def test_prime_table():
+    assert len(qmc.PRIMES) == qmc.PRIME_TABLE_SIZE == 1000
+    assert list(qmc.PRIMES[:10]) == [2, 3, 5, 7, 11, 13, 17, 19, 23, 29]
+    assert qmc.PRIMES[-1] == 7919
+    for p in qmc.PRIMES.astype(int):
+        assert all(p % q for q in range(2, int(p**0.5) + 1))
+
+
+def test_division_magic_is_exact():
+    rng = np.random.default_rng(1)
+    a = np.concatenate([rng.integers(0, 2**31, 4000), np.arange(0, 70000, 7),
+                        [2**31 - 1, 2**31 - 2, 2**30]]).astype(np.uint64)
+    for b in [int(p) for p in qmc.PRIMES] + [4, 16, 256]:
+        m, s = qmc.division_magic(b)
+        assert 0 < m < 2**32
+        np.testing.assert_array_equal((a * np.uint64(m)) >> np.uint64(32 + s), a // np.uint64(b))
+
+
+def test_base2_is_bit_reversal():
+    rng = np.random.default_rng(2)
+    a = np.concatenate([np.arange(4096), rng.integers(0, 2**31, 4096)]).astype(np.uint32)
+    got = np.array(qmc.radical_inverse(0, mi.UInt32(a)))
+    expected = np.minimum(_brev32(a).astype(np.float32) * np.float32(2.0**-32),
+                          np.float32(qmc.ONE_MINUS_EPSILON))
+    np.testing.assert_array_equal(got, expected)
+
+
+def test_plain_halton_matches_scipy():
+    n, dims = 600, 24
+    expected = scipy_qmc.Halton(d=dims, scramble=False).random(n)
+    index = dr.arange(mi.UInt32, n)
+    for d in range(dims):
+        got = np.array(qmc.radical_inverse(d, index), dtype=np.float64)
+        # float32 result: within a few ulps of the exact value
+        np.testing.assert_allclose(got, expected[:, d], rtol=0, atol=4e-7, err_msg=f"dim {d}")
+    # large indices (many digits) against exact rational arithmetic
+    rng = np.random.default_rng(3)
+    big = rng.integers(0, 2**31, 200)
+    for d in (1, 2, 10, 500, 999):
+        b = int(qmc.PRIMES[d])
+        exact = []
+        for a in big:
+            a, v, w = int(a), 0.0, 1.0 / b
+            while a:
+                v += (a % b) * w
+                a //= b
+                w /= b
+            exact.append(v)
+        np.testing.assert_allclose(np.array(qmc.radical_inverse(d, mi.UInt32(big))), exact,
+                                   rtol=0, atol=4e-7)
+
+
+def test_dimensions_wrap_past_prime_table():
+    index = dr.arange(mi.UInt32, 300)
+    for d in (0, 1, 7):
+        np.testing.assert_array_equal(_values(d + 1000, index, 0, "none"),
+                                      _values(d, index, 0, "none"))
+        np.testing.assert_array_equal(_values(d + 3000, index, 0, "none"),
+                                      _values(d, index, 0, "none"))
+    for r in ("permute_digits", "owen"):
+        v = _values(1003, index, 5, r)
+        assert np.all((v >= 0) & (v < 1))
+        # same base (7) and still stratified, but a different scramble than dim 3
+        assert np.histogram(v[:49], bins=49, range=(0, 1))[0].max() == 1
+        assert not np.array_equal(v, _values(3, index, 5, r))
+
+
+def test_unknown_randomization_raises():
+    with pytest.raises(ValueError, match="'sobol'.*none, permute_digits, owen"):
+        qmc.halton_sample(0, 0, 0, "sobol")
+
+
+@pytest.mark.parametrize("randomization", ["permute_digits", "owen"])
+def test_every_point_is_uniform_over_seeds(randomization):
+    """Each single point (fixed index and dimension) is U[0,1) over the scramble seeds."""
+    n_seeds, bins = 20000, 20
+    seeds = dr.arange(mi.UInt32, n_seeds) * 7919 + 13
+    for d in (0, 1, 2, 5, 40, 700):
+        for index in (0, 1, 6, 250):
+            v = _values(d, mi.UInt32(index) + dr.zeros(mi.UInt32, n_seeds), seeds, randomization)
+            assert np.all((v >= 0) & (v < 1))
+            counts = np.histogram(v, bins=bins, range=(0, 1))[0]
+            p = stats.chisquare(counts).pvalue
+            assert p > ALPHA, (d, index, p)
+
+
+@pytest.mark.parametrize("randomization", ["none", "permute_digits", "owen"])
+def test_projections_uniform_and_stratified(randomization):
+    """The first b^m points of each 1-D projection fill the b^m strata once each."""
+    for d, m in ((0, 10), (1, 6), (2, 4), (3, 3), (9, 2), (60, 1)):
+        b = int(qmc.PRIMES[d])
+        n = b**m
+        v = _values(d, dr.arange(mi.UInt32, n), 12345, randomization)
+        # plain Halton points sit on the stratum edges (up to float rounding)
+        strata = np.round(v * n) if randomization == "none" else np.floor(v * n)
+        np.testing.assert_array_equal(np.sort(strata), np.arange(n))
+        # ... and so the histogram passes a chi-square test with coarse bins
+        coarse = np.histogram(v, bins=min(n, 16), range=(0, 1))[0]
+        assert stats.chisquare(coarse).pvalue > ALPHA
+
+
+@pytest.mark.parametrize("randomization", ["none", "permute_digits", "owen"])
+def test_deterministic_for_a_seed(randomization):
+    index = dr.arange(mi.UInt32, 500)
+    a = _values(3, index, 42, randomization)
+    np.testing.assert_array_equal(a, _values(3, index, 42, randomization))
+    other = _values(3, index, 43, randomization)
+    if randomization == "none":
+        np.testing.assert_array_equal(a, other)
+    else:
+        assert np.mean(a == other) < 0.01
+
+
+@pytest.mark.parametrize("randomization", ["none", "permute_digits", "owen"])
+def test_2d_discrepancy_lower_than_random(randomization):
+    n, seeds = 256, 8
+    rng = np.random.default_rng(4)
+    index = dr.arange(mi.UInt32, n)
+    for d0, d1 in ((0, 1), (2, 3), (4, 5), (1, 6)):
+        disc_q, disc_r = [], []
+        for s in range(seeds):
+            pts = np.stack([_values(d0, index, s, randomization),
+                            _values(d1, index, s, randomization)], axis=1)
+            disc_q.append(scipy_qmc.discrepancy(pts))
+            disc_r.append(scipy_qmc.discrepancy(rng.random((n, 2))))
+        assert np.mean(disc_q) < 0.5 * np.mean(disc_r), (d0, d1, disc_q, disc_r)
+
+
+@pytest.mark.parametrize("randomization", ["none", "owen"])
+def test_works_inside_symbolic_loop(randomization):
+    """Dimension and index as loop variables of a symbolic loop give the direct values."""
+    n, steps = 64, 12
+    index = dr.arange(mi.UInt32, n)
+    out = dr.zeros(mi.Float, n * steps)
+
+    def body(dim, acc):
+        v = qmc.halton_sample(dim, index, 9, randomization)
+        dr.scatter(out, v, index * steps + dim)
+        return dim + 1, acc + v
+
+    dim, _ = dr.while_loop(state=(dr.zeros(mi.UInt32, n), dr.zeros(mi.Float, n)),
+                           cond=lambda dim, acc: dim < steps, body=body, mode="symbolic")
+    got = np.array(out).reshape(n, steps)
+    for d in range(steps):
+        np.testing.assert_array_equal(got[:, d], _values(d, index, 9, randomization))
