@@ -1,0 +1,129 @@
+"""Probes that must run in a process of their own; each prints one JSON line.
+
+``python -m benchmarks.probes compile --configs path,vr:bsdf,halton:owen ...``
+    For each configuration: the first render (tracing + JIT compilation, or a
+    kernel-cache lookup) and a warm render, both timed, and what Dr.Jit's
+    kernel history says about the first one (LLVM backend time, cache hits).
+    Run with ``HOME`` pointing at an empty directory for a cold kernel cache
+    (Dr.Jit keeps it in ``~/.drjit``), then again with the same ``HOME`` to see
+    whether the cache makes a second process fast.
+
+``python -m benchmarks.probes rss --width 1024 --height 512 --spp 1000``
+    Renders with the experiment suite's pass renderer
+    (``experiments.lib.render.run_progressive``, the ``bsdf`` method) into a
+    temporary directory and reports this process's peak RSS.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import sys
+import tempfile
+import time
+
+from . import common as C
+from .common import dr, mi
+
+
+# ------------------------------------------------------------ compile
+
+def config_scene_and_integrator(name: str, width: int, height: int, spp: int, max_depth: int):
+    """``path``, ``vr:<strategy>`` or ``halton:<randomization>`` (vr_path bsdf + halton)."""
+    if name == "path":
+        return C.load_scene(width, height, spp, max_depth=max_depth), C.path_integrator(max_depth)
+    kind, _, arg = name.partition(":")
+    if kind == "vr":
+        return (C.load_scene(width, height, spp, max_depth=max_depth),
+                C.vr_path_integrator(arg, max_depth))
+    if kind == "halton":
+        return (C.load_scene(width, height, spp, "halton", arg, max_depth),
+                C.vr_path_integrator("bsdf", max_depth))
+    raise ValueError(f"unknown configuration {name!r}")
+
+
+def probe_compile(args) -> dict:
+    out = {}
+    for name in args.configs.split(","):
+        scene, integrator = config_scene_and_integrator(name, args.width, args.height,
+                                                        args.spp, args.max_depth)
+        kernels = []
+        first = C.timed(lambda: kernels.extend(
+            C.jit_kernels(lambda: C.render(scene, integrator, seed=1))))
+        warm = min(C.timed(lambda s=s: C.render(scene, integrator, seed=s)) for s in (2, 3))
+        out[name] = {"first_s": first[0], "warm_s": warm[0],
+                     "compile_s": max(first[0] - warm[0], 0.0),
+                     "kernels": len(kernels),
+                     "cache_hits": sum(k["cache_hit"] for k in kernels),
+                     "backend_ms": sum(k["backend_ms"] for k in kernels),
+                     "codegen_ms": sum(k["codegen_ms"] for k in kernels)}
+    return out
+
+
+# ---------------------------------------------------------------- RSS
+
+def probe_rss(args) -> dict:
+    width, height, spp = args.width, args.height, args.spp
+    with tempfile.TemporaryDirectory(prefix="bench-rss-") as tmp:
+        start = time.perf_counter()
+        try:
+            from experiments.lib import methods as M
+            from experiments.lib import render as R
+        except ImportError as e:                            # suite not installed
+            runner = f"minimal pass loop (experiments.lib unavailable: {e})"
+            passes = _minimal_pass_loop(width, height, spp)
+        else:
+            runner = "experiments.lib.render.run_progressive"
+            info = M.read_scene(C.SCENE)
+            method = M.parse_method(args.method)
+            job = R.method_job(tmp, "bench-rss", info, method, width, height,
+                               mi.variant(), 0, save_images=False)
+            acc = R.run_progressive(job, [spp])
+            passes = acc.passes
+        seconds = time.perf_counter() - start
+    return {"width": width, "height": height, "spp": spp, "passes": passes,
+            "seconds": seconds, "runner": runner, "method": args.method,
+            "maxrss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0}
+
+
+def _minimal_pass_loop(width: int, height: int, spp: int, max_lanes: int = 2**22) -> int:
+    """Fallback: accumulate ``spp`` samples in passes of at most ``max_lanes`` samples."""
+    import numpy as np
+    scene = C.load_scene(width, height, 1)
+    integrator = C.vr_path_integrator("bsdf", 8)
+    cap = max(1, max_lanes // (width * height))
+    acc, done, passes = np.zeros((height, width, 3)), 0, 0
+    while done < spp:
+        k = min(cap, spp - done)
+        img = np.array(C.render(scene, integrator, seed=passes, spp=k), dtype=np.float64)
+        acc += img[..., :3] * k
+        done += k
+        passes += 1
+    return passes
+
+
+def main(argv=None) -> None:
+    p = argparse.ArgumentParser(prog="python -m benchmarks.probes")
+    sub = p.add_subparsers(dest="probe", required=True)
+    c = sub.add_parser("compile")
+    c.add_argument("--configs", required=True)
+    c.add_argument("--width", type=int, default=256)
+    c.add_argument("--height", type=int, default=128)
+    c.add_argument("--spp", type=int, default=1)
+    c.add_argument("--max-depth", type=int, default=8)
+    r = sub.add_parser("rss")
+    r.add_argument("--width", type=int, default=1024)
+    r.add_argument("--height", type=int, default=512)
+    r.add_argument("--spp", type=int, default=1000)
+    r.add_argument("--method", default="bsdf")
+    args = p.parse_args(argv)
+    C.set_variant()
+    result = probe_compile(args) if args.probe == "compile" else probe_rss(args)
+    sys.stdout.write(json.dumps(result) + "\n")
+    sys.stdout.flush()
+    os._exit(0)       # skip interpreter/LLVM teardown (not part of what is measured)
+
+
+if __name__ == "__main__":
+    main()
