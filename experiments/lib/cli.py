@@ -1,0 +1,188 @@
+"""The argument parser every script shares, its validation, and the main-function wrapper.
+
+Bad arguments end the program with exit code 2 and one line on stderr
+(``<prog>: error: ...``) before anything is written.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import signal
+import tempfile
+import sys
+
+import mitsuba as mi
+
+from . import methods as M
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+DEFAULT_SCENE = os.path.join(ROOT, "scenes", "cbox.xml")
+DEFAULT_OUT = "results"
+DEFAULT_VARIANT = "llvm_ad_rgb"
+
+
+class Parser(argparse.ArgumentParser):
+    """ArgumentParser whose errors are one line (no usage dump) and exit code 2."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def resolution(text: str) -> tuple[int, int]:
+    m = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text)
+    if not m or int(m.group(1)) < 1 or int(m.group(2)) < 1:
+        raise argparse.ArgumentTypeError(
+            f"invalid resolution '{text}': expected WIDTHxHEIGHT with positive integers, "
+            f"e.g. 256x128")
+    return int(m.group(1)), int(m.group(2))
+
+
+def positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"invalid value '{text}': expected an integer >= 1")
+    return value
+
+
+def nonnegative_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"invalid value '{text}': expected an integer >= 0")
+    return value
+
+
+def positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = 0.0
+    if not value > 0 or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"invalid value '{text}': expected a number > 0")
+    return value
+
+
+def method_list(text: str) -> list[str]:
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    if not names:
+        raise argparse.ArgumentTypeError("--methods needs at least one method")
+    for name in names:
+        try:
+            M.parse_method(name)
+        except ValueError as e:
+            raise argparse.ArgumentTypeError(str(e)) from None
+    return list(dict.fromkeys(names))
+
+
+def common_parser(prog: str, description: str, spp: int | None = None,
+                  time_budget: float | None = None) -> Parser:
+    """The options every script takes; ``spp``/``time_budget`` add those options (defaults)."""
+    p = Parser(prog=prog, description=description,
+               formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p.add_argument("--scene", default=DEFAULT_SCENE,
+                   help="Mitsuba scene XML (its integrator and sampler are replaced per method)")
+    p.add_argument("--resolution", type=resolution, default="256x128",
+                   metavar="WxH", help="film resolution")
+    if spp is not None:
+        p.add_argument("--spp", type=positive_int, default=spp,
+                       help="samples per pixel of the longest render")
+    p.add_argument("--methods", type=method_list, default=",".join(M.DEFAULT_METHODS),
+                   help="comma-separated methods: strategy[+sampler[:randomization]], "
+                        "strategy uniform|cosine|bsdf, sampler independent|halton "
+                        "(uniform+halton is plain Halton, bsdf+halton scrambled)")
+    p.add_argument("--variant", default=DEFAULT_VARIANT,
+                   help="Mitsuba variant: llvm_* or cuda_* (e.g. cuda_ad_rgb on a GPU)")
+    p.add_argument("--seed", type=nonnegative_int, default=0, help="base random seed")
+    p.add_argument("--out", default=DEFAULT_OUT, help="output directory (report: OUT/index.html)")
+    if time_budget is not None:
+        p.add_argument("--time-budget", type=positive_float, default=time_budget, metavar="SECONDS",
+                       help="render time per method in the equal-time comparison")
+    p.add_argument("--reference-spp", type=positive_int, default=1024,
+                   help="samples per pixel of the reference (NEE + MIS)")
+    p.add_argument("--reference-integrator", choices=M.REFERENCE_INTEGRATORS, default="path",
+                   help="integrator of the reference: Mitsuba's path or vr_path (bsdf), both "
+                        "with emitter sampling")
+    return p
+
+
+def _check_out(out: str) -> str | None:
+    """Why ``out`` cannot be written, or None."""
+    path = os.path.abspath(out)
+    if os.path.exists(path) and not os.path.isdir(path):
+        return f"--out '{out}' exists and is not a directory"
+    parent = path
+    while not os.path.exists(parent):
+        parent = os.path.dirname(parent)
+    try:                                   # really try: root passes os.access everywhere
+        fd, probe = tempfile.mkstemp(prefix=".probe-", dir=parent)
+        os.close(fd)
+        os.remove(probe)
+    except OSError:
+        return f"--out '{out}' is not writable ('{parent}' does not allow creating files)"
+    return None
+
+
+def _set_variant(parser: Parser, variant: str) -> None:
+    jit = [v for v in mi.variants() if v.split("_")[0] in ("llvm", "cuda")]
+    if variant not in mi.variants():
+        parser.error(f"unknown variant '{variant}': this Mitsuba has {', '.join(jit)}")
+    if variant not in jit:
+        parser.error(f"variant '{variant}' is not supported: the plugins need a JIT variant "
+                     f"({', '.join(jit)})")
+    try:
+        mi.set_variant(variant)
+        mi.load_dict({"type": "vr_path"})
+    except Exception as e:  # noqa: BLE001  (no GPU for cuda_*, etc.)
+        hint = " (no CUDA GPU here?)" if variant.startswith("cuda") else ""
+        parser.error(f"variant '{variant}' cannot be used here{hint}: "
+                     f"{str(e).strip().splitlines()[0]}")
+
+
+def parse_args(parser: Parser, argv=None) -> argparse.Namespace:
+    """Parse and validate; set the Mitsuba variant. Adds ``args.info`` and ``args.method_objs``."""
+    args = parser.parse_args(argv)
+    if not os.path.isfile(args.scene):
+        parser.error(f"scene file '{args.scene}' does not exist")
+    problem = _check_out(args.out)
+    if problem:
+        parser.error(problem)
+    _set_variant(parser, args.variant)
+    try:
+        args.info = M.read_scene(args.scene)
+    except (ValueError, OSError) as e:
+        parser.error(str(e))
+    methods = args.methods            # already checked by method_list
+    args.method_objs = [M.parse_method(n) for n in methods]
+    if any(m.is_halton for m in args.method_objs) and not M.plugin_available("halton"):
+        if methods == list(M.DEFAULT_METHODS):
+            args.method_objs = [m for m in args.method_objs if not m.is_halton]
+            print("note: the halton sampler is not installed; running without the halton "
+                  "methods", file=sys.stderr)
+        else:
+            parser.error("the halton sampler plugin is not available in this installation; "
+                         "choose methods without +halton")
+    width, height = args.resolution
+    try:   # the scene must load as every method would load it
+        M.load_method_scene(args.info, args.method_objs[0], width, height)
+    except Exception as e:  # noqa: BLE001
+        parser.error(f"scene '{args.scene}' does not load: {str(e).strip().splitlines()[-1]}")
+    return args
+
+
+def main_wrapper(main):
+    """Run ``main()``; Ctrl-C or kill ends it with one line (finished files are kept)."""
+    def handler(signum, frame):
+        raise KeyboardInterrupt
+    signal.signal(signal.SIGTERM, handler)
+    try:
+        main()
+    except KeyboardInterrupt:
+        print("\ninterrupted: finished files are kept; run the same command again to resume",
+              file=sys.stderr)
+        sys.exit(130)

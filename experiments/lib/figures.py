@@ -1,0 +1,91 @@
+"""Figures (matplotlib, Agg backend), each written atomically as PNG."""
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from . import store  # noqa: E402
+from .metrics import loglog_slope  # noqa: E402
+
+TILE_INCHES = 2.4
+
+
+def _save(fig, path: str) -> str:
+    with store.atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return path
+
+
+def _show(ax, image: np.ndarray) -> None:
+    ax.imshow(store.tonemap(image), interpolation="nearest")
+    ax.set_xticks([])
+    ax.set_yticks([])
+
+
+def image_grid(path: str, images: list[list], row_labels: list[str], col_labels: list[str],
+               captions: list[list[str]], title: str = "") -> str:
+    """Rows x columns of tone-mapped images, a caption (the errors) under each tile.
+
+    ``images[r][c]`` may be None for an empty tile.
+    """
+    rows, cols = len(images), max(len(r) for r in images)
+    h, w = next(im for r in images for im in r if im is not None).shape[:2]
+    tile_h = TILE_INCHES * h / w + 0.45
+    fig, axes = plt.subplots(rows, cols, figsize=(TILE_INCHES * cols + 0.6, tile_h * rows + 0.6),
+                             squeeze=False)
+    for r in range(rows):
+        for c in range(cols):
+            ax = axes[r][c]
+            image = images[r][c] if c < len(images[r]) else None
+            if image is None:
+                ax.axis("off")
+                continue
+            _show(ax, image)
+            ax.set_xlabel(captions[r][c], fontsize=8)
+            if r == 0:
+                ax.set_title(col_labels[c], fontsize=10)
+            if c == 0:
+                ax.set_ylabel(row_labels[r], fontsize=10)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def error_plots(path: str, series: dict, metric: str) -> str:
+    """Log-log error against spp and against seconds, one line per method.
+
+    ``series[method] = (spp list, seconds list, error list)``; the legend gives
+    the least-squares convergence slope of each line.
+    """
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
+    for name, (spp, seconds, err) in series.items():
+        axes[0].loglog(spp, err, "o-", ms=3, label=f"{name} (slope {loglog_slope(spp, err):.2f})")
+        axes[1].loglog(seconds, err, "o-", ms=3,
+                       label=f"{name} (slope {loglog_slope(seconds, err):.2f})")
+    for ax, xlabel in zip(axes, ("samples per pixel", "render time (s)")):
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(metric)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+    axes[0].set_title(f"{metric} against spp")
+    axes[1].set_title(f"{metric} against time")
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def zscore_map(path: str, diff: np.ndarray, var: np.ndarray, title: str) -> str:
+    """Per-pixel z-score |A - B| / sqrt(var) (largest over channels), pixels >= 2.576 marked."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = np.where(var > 0, np.abs(diff) / np.sqrt(var), 0.0).max(axis=-1)
+    fig, ax = plt.subplots(figsize=(6, 6 * diff.shape[0] / diff.shape[1] + 0.8))
+    im = ax.imshow(z, cmap="magma", vmin=0, vmax=4, interpolation="nearest")
+    ax.set_xticks([])
+    ax.set_yticks([])
+    ax.set_title(title, fontsize=10)
+    fig.colorbar(im, ax=ax, fraction=0.03, label="|z| (max over RGB)")
+    return _save(fig, path)

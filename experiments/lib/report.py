@@ -1,0 +1,230 @@
+"""Per-experiment sections and the HTML report ``<out>/index.html``.
+
+Each experiment writes ``<out>/<name>/section.json`` (and a markdown
+``summary.md`` of it) with :func:`write_section`: a title, an order, its
+settings, versions, timings and a list of blocks (text, image, table).
+:func:`build_report` collects every section found under ``<out>`` into one
+self-contained page with relative links, plus a list of every file produced,
+so a new experiment only has to write its own section.
+"""
+from __future__ import annotations
+
+import datetime
+import html
+import os
+import platform
+import resource
+
+from . import store
+
+SECTION = "section.json"
+
+
+def peak_rss_mb() -> float:
+    """Peak resident set size of this process so far, in MiB (Linux reports KiB)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def cpu_model() -> str:
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def versions(variant: str) -> dict:
+    """Software and hardware the results were made with."""
+    import drjit as dr
+    import mitsuba as mi
+    import numpy as np
+    info = {"mitsuba": mi.__version__, "drjit": dr.__version__, "variant": variant,
+            "python": platform.python_version(), "numpy": np.__version__,
+            "CPU": f"{cpu_model()} ({os.cpu_count()} logical cores)",
+            "OS": platform.platform()}
+    if variant.startswith("llvm"):
+        try:
+            info["libLLVM"] = ".".join(map(str, dr.detail.llvm_version()))
+        except Exception:  # noqa: BLE001
+            info["libLLVM"] = "unknown"
+        info["DRJIT_LIBLLVM_PATH"] = os.environ.get("DRJIT_LIBLLVM_PATH", "")
+    return info
+
+
+# ---------------------------------------------------------------- blocks
+
+def text(body: str) -> dict:
+    return {"kind": "text", "text": body}
+
+
+def image(src: str, caption: str = "") -> dict:
+    return {"kind": "image", "src": src, "caption": caption}
+
+
+def table(header: list[str], rows: list[list], caption: str = "", files=(),
+          collapsed: bool = False) -> dict:
+    """A table block; ``collapsed`` shows it folded (for long tables)."""
+    return {"kind": "table", "header": header, "rows": rows, "caption": caption,
+            "files": list(files), "collapsed": collapsed}
+
+
+def write_table(out: str, stem: str, header: list[str], rows: list[list],
+                caption: str = "", collapsed: bool = False) -> dict:
+    """Write ``<out>/<stem>.csv`` and ``.md``; return the table block linking both."""
+    store.write_csv(os.path.join(out, stem + ".csv"), header, rows)
+    store.write_text(os.path.join(out, stem + ".md"), store.markdown_table(header, rows))
+    return table(header, rows, caption, [stem + ".csv", stem + ".md"], collapsed)
+
+
+def write_section(out: str, name: str, title: str, order: int, settings: dict,
+                  blocks: list[dict], variant: str, wall_seconds: float) -> str:
+    """Write ``<out>/<name>/section.json`` and ``summary.md``; return the JSON path."""
+    section = {"name": name, "title": title, "order": order, "settings": settings,
+               "blocks": blocks, "versions": versions(variant),
+               "wall_seconds": round(wall_seconds, 2), "peak_rss_mb": round(peak_rss_mb(), 1),
+               "finished": datetime.datetime.now().isoformat(timespec="seconds")}
+    path = os.path.join(out, name, SECTION)
+    store.write_json(path, section)
+    store.write_text(os.path.join(out, name, "summary.md"), section_markdown(section))
+    return path
+
+
+def section_markdown(section: dict) -> str:
+    lines = [f"# {section['title']}", ""]
+    for block in section["blocks"]:
+        if block["kind"] == "text":
+            lines += [block["text"], ""]
+        elif block["kind"] == "image":
+            lines += [f"![{block['caption']}](../{block['src']})", ""]
+        elif block["kind"] == "table":
+            if block["caption"]:
+                lines += [f"**{block['caption']}**", ""]
+            lines += [store.markdown_table(block["header"], block["rows"])]
+    lines += [f"Wall time {section['wall_seconds']} s, peak RSS {section['peak_rss_mb']} MiB.", ""]
+    return "\n".join(lines)
+
+
+def read_sections(out: str) -> list[dict]:
+    sections = []
+    for name in sorted(os.listdir(out)) if os.path.isdir(out) else []:
+        section = store.read_json(os.path.join(out, name, SECTION))
+        if section is not None:
+            sections.append(section)
+    return sorted(sections, key=lambda s: (s["order"], s["name"]))
+
+
+def produced_files(out: str) -> list[str]:
+    """Every file under ``out`` (relative paths), except the report itself and temporaries."""
+    files = []
+    for root, dirs, names in os.walk(out):
+        dirs[:] = sorted(d for d in dirs if not d.startswith("."))
+        for name in sorted(names):
+            rel = os.path.relpath(os.path.join(root, name), out)
+            if rel != "index.html" and not name.startswith(".tmp-"):
+                files.append(rel.replace(os.sep, "/"))
+    return files
+
+
+# ------------------------------------------------------------------ HTML
+
+CSS = """
+body { font-family: -apple-system, 'Segoe UI', Helvetica, Arial, sans-serif; margin: 0;
+       color: #222; background: #fafafa; line-height: 1.45; }
+main { max-width: 1280px; margin: 0 auto; padding: 1.5em 2em 4em; background: #fff;
+       box-shadow: 0 0 6px rgba(0,0,0,.08); }
+h1 { margin-top: 0; } h3 { margin-bottom: .3em; }
+h2 { border-bottom: 2px solid #ddd; padding-bottom: .2em; margin-top: 2em; }
+nav ul { columns: 2; } figure { margin: 1em 0; } figcaption { color: #555; font-size: .92em; }
+img { max-width: 100%; height: auto; border: 1px solid #ddd; image-rendering: auto; }
+table { border-collapse: collapse; margin: .6em 0 1.2em; font-size: .92em; }
+th, td { border: 1px solid #ccc; padding: .25em .6em; text-align: right; }
+th { background: #f0f0f0; } td:first-child, th:first-child { text-align: left; }
+caption { caption-side: top; text-align: left; font-weight: 600; padding-bottom: .3em; }
+.meta td { text-align: left; } .files { font-family: monospace; font-size: .85em; columns: 2; }
+details { margin: .5em 0; } summary { cursor: pointer; color: #245; }
+.note { color: #555; font-size: .9em; }
+"""
+
+
+def _esc(value) -> str:
+    return html.escape(str(value))
+
+
+def _kv_table(data: dict, cls: str = "meta") -> str:
+    rows = "".join(f"<tr><th>{_esc(k)}</th><td>{_esc(v)}</td></tr>" for k, v in data.items())
+    return f'<table class="{cls}">{rows}</table>'
+
+
+def _block_html(block: dict) -> str:
+    if block["kind"] == "text":
+        return "".join(f"<p>{_esc(p)}</p>" for p in block["text"].split("\n\n"))
+    if block["kind"] == "image":
+        src = _esc(block["src"])
+        return (f'<figure><a href="{src}"><img src="{src}" alt="{_esc(block["caption"])}"></a>'
+                f'<figcaption>{_esc(block["caption"])}</figcaption></figure>')
+    head = "".join(f"<th>{_esc(h)}</th>" for h in block["header"])
+    body = "".join("<tr>" + "".join(f"<td>{_esc(c)}</td>" for c in row) + "</tr>"
+                   for row in block["rows"])
+    links = " ".join(f'<a href="{_esc(f)}">{_esc(os.path.basename(f))}</a>' for f in block["files"])
+    links = f'<p class="note">Download: {links}</p>' if links else ""
+    if block.get("collapsed"):
+        return (f"<details><summary>{_esc(block['caption'])} ({len(block['rows'])} rows)"
+                f"</summary><table><thead><tr>{head}</tr></thead><tbody>{body}</tbody>"
+                f"</table></details>{links}")
+    caption = f"<caption>{_esc(block['caption'])}</caption>" if block["caption"] else ""
+    return f"<table>{caption}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>{links}"
+
+
+def _section_html(section: dict) -> str:
+    parts = [f'<section id="{_esc(section["name"])}"><h2>{_esc(section["title"])}</h2>']
+    parts += [_block_html(b) for b in section["blocks"]]
+    parts.append(f'<h3>Settings</h3>{_kv_table(section["settings"])}'
+                 f'<p class="note">Finished {_esc(section["finished"])}; wall time '
+                 f'{section["wall_seconds"]} s, peak RSS {section["peak_rss_mb"]} MiB '
+                 f'(of the process that ran it).</p>'
+                 f'<details><summary>Versions of this run</summary>'
+                 f'{_kv_table(section["versions"])}</details></section>')
+    return "\n".join(parts)
+
+
+def _files_html(files: list[str]) -> str:
+    groups: dict[str, list[str]] = {}
+    for f in files:
+        groups.setdefault(f.split("/")[0] if "/" in f else ".", []).append(f)
+    parts = []
+    for group, members in groups.items():
+        items = "".join(f'<li><a href="{_esc(f)}">{_esc(f)}</a></li>' for f in members)
+        parts.append(f"<details><summary>{_esc(group)}/ ({len(members)} files)</summary>"
+                     f'<ul class="files">{items}</ul></details>')
+    return "\n".join(parts)
+
+
+def build_report(out: str, variant: str) -> str:
+    """Write ``<out>/index.html`` from every section under ``out``; return its path."""
+    sections = read_sections(out)
+    toc = "".join(f'<li><a href="#{_esc(s["name"])}">{_esc(s["title"])}</a></li>'
+                  for s in sections)
+    body = "\n".join(_section_html(s) for s in sections) or "<p>No experiment has finished yet.</p>"
+    files = produced_files(out)
+    page = f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8">
+<meta name="viewport" content="width=device-width, initial-scale=1">
+<title>Variance reduction in path tracing: experiments</title>
+<style>{CSS}</style></head>
+<body><main>
+<h1>Variance reduction in path tracing: experiments</h1>
+<p class="note">Report generated {_esc(datetime.datetime.now().isoformat(timespec="seconds"))}.
+Click an image to open it at full size.</p>
+<nav><ul>{toc}<li><a href="#versions">Versions</a></li>
+<li><a href="#files">All files</a></li></ul></nav>
+{body}
+<section id="versions"><h2>Versions</h2>{_kv_table(versions(variant))}</section>
+<section id="files"><h2>All files ({len(files)})</h2>{_files_html(files)}</section>
+</main></body></html>
+"""
+    path = os.path.join(out, "index.html")
+    store.write_text(path, page)
+    return path

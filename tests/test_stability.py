@@ -1,0 +1,154 @@
+"""The stability sweeps (issue #5): their measurements, and the script end to end.
+
+Statistical checks state their margin: sample means are compared within 5
+standard errors (a false failure has probability < 1e-6 per check), and the
+zero correlation of independent noise within 5 / sqrt(n).
+"""
+import json
+import math
+import os
+import xml.etree.ElementTree as ET
+
+import mitsuba as mi
+import numpy as np
+import pytest
+
+from experiments import stability
+from experiments.lib import methods as M
+from experiments.lib import stability as S
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+CBOX = os.path.join(ROOT, "scenes", "cbox.xml")
+
+
+def phong(kd, ks, n):
+    return mi.load_dict({"type": "phong", "diffuse_reflectance": kd,
+                         "specular_reflectance": ks, "exponent": n})
+
+
+# ------------------------------------------------------------ scene variants
+
+def test_scene_variant_changes_only_the_given_defaults(tmp_path):
+    info = M.read_scene(CBOX)
+    v = S.scene_variant(info, str(tmp_path), "e", {"exponent": 1234.0, "light_size": 0.25})
+    defaults = S.scene_defaults(v.path)
+    original = S.scene_defaults(CBOX)
+    assert float(defaults["exponent"]) == 1234.0 and float(defaults["light_size"]) == 0.25
+    assert {k: d for k, d in defaults.items() if k not in ("exponent", "light_size")} == \
+        {k: d for k, d in original.items() if k not in ("exponent", "light_size")}
+    assert v.max_depth == info.max_depth and v.sha256 != info.sha256
+    scene = M.load_scene(v, 8, 4, {"type": "vr_path"})
+    exps = [float(p["exponent"][0]) for s in scene.shapes()
+            if type(s.bsdf()).__name__ == "PhongBSDF" for p in [mi.traverse(s.bsdf())]]
+    assert exps == [1234.0]
+    with pytest.raises(KeyError, match="roughness"):
+        S.scene_variant(info, str(tmp_path), "x", {"roughness": 0.1})
+
+
+def test_phong_mask_is_the_glossy_sphere():
+    info = M.read_scene(CBOX)
+    mask = S.phong_mask(info, 64, 32)
+    # the glossy sphere is right of centre, in the lower half; nothing else is Phong
+    ys, xs = np.nonzero(mask)
+    assert 20 < mask.sum() < 0.25 * mask.size
+    assert xs.min() >= 32 and ys.mean() > 16
+
+
+# ------------------------------------------------------------ measurements
+
+def test_outliers_counts_planted_nan_inf_and_fireflies_but_not_highlights():
+    rng = np.random.default_rng(0)
+    ref = np.full((32, 64, 3), 0.5)
+    ref[4:8, 4:8] = 200.0                              # a correct, very bright highlight
+    image = ref + rng.normal(0, 0.01, ref.shape)       # small noise everywhere
+    image[20, 30] = np.nan
+    image[21, 31, 1] = np.inf
+    image[10, 40] = 50.0                               # fireflies: errors far beyond the MAD
+    image[11, 50] = 9.0
+    o = S.outliers(image, ref)
+    assert o["nonfinite"] == 2
+    assert o["fireflies"] == 2
+    assert o["max"] == pytest.approx(image[4:8, 4:8].max())
+
+
+def test_neighbour_correlation_of_independent_and_shared_noise():
+    rng = np.random.default_rng(1)
+    ref = np.ones((64, 128, 3))
+    independent = ref + rng.normal(0, 0.1, ref.shape)
+    n = 64 * 127
+    assert abs(S.neighbour_correlation(independent, ref)) < 5 / math.sqrt(n)
+    row = rng.normal(0, 0.1, (64, 1, 1))               # the same error along each row
+    assert S.neighbour_correlation(ref + row, ref) > 0.999
+
+
+def test_lambertian_is_sampled_perfectly_and_lobe_sampling_wastes_samples_at_grazing():
+    diffuse = phong(0.5, 0.0, 10.0)
+    st = S.direction_sampling_stats(diffuse, 1.0, "bsdf", 4096)
+    assert st["wasted"] == 0 and st["relvar"] < 1e-10 and st["albedo"] == pytest.approx(0.5)
+
+    glossy = phong(0.0, 0.9, 1000.0)
+    n = 2 ** 14
+    normal = S.direction_sampling_stats(glossy, 1.0, "bsdf", n)
+    steep = S.direction_sampling_stats(glossy, math.cos(math.radians(60)), "bsdf", n)
+    grazing = S.direction_sampling_stats(glossy, math.cos(math.radians(89)), "bsdf", n)
+    assert normal["wasted"] == 0
+    # binomial standard error <= 0.5 / sqrt(n) = 0.004: margins of > 5 of them
+    assert grazing["wasted"] > steep["wasted"] + 0.1
+    assert grazing["relvar"] > 10 * max(normal["relvar"], 1e-3)
+    for s in (normal, steep, grazing):
+        assert s["nonfinite"] == 0
+
+
+@pytest.mark.parametrize("cos_i", [1.0, 0.5, 0.1])
+def test_strategies_estimate_the_same_albedo(cos_i):
+    """Unbiased: bsdf, cosine and uniform agree within 5 combined standard errors."""
+    bsdf = phong(0.3, 0.5, 20.0)
+    n = 2 ** 16
+    stats = {s: S.direction_sampling_stats(bsdf, cos_i, s, n, seed=i)
+             for i, s in enumerate(("bsdf", "cosine", "uniform"))}
+    se = {s: st["albedo"] * math.sqrt(st["relvar"] / n) for s, st in stats.items()}
+    for s in ("cosine", "uniform"):
+        diff = abs(stats[s]["albedo"] - stats["bsdf"]["albedo"])
+        assert diff < 5 * math.hypot(se[s], se["bsdf"]), (s, stats)
+
+
+def test_first_where_and_ratio():
+    assert S.first_where([1, 10, 100], [False, True, True]) == 10
+    assert S.first_where([1, 10], [False, False]) is None
+    assert S.ratio(1.0, 0.0) == math.inf and S.ratio(3.0, 2.0) == 1.5
+
+
+# ----------------------------------------------------------------- end to end
+
+def test_sweep_list_rejects_unknown_sweeps():
+    with pytest.raises(SystemExit) as exc:
+        stability.main(["--sweeps", "exponent,bogus"])
+    assert exc.value.code == 2
+
+
+def test_stability_quick_end_to_end(tmp_path, capsys):
+    out = tmp_path / "r"
+    stability.main(["--quick", "--resolution", "24x12", "--out", str(out)])
+    section = json.loads((out / "stability" / "section.json").read_text())
+    assert section["order"] > 20                       # after convergence and the writeup
+    images = [b["src"] for b in section["blocks"] if b["kind"] == "image"]
+    assert {"stability/exponent.png", "stability/light.png", "stability/grazing.png",
+            "stability/halton_crops.png"} <= set(images)
+    for src in images:
+        assert (out / src).stat().st_size > 0
+    summary = json.loads((out / "stability" / "summary.json").read_text())
+    notes = " ".join(summary["notes"])
+    for start in ("Exponent sweep", "Light sweep", "Grazing", "Halton at max_depth",
+                  "Outliers"):
+        assert start in notes
+    # no NaN/Inf from our plugins anywhere on the sweep grid
+    assert summary["outliers"] and all(v["nonfinite"] == 0
+                                       for v in summary["outliers"].values())
+    assert "0 non-finite sample weights" in notes
+    closing = [b["text"] for b in section["blocks"] if b["kind"] == "text"][-1]
+    assert closing.startswith("Closing note")
+    page = (out / "index.html").read_text()
+    assert 'id="stability"' in page
+    # the sweep points are plain scene files, loadable by Mitsuba
+    for name in os.listdir(out / "stability" / "scenes"):
+        ET.parse(out / "stability" / "scenes" / name)
