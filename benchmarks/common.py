@@ -12,6 +12,8 @@ import integrators  # noqa: F401  (chooses libLLVM; must come before mitsuba/drj
 import drjit as dr  # noqa: E402
 import mitsuba as mi  # noqa: E402
 
+from experiments.lib.report import cpu_model  # noqa: E402  (one definition, shared)
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCENE = os.path.join(ROOT, "scenes", "cbox.xml")
 VARIANT = "llvm_ad_rgb"
@@ -155,17 +157,6 @@ def jit_kernels(fn: Callable[[], object]) -> list[dict]:
 
 
 # ------------------------------------------------------------- machine
-
-def cpu_model() -> str:
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
-
 
 def machine_info() -> dict:
     try:
