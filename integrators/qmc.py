@@ -10,10 +10,22 @@ that is traced.
 
 Radical inverse of index ``a`` in base ``b``: with ``a = sum_k d_k b^k``,
 :math:`\\Phi_b(a) = \\sum_k d_k b^{-k-1}`. Base 2 uses a bit reversal
-(``dr.brev``). Other bases peel off one digit per iteration of a Dr.Jit loop;
-the division by ``b`` is a multiplication by a 32-bit reciprocal
+(``dr.brev``). Other bases peel off one digit per step: the first digit
+unconditionally, the others in a Dr.Jit loop that runs while the index has
+digits left (so most dimensions, whose base exceeds the sample count, never
+enter it). The division by ``b`` is a multiplication by a 32-bit reciprocal
 (``dr.mul_hi`` and a shift, exact for indices below 2^31), so no integer
-division is ever executed.
+division is ever executed. The two cases sit in the branches of a symbolic
+``dr.if_stmt`` on ``base == 2``: a packet of lanes (LLVM) or warp (CUDA) in
+which no lane takes a branch skips it, and the sampler draws the same
+dimension in every lane, so a call pays for one of them only.
+
+Cost notes (the sampler runs a few dozen times per path in the render
+megakernel, so every instruction counts): the per-base constants (base,
+reciprocal, shift) are packed into one 64-bit table entry, read with a
+single gather (AVX2 gathers are slow); ``1/b`` is one float division;
+small unsigned integers go to float through a signed conversion (a single
+instruction; unsigned ones are emulated on x86).
 
 Randomizations (pbrt-v4's ``RandomizeStrategy``):
 
@@ -107,12 +119,10 @@ def division_magic(b: int) -> tuple[int, int]:
 def _build_tables():
     primes = [int(p) for p in PRIMES]
     magic = [division_magic(p) for p in primes]
-    return {
-        "base": np.array(primes, dtype=np.uint32),
-        "magic": np.array([m for m, _ in magic], dtype=np.uint32),
-        "shift": np.array([s for _, s in magic], dtype=np.uint32),
-        "inv_base": np.array([1.0 / p for p in primes], dtype=np.float32),
-    }
+    # One 64-bit entry per base: magic multiplier (bits 32..63), shift (bits
+    # 16..23) and base (bits 0..15), so that a call needs a single gather.
+    packed = [(m << 32) | (s << 16) | p for p, (m, s) in zip(primes, magic)]
+    return {"packed": np.array(packed, dtype=np.uint64)}
 
 
 _NP_TABLES = _build_tables()
@@ -124,8 +134,7 @@ def _tables():
     key = (mi.variant(), mi.UInt32)
     tables = _JIT_TABLES.get(key)
     if tables is None:
-        tables = {name: (mi.Float if arr.dtype == np.float32 else mi.UInt32)(arr)
-                  for name, arr in _NP_TABLES.items()}
+        tables = {name: dr.uint64_array_t(mi.UInt32)(arr) for name, arr in _NP_TABLES.items()}
         _JIT_TABLES[key] = tables
     return tables
 
@@ -157,9 +166,19 @@ def _fast_owen_base2(v, seed):
     return dr.brev(v)
 
 
+def _to_float(v):
+    """A UInt32 below 2^31 to a float (a signed conversion, one instruction on x86)."""
+    return mi.Float(mi.Int32(v))
+
+
 def _to_unit(v):
-    """UInt32 fixed point (``v / 2^32``) to a float in [0, 1)."""
+    """UInt32 fixed point (``v / 2^32``) to a float in [0, 1) (rounded, then clamped)."""
     return dr.minimum(mi.Float(v) * (2.0**-32), ONE_MINUS_EPSILON)
+
+
+def _to_unit_fast(v):
+    """UInt32 fixed point (``v / 2^32``) truncated to 24 bits, as a float in [0, 1)."""
+    return _to_float(v >> 8) * (2.0**-24)
 
 
 # --------------------------------------------------------- radical inverse
@@ -182,33 +201,42 @@ def scrambled_radical_inverse(base_index, a, seed, randomization: str = "owen"):
     if randomization not in RANDOMIZATIONS:
         raise ValueError(f"qmc: unknown randomization {randomization!r}; "
                          f"valid choices are {', '.join(RANDOMIZATIONS)}")
-    t = _tables()
     base_index = mi.UInt32(base_index) % PRIME_TABLE_SIZE
     a = mi.UInt32(a)
     seed = mi.UInt32(seed)
+    # A symbolic conditional: on both backends, lanes of a packet (LLVM) or
+    # warp (CUDA) that all take one side skip the other, and the sampler's
+    # dimension is the same in every lane, so each call pays for one path.
+    return dr.if_stmt(args=(base_index, a, seed), cond=base_index == 0,
+                      true_fn=lambda i, a, seed: _radical_inverse_base2(a, seed, randomization),
+                      false_fn=lambda i, a, seed: _radical_inverse_odd(i, a, seed, randomization),
+                      label="radical_inverse")
 
-    b = dr.gather(mi.UInt32, t["base"], base_index)
-    m = dr.gather(mi.UInt32, t["magic"], base_index)
-    s = dr.gather(mi.UInt32, t["shift"], base_index)
-    inv_b = dr.gather(mi.Float, t["inv_base"], base_index)
-    is_base2 = b == 2
 
-    # ---- base 2: bit reversal
+def _radical_inverse_base2(a, seed, randomization):
+    """Base 2: a bit reversal, scrambled by an XOR mask or pbrt's ``FastOwenScrambler``."""
     rev = dr.brev(a)
     if randomization == "permute_digits":
         rev ^= seed
     elif randomization == "owen":
         rev = _fast_owen_base2(rev, seed)
-    value2 = _to_unit(rev)
+    return _to_unit(rev)
 
-    # ---- other bases: one digit per iteration, while the index has digits left
-    n = dr.select(is_base2, mi.UInt32(0), mi.UInt32(0xFFFFFFFF))
+
+def _radical_inverse_odd(base_index, a, seed, randomization):
+    """Odd prime bases: one digit per iteration, while the index has digits left."""
+    UInt64 = dr.uint64_array_t(mi.UInt32)
+    packed = dr.gather(UInt64, _tables()["packed"], base_index)
+    m = mi.UInt32(packed >> 32)
+    s = mi.UInt32(packed >> 16) & 0xFF
+    b = mi.UInt32(packed) & 0xFFFF
+    inv_b = 1.0 / _to_float(b)
     bm1 = b - 1
 
-    def cond(a, k, v, w, z):
-        return (k < n) & (a > 0)
+    def cond(a, v, w, z):
+        return a > 0
 
-    def body(a, k, v, w, z):
+    def body(a, v, w, z):
         q = dr.mul_hi(a, m) >> s
         d = a - q * b
         if randomization != "none":
@@ -216,7 +244,7 @@ def scrambled_radical_inverse(base_index, a, seed, randomization: str = "owen"):
             # c = the top base-b digit of the node's fraction z (so that the
             # permuted zero digits continue z) and A in [1, b) from z.
             c = dr.mul_hi(z, b)
-            g = 1 + dr.mul_hi(z * 0x2C9277B5, bm1)
+            g = 1 + (((z * 0x2C9277B5) >> 16) * bm1 >> 16)
             t_ = g * d + c                           # < b^2 < 2^31
             d_new = t_ - (dr.mul_hi(t_, m) >> s) * b
             if randomization == "owen":
@@ -227,20 +255,22 @@ def scrambled_radical_inverse(base_index, a, seed, randomization: str = "owen"):
             else:
                 z = z * b
             d = d_new
-        v = dr.fma(mi.Float(d), w, v)
+        v = dr.fma(_to_float(d), w, v)
         w = w * inv_b
-        return q, k + 1, v, w, z
+        return q, v, w, z
 
-    z0 = seed
-    _, _, v, w, z = dr.while_loop(
-        state=(a, mi.UInt32(0), mi.Float(0.0), inv_b, mi.UInt32(z0)),
-        cond=cond, body=body, labels=("a", "k", "v", "w", "z"), label="radical_inverse")
+    # The first digit unconditionally (for a = 0 it is a leading zero, whose
+    # permutation continues the fraction z exactly as the tail below would),
+    # so that the loop only runs for indices with two or more digits.
+    state = body(a, mi.Float(0.0), inv_b, mi.UInt32(seed))
+    _, v, w, z = dr.while_loop(
+        state=state,
+        cond=cond, body=body, labels=("a", "v", "w", "z"), label="radical_inverse_digits")
     if randomization != "none":
         # The index's leading zeros, permuted down to float precision: the
         # remaining base-b digits of the node fraction z.
-        v = dr.fma(mi.Float(z) * (2.0**-32), w * mi.Float(b), v)
-    value = dr.minimum(v, ONE_MINUS_EPSILON)
-    return dr.select(is_base2, value2, value)
+        v = dr.fma(_to_unit_fast(z), w * _to_float(b), v)
+    return dr.minimum(v, ONE_MINUS_EPSILON)
 
 
 def halton_sample(dimension, index, seed, randomization: str = "owen"):
@@ -251,5 +281,7 @@ def halton_sample(dimension, index, seed, randomization: str = "owen"):
     unwrapped dimension by :func:`dimension_seed`.
     """
     dimension = mi.UInt32(dimension)
+    if randomization == "none":
+        return scrambled_radical_inverse(dimension, index, 0, randomization)
     return scrambled_radical_inverse(dimension, index, dimension_seed(mi.UInt32(seed), dimension),
                                      randomization)
