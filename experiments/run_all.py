@@ -21,6 +21,9 @@ def build_parser() -> cli.Parser:
     p = cli.common_parser("python -m experiments.run_all", __doc__.split("\n")[0],
                           spp=256, time_budget=2.0)
     writeup.add_arguments(p)
+    p.add_argument("--stability", choices=("default", "quick", "off"), default="default",
+                   help="the stability study at its own default settings, tiny (quick), "
+                        "or not at all (default: default)")
     return p
 
 
@@ -29,8 +32,10 @@ def main(argv=None) -> None:
     start = time.perf_counter()
     convergence.run(args)
     writeup.run(args)
-    stability.run(stability.parse(["--out", args.out, "--variant", args.variant,
-                                   "--seed", str(args.seed), "--scene", args.scene]))
+    if args.stability != "off":
+        stability.run(stability.parse(
+            ["--out", args.out, "--variant", args.variant, "--seed", str(args.seed),
+             "--scene", args.scene] + (["--quick"] if args.stability == "quick" else [])))
     seconds = time.perf_counter() - start
     report.write_section(args.out, "run_all", "This run", 90, {
         "command": "python -m experiments.run_all " + " ".join(sys.argv[1:] if argv is None

@@ -225,7 +225,7 @@ class HaltonSampler(mi.Sampler):
         return props
 
     def fork(self) -> mi.Sampler:
-        sampler = HaltonSampler(self._properties())
+        sampler = type(self)(self._properties())  # this variant's class
         if self._samples_per_wavefront > 0:
             sampler.set_samples_per_wavefront(self._samples_per_wavefront)
         return sampler
@@ -246,4 +246,4 @@ class HaltonSampler(mi.Sampler):
                 f"randomization={self.randomization}, sample_offset={self.sample_offset}]")
 
 
-mi.register_sampler("halton", lambda props: HaltonSampler(props))
+mi.register_sampler("halton", HaltonSampler)  # the class of this variant, bound now

@@ -319,4 +319,4 @@ class VRPathIntegrator(mi.SamplingIntegrator):
                 f"hide_emitters={self.hide_emitters}]")
 
 
-mi.register_integrator("vr_path", lambda props: VRPathIntegrator(props))
+mi.register_integrator("vr_path", VRPathIntegrator)  # the class of this variant, bound now

@@ -239,4 +239,4 @@ class PhongBSDF(mi.BSDF):
                 f"  exponent = {dr.slice(self.exponent, 0)},\n  scale = {self.scale}\n]")
 
 
-mi.register_bsdf("phong", lambda props: PhongBSDF(props))
+mi.register_bsdf("phong", PhongBSDF)  # the class of this variant, bound now

@@ -283,7 +283,8 @@ def test_writeup_end_to_end_with_full(tmp_path):
 def test_run_all_report_lists_every_produced_file_and_reruns_resume(tmp_path, count_passes):
     out = tmp_path / "r"
     argv = TINY + ["--spp", "2", "--time-budget", "0.02", "--short-spp", "2",
-                   "--halton-spp", "2", "--methods", "uniform,cosine,bsdf", "--out", str(out)]
+                   "--halton-spp", "2", "--methods", "uniform,cosine,bsdf", "--out", str(out),
+                   "--stability", "quick"]
     run_all.main(argv)
     assert count_passes
     errors = (out / "convergence" / "errors.csv").read_text()
@@ -299,4 +300,4 @@ def test_run_all_report_lists_every_produced_file_and_reruns_resume(tmp_path, co
     for f in links:
         assert (out / f).exists(), f
     sections = [s["name"] for s in report.read_sections(str(out))]
-    assert sections == ["convergence", "writeup", "run_all"]
+    assert sections == ["convergence", "writeup", "stability", "run_all"]

@@ -207,6 +207,11 @@ def test_registration_follows_variant_switch():
         assert mi.load_dict({"type": "phong"}) is not None
     finally:
         mi.set_variant("llvm_ad_rgb")
+    # Back in the first variant, its own classes are still the registered ones.
+    for plugin in ({"type": "phong"}, {"type": "vr_path"}, {"type": "halton"}):
+        obj = mi.load_dict(plugin)
+        assert isinstance(obj, (mi.BSDF, mi.SamplingIntegrator, mi.Sampler))
+    mi.load_dict({"type": "halton"}).fork()
 
 
 def _python(code):
