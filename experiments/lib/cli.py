@@ -38,24 +38,22 @@ def resolution(text: str) -> tuple[int, int]:
     return int(m.group(1)), int(m.group(2))
 
 
-def positive_int(text: str) -> int:
+def _int_at_least(text: str, lowest: int) -> int:
     try:
         value = int(text)
     except ValueError:
-        value = 0
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"invalid value '{text}': expected an integer >= 1")
+        value = lowest - 1
+    if value < lowest:
+        raise argparse.ArgumentTypeError(f"invalid value '{text}': expected an integer >= {lowest}")
     return value
+
+
+def positive_int(text: str) -> int:
+    return _int_at_least(text, 1)
 
 
 def nonnegative_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        value = -1
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"invalid value '{text}': expected an integer >= 0")
-    return value
+    return _int_at_least(text, 0)
 
 
 def positive_float(text: str) -> float:
