@@ -64,12 +64,26 @@ class HaltonSampler(mi.Sampler):
     arrays, so the sampler advances correctly inside symbolic loops
     (``vr_path``, Mitsuba's ``path`` and any other integrator), and the seed
     and ``sample_offset`` are opaque, so reseeding does not recompile the
-    render kernel. In a JIT render the wavefront has ``width * height * spp``
-    lanes, lane ``l`` being sample ``l % spp`` of pixel ``l // spp``; the
-    sampler derives the samples per wavefront from ``seed(seed,
-    wavefront_size)`` as ``sample_count`` when it divides the wavefront size
-    (Mitsuba does not pass it to Python samplers), unless
-    ``set_samples_per_wavefront`` set it explicitly.
+    render kernel.
+
+    Wavefront layout: in a JIT render the wavefront has ``width * height * k``
+    lanes, lane ``l`` being sample ``l % k`` of pixel ``l // k``, where ``k``
+    is the number of samples per pixel of one pass. A caller that renders in
+    passes declares ``k`` with ``set_samples_per_wavefront(k)`` before
+    ``seed()``; it applies to that seeding only (the next ``seed`` starts
+    over). Without it, ``seed(seed, wavefront_size)`` takes ``k =
+    sample_count`` (one pass, Mitsuba's ``mi.render``) when ``sample_count``
+    divides ``wavefront_size``, and one sample per lane otherwise.
+
+    Multi-pass renders: when an integrator has ``samples_per_pass`` (or a
+    single render exceeds 2^32 samples), Mitsuba's C++ render loop declares
+    ``k`` through a C++ call that a Python sampler never sees, and calls
+    ``advance()`` between the passes. The sampler cannot know ``k`` there, so
+    ``advance()`` after a seeding whose layout was not declared raises a
+    ``RuntimeError`` (the render stops before any pass is evaluated) instead
+    of continuing with wrong sample indices. Render in one pass per
+    ``mi.render`` call instead, and continue the sequence over calls with
+    ``sample_offset`` (below).
 
     Progressive rendering: to render ``N`` samples in passes of ``k_1, k_2,
     ...`` samples, keep the seed fixed and set ``sample_offset`` to the
@@ -116,9 +130,10 @@ class HaltonSampler(mi.Sampler):
         mi.Sampler.__init__(self, props)
         self.randomization = randomization
         self.base_seed = seed
-        self._samples_per_wavefront = 0          # 0: derive from seed()
+        #: Samples per pixel per pass declared for the next seed() (0: none).
+        self._declared_spw = 0
         self.sample_offset = offset
-        self._reset_state(mi.UInt32(seed), 1, 1)
+        self._reset_state(mi.UInt32(seed), 1, 1, declared=False)
 
     # ------------------------------------------------------------ parameters
 
@@ -148,7 +163,7 @@ class HaltonSampler(mi.Sampler):
             raise ValueError(f"halton: samples per wavefront must be > 0, got "
                              f"{samples_per_wavefront}")
         mi.Sampler.set_samples_per_wavefront(self, samples_per_wavefront)
-        self._samples_per_wavefront = samples_per_wavefront
+        self._declared_spw = samples_per_wavefront       # for the next seed() only
 
     def traverse(self, callback):
         callback.put("sample_offset", self._sample_offset, mi.ParamFlags.NonDifferentiable)
@@ -158,7 +173,8 @@ class HaltonSampler(mi.Sampler):
 
     # ----------------------------------------------------------------- state
 
-    def _reset_state(self, seed, wavefront_size: int, samples_per_wavefront: int) -> None:
+    def _reset_state(self, seed, wavefront_size: int, samples_per_wavefront: int,
+                     declared: bool) -> None:
         lanes = dr.arange(mi.UInt32, wavefront_size)
         spw = dr.opaque(mi.UInt32, samples_per_wavefront)
         pixel = lanes // spw
@@ -171,24 +187,42 @@ class HaltonSampler(mi.Sampler):
         #: Next dimension to be drawn (one per lane).
         self._dimension = dr.zeros(mi.UInt32, wavefront_size)
         self._spw = samples_per_wavefront
+        #: Whether a caller declared the layout (set_samples_per_wavefront before seed).
+        self._declared = declared
 
     def seed(self, seed, wavefront_size: int = 0xFFFFFFFF) -> None:
+        # Read before the base call: nanobind may dispatch it back into this
+        # override once (nested), which must see the same declaration.
+        declared_spw = self._declared_spw
         mi.Sampler.seed(self, seed, wavefront_size)
         if isinstance(seed, int):
             seed = dr.opaque(mi.UInt32, (seed + self.base_seed) & 0xFFFFFFFF)
         else:
             seed = mi.UInt32(seed) + self.base_seed
             dr.make_opaque(seed)
+        wavefront_size = self.wavefront_size()
         spp = self.sample_count()
-        if self._samples_per_wavefront > 0:
-            spw = self._samples_per_wavefront
-        elif wavefront_size % spp == 0:
-            spw = spp          # one JIT render pass: width * height * spp lanes
+        declared = declared_spw > 0
+        if declared:
+            spw = declared_spw
         else:
-            spw = 1
-        self._reset_state(seed, wavefront_size, spw)
+            # one JIT render pass (width * height * spp lanes), else a sequence per lane
+            spw = spp if wavefront_size % spp == 0 else 1
+        self._reset_state(seed, wavefront_size, spw, declared)
+        self._declared_spw = 0                   # the declaration is for this seeding only
 
     def advance(self) -> None:
+        if not self._declared:
+            raise RuntimeError(
+                "halton: advance() after a seed() whose samples per pixel per pass were not "
+                "declared. Mitsuba calls it when it renders in several passes (an integrator "
+                "with 'samples_per_pass', or more than 2^32 samples in one render), and it does "
+                "not tell a Python sampler how many samples each pass takes, so the Halton "
+                "sample indices would be wrong. Render without 'samples_per_pass' (at most "
+                "2^32 samples per mi.render call) and, for more samples, render in passes of "
+                "your own: keep the seed and set the sampler's 'sample_offset' to the samples "
+                "already taken before each mi.render call. A caller that drives the sampler "
+                "itself calls set_samples_per_wavefront(k) before seed().")
         self._pass_offset = self._pass_offset + self._spw
         dr.make_opaque(self._pass_offset)
         self._dimension = dr.zeros(mi.UInt32, dr.width(self._dimension))
@@ -225,10 +259,7 @@ class HaltonSampler(mi.Sampler):
         return props
 
     def fork(self) -> mi.Sampler:
-        sampler = type(self)(self._properties())  # this variant's class
-        if self._samples_per_wavefront > 0:
-            sampler.set_samples_per_wavefront(self._samples_per_wavefront)
-        return sampler
+        return type(self)(self._properties())  # this variant's class
 
     def clone(self) -> mi.Sampler:
         sampler = self.fork()
@@ -239,6 +270,7 @@ class HaltonSampler(mi.Sampler):
         sampler._pass_offset = mi.UInt32(self._pass_offset)
         sampler._dimension = mi.UInt32(self._dimension)
         sampler._spw = self._spw
+        sampler._declared = self._declared
         return sampler
 
     def to_string(self):

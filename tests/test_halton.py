@@ -185,22 +185,70 @@ def test_clone_and_fork():
     np.testing.assert_array_equal(draw(fork, 4), draw(sampler, 4))
 
 
-def test_advance_and_samples_per_wavefront():
+@pytest.mark.parametrize("randomization", qmc.RANDOMIZATIONS)
+def test_declared_passes_equal_one_pass(randomization):
+    """Mitsuba's multi-pass protocol, declared: set_samples_per_wavefront(4), seed,
+    advance between passes: two passes of 4 samples = one pass of 8, sample for sample."""
     spp, pixels = 8, 10
-    full = make_sampler(spp=spp, randomization="none")
-    full.seed(0, spp * pixels)
-    reference = draw(full, 3).reshape(pixels, spp, 3)
-    # Two passes of 4 samples per pixel, as Mitsuba's multi-pass render does.
-    sampler = make_sampler(spp=spp, randomization="none")
+    full = make_sampler(spp=spp, randomization=randomization)
+    full.seed(3, spp * pixels)
+    reference = draw(full, 5).reshape(pixels, spp, 5)
+    sampler = make_sampler(spp=spp, randomization=randomization)
     sampler.set_samples_per_wavefront(4)
-    sampler.seed(0, 4 * pixels)
-    first = draw(sampler, 3).reshape(pixels, 4, 3)
+    sampler.seed(3, 4 * pixels)
+    first = draw(sampler, 5).reshape(pixels, 4, 5)
     sampler.advance()
-    second = draw(sampler, 3).reshape(pixels, 4, 3)
+    second = draw(sampler, 5).reshape(pixels, 4, 5)
     np.testing.assert_array_equal(np.concatenate([first, second], axis=1), reference)
     sampler.schedule_state()
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="got 0"):
         sampler.set_samples_per_wavefront(0)
+
+
+def test_declared_layout_does_not_outlive_its_seed():
+    spp, pixels = 8, 6
+    sampler = make_sampler(spp=spp)
+    sampler.set_samples_per_wavefront(2)
+    sampler.seed(1, 2 * pixels)
+    sampler.advance()                            # declared: fine
+    # The next seeding (a one-pass render) infers its own layout again.
+    sampler.seed(1, spp * pixels)
+    fresh = make_sampler(spp=spp)
+    fresh.seed(1, spp * pixels)
+    np.testing.assert_array_equal(draw(sampler, 3), draw(fresh, 3))
+    with pytest.raises(RuntimeError, match="samples_per_pass.*sample_offset"):
+        sampler.advance()                        # undeclared layout: no silent guess
+    # nor does a fork inherit a pending declaration
+    sampler.set_samples_per_wavefront(2)
+    fork = sampler.fork()
+    fork.seed(1, spp * pixels)
+    np.testing.assert_array_equal(draw(fork, 3), draw(fresh.clone(), 3))
+
+
+def _causes(exc):
+    while exc is not None:
+        yield str(exc)
+        exc = exc.__cause__ or exc.__context__
+
+
+@pytest.mark.parametrize("randomization", qmc.RANDOMIZATIONS)
+def test_samples_per_pass_render_stops_with_clear_error(randomization):
+    """Mitsuba's own multi-pass render (samples_per_pass) cannot tell a Python sampler
+    its layout: the render stops with the explanation instead of degrading silently;
+    the sampler renders correctly afterwards."""
+    scene_dict = mi.cornell_box()
+    scene_dict["sensor"]["film"]["width"] = scene_dict["sensor"]["film"]["height"] = 8
+    scene_dict["sensor"]["sampler"] = {"type": "halton", "sample_count": 16,
+                                       "randomization": randomization}
+    scene = mi.load_dict(scene_dict)
+    reference = np.array(mi.render(scene, seed=3))
+    for name in ("path", "vr_path"):
+        integrator = mi.load_dict({"type": name, "samples_per_pass": 4})
+        with pytest.raises(RuntimeError) as info:
+            mi.render(scene, integrator=integrator, seed=3)
+        message = " ".join(_causes(info.value))
+        assert "several passes" in message and "sample_offset" in message, message
+    np.testing.assert_array_equal(np.array(mi.render(scene, seed=3)), reference)
 
 
 def _path(max_depth=8):
