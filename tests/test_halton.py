@@ -222,7 +222,8 @@ def test_declared_layout_does_not_outlive_its_seed():
     sampler.set_samples_per_wavefront(2)
     fork = sampler.fork()
     fork.seed(1, spp * pixels)
-    np.testing.assert_array_equal(draw(fork, 3), draw(fresh.clone(), 3))
+    fresh.seed(1, spp * pixels)
+    np.testing.assert_array_equal(draw(fork, 3), draw(fresh, 3))
 
 
 def _causes(exc):
@@ -248,7 +249,8 @@ def test_samples_per_pass_render_stops_with_clear_error(randomization):
             mi.render(scene, integrator=integrator, seed=3)
         message = " ".join(_causes(info.value))
         assert "several passes" in message and "sample_offset" in message, message
-    np.testing.assert_array_equal(np.array(mi.render(scene, seed=3)), reference)
+    # (up to the order of the film's atomic additions)
+    np.testing.assert_allclose(np.array(mi.render(scene, seed=3)), reference, rtol=1e-5, atol=1e-7)
 
 
 def _path(max_depth=8):
