@@ -13,7 +13,7 @@ $(STAMP): pyproject.toml
 	$(PYTHON) integrators/llvm.py --ensure
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
-	$(BIN)/python -m pip install -q -e '.[test]'
+	$(BIN)/python -m pip install -q -e '.[test,cluster]'
 	touch $@
 
 # The main job: the default experiments on the bundled scene, report in results/.
