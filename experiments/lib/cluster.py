@@ -92,16 +92,25 @@ def prepare_worker(variant: str) -> None:
 
 
 class WorkerSetup(WorkerPlugin):
-    """Runs ``prepare(variant)`` on every worker when it starts (and when it restarts)."""
+    """Runs ``prepare(variant)`` on every worker when it starts (and when it restarts).
+
+    ``threads``: Dr.Jit's thread count on each worker (for N workers sharing
+    one machine); None keeps Dr.Jit's default (all cores).
+    """
     name = "vr-integrators-setup"
     idempotent = False                 # re-registering (new variant) replaces the old one
 
-    def __init__(self, variant: str, prepare: Callable[[str], None] = prepare_worker):
+    def __init__(self, variant: str, prepare: Callable[[str], None] = prepare_worker,
+                 threads: int | None = None):
         self.variant = variant
         self.prepare = prepare
+        self.threads = threads
 
     def setup(self, worker) -> None:
         self.prepare(self.variant)
+        if self.threads:
+            import drjit as dr
+            dr.set_thread_count(self.threads)
 
 
 def _run_on_worker(run: Callable, job, variant: str):
@@ -121,7 +130,7 @@ class DaskExecutor:
 
     def __init__(self, client: Client, variant: str, *, run: Callable | None = None,
                  prepare: Callable[[str], None] = prepare_worker, retries: int = RETRIES,
-                 cluster: LocalCluster | None = None):
+                 cluster: LocalCluster | None = None, threads: int | None = None):
         self.client = client
         self.variant = variant
         self.retries = retries
@@ -132,7 +141,7 @@ class DaskExecutor:
         #: job key -> the worker that ran (and timed) it, for every job yielded so far
         self.timed_on: dict[str, WorkerInfo] = {}
         try:
-            client.register_plugin(WorkerSetup(variant, prepare))
+            client.register_plugin(WorkerSetup(variant, prepare, threads))
         except Exception as e:                   # the worker's own error, e.g. no CUDA GPU
             self.close()
             raise ClusterError(f"Dask workers cannot set up variant '{variant}': "
@@ -142,7 +151,9 @@ class DaskExecutor:
 
     @classmethod
     def local(cls, n_workers: int, variant: str, **options) -> "DaskExecutor":
-        """Start a ``LocalCluster`` of ``n_workers`` processes with one thread each."""
+        """Start a ``LocalCluster`` of ``n_workers`` processes with one thread each; they
+        share this machine's cores (Dr.Jit threads per worker: cores // n_workers)."""
+        options.setdefault("threads", max(1, (os.cpu_count() or 1) // n_workers))
         cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
                                dashboard_address=None, silence_logs=logging.ERROR)
         try:
