@@ -11,6 +11,7 @@ install: $(STAMP)
 
 $(STAMP): pyproject.toml
 	$(PYTHON) integrators/llvm.py --ensure
+	$(PYTHON) tools/ensure_browser.py --ensure || echo "warning: without Chromium the viewer tests (tests/test_viewer.py) fail; everything else works"
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
 	$(BIN)/python -m pip install -q -e '.[test,cluster]'

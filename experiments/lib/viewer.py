@@ -1,0 +1,215 @@
+"""Interactive image comparisons for the HTML report (Python side of the viewer).
+
+:func:`comparison` turns one comparison (a title, labelled linear HDR images
+and optionally a reference) into the HTML of one viewer element, and writes
+the pixel data it needs. The page side is ``viewer_assets/viewer.js`` and
+``viewer.css``, which :func:`install_assets` copies next to the page and
+:data:`HEAD` links from its ``<head>``.
+
+Why ``<script>`` files: a report opened from disk (file://) cannot read image
+pixels in Chromium (a canvas that draws a file:// image is tainted) and cannot
+``fetch`` files, but it may run scripts. Each image and error map is therefore
+one content-addressed script ``viewer-data/<id>.js`` holding its float32
+values (zlib-compressed, base64) and calling ``VRViewer.blob(id, data)``.
+Identical arrays (a reference shown in several comparisons) are written once,
+existing files are not rewritten, and viewers load their scripts only when
+they come near the viewport, so the page opens fast however many there are.
+
+Error maps: relMSE per pixel (:func:`relmse_map`, mean over RGB of
+(x - ref)^2 / (ref^2 + 0.01)) and NVIDIA's FLIP from the ``flip-evaluator``
+package (:func:`flip`).
+"""
+from __future__ import annotations
+
+import base64
+import hashlib
+import html
+import json
+import math
+import os
+import re
+import zlib
+
+import numpy as np
+
+from . import store
+
+ASSETS_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "viewer_assets")
+ASSETS = ("viewer.js", "viewer.css")
+DATA_DIR = "viewer-data"
+ENCODING = "f32-zlib"
+#: The ``<head>`` lines a page with viewers needs (paths relative to the page).
+HEAD = '<link rel="stylesheet" href="viewer.css">\n<script src="viewer.js"></script>'
+#: Denominator offset of relMSE (as experiments/lib/metrics.py).
+RELMSE_EPS = 0.01
+#: Decades of relMSE the colour bar spans below its top.
+RELMSE_DECADES = 4
+
+
+def install_assets(out: str) -> list[str]:
+    """Copy viewer.js and viewer.css into ``out`` (next to the page); return their paths."""
+    paths = []
+    for name in ASSETS:
+        with open(os.path.join(ASSETS_DIR, name), "rb") as f:
+            data = f.read()
+        path = os.path.join(out, name)
+        if _read_bytes(path) != data:
+            store.write_bytes(path, data)
+        paths.append(path)
+    return paths
+
+
+def _read_bytes(path: str) -> bytes | None:
+    try:
+        with open(path, "rb") as f:
+            return f.read()
+    except OSError:
+        return None
+
+
+# ----------------------------------------------------------------- metrics
+
+def _finite_nonnegative(image) -> np.ndarray:
+    """float32 copy with NaN, infinities and negative values set to 0 (FLIP's HDR input)."""
+    x = np.asarray(image, np.float32)
+    return np.where(np.isfinite(x) & (x > 0), x, np.float32(0))
+
+
+def flip(image: np.ndarray, reference: np.ndarray) -> tuple[np.ndarray, float]:
+    """HDR-FLIP of ``image`` against ``reference``: (H, W) error map and its mean.
+
+    Computed by NVIDIA's ``flip-evaluator`` (default viewing conditions, 67
+    pixels per degree; exposure range chosen from the reference). FLIP needs
+    finite non-negative radiance: NaN, infinite and negative values count as 0.
+    """
+    import flip_evaluator
+    _check_shapes(image, reference)
+    error, mean, _ = flip_evaluator.evaluate(_finite_nonnegative(reference),
+                                             _finite_nonnegative(image), "HDR",
+                                             applyMagma=False)
+    return np.asarray(error, np.float32).reshape(np.shape(image)[:2]), float(mean)
+
+
+def relmse_map(image: np.ndarray, reference: np.ndarray, eps: float = RELMSE_EPS) -> np.ndarray:
+    """Relative squared error per pixel, mean over channels: (x - ref)^2 / (ref^2 + eps)."""
+    _check_shapes(image, reference)
+    ref = np.asarray(reference, np.float64)
+    err = np.square(np.asarray(image, np.float64) - ref) / (ref * ref + eps)
+    return err.mean(axis=-1)
+
+
+def _check_shapes(image, reference) -> None:
+    if np.shape(image) != np.shape(reference):
+        raise ValueError(f"image shape {np.shape(image)} differs from the reference's "
+                         f"{np.shape(reference)}")
+
+
+# -------------------------------------------------------------------- data
+
+def write_blob(out: str, array: np.ndarray) -> dict:
+    """Write ``array`` (as little-endian float32) to ``<out>/viewer-data/<id>.js``.
+
+    The id is a hash of the values and shape, so equal arrays share one file
+    and an existing file is never rewritten. Returns ``{"id", "src"}`` with
+    ``src`` relative to ``out``.
+    """
+    values = np.ascontiguousarray(array, dtype="<f4")
+    digest = hashlib.sha1(repr(values.shape).encode() + values.tobytes()).hexdigest()[:20]
+    src = f"{DATA_DIR}/{digest}.js"
+    path = os.path.join(out, DATA_DIR, digest + ".js")
+    if not os.path.exists(path):
+        payload = base64.b64encode(zlib.compress(values.tobytes(), 6)).decode("ascii")
+        store.write_text(path, f'VRViewer.blob("{digest}","{payload}");\n')
+    return {"id": digest, "src": src}
+
+
+def read_blob(out: str, src: str, shape) -> np.ndarray:
+    """The float32 array a data script holds (the inverse of :func:`write_blob`)."""
+    with open(os.path.join(out, src), encoding="ascii") as f:
+        payload = re.search(r',"([A-Za-z0-9+/=]*)"\);', f.read()).group(1)
+    return np.frombuffer(zlib.decompress(base64.b64decode(payload)), "<f4").reshape(shape)
+
+
+def _slug(text: str) -> str:
+    return re.sub(r"[^a-z0-9]+", "-", text.lower()).strip("-")[:40] or "viewer"
+
+
+def _relmse_range(maps: list[np.ndarray]) -> list[int]:
+    """Colour-bar range [lo, hi] in log10 relMSE: hi covers the 99.5th percentile."""
+    values = np.concatenate([m.ravel() for m in maps]) if maps else np.zeros(1)
+    values = values[np.isfinite(values) & (values > 0)]
+    top = float(np.percentile(values, 99.5)) if values.size else 1.0
+    hi = math.ceil(math.log10(top)) if top > 0 else 0
+    return [hi - RELMSE_DECADES, hi]
+
+
+def comparison(out: str, title: str, images: list[tuple[str, np.ndarray]],
+               reference: np.ndarray | None = None, reference_label: str = "reference",
+               caption: str = "", notes: list[str] | None = None,
+               viewer_id: str | None = None) -> str:
+    """HTML of one viewer element for ``images`` (label, linear (H, W, 3) array).
+
+    Writes the pixel data under ``<out>/viewer-data/``. With a ``reference``,
+    it is shown as the last image and each image gets its relMSE and FLIP maps
+    (key ``e`` in the viewer); each label's note then gives the image's mean
+    relMSE and FLIP unless ``notes`` (one string per image) is given.
+    ``viewer_id`` names the element (``data-viewer``); default: from the title.
+    """
+    if not images:
+        raise ValueError(f"comparison {title!r} has no images")
+    if notes is not None and len(notes) != len(images):
+        raise ValueError(f"comparison {title!r}: {len(notes)} notes for {len(images)} images")
+    shape = np.shape(images[0][1])
+    if len(shape) != 3 or shape[2] != 3:
+        raise ValueError(f"comparison {title!r}: images must be (H, W, 3), got {shape}")
+    for label, image in images:
+        if np.shape(image) != shape:
+            raise ValueError(f"comparison {title!r}: image {label!r} has shape "
+                             f"{np.shape(image)}, the first has {shape}")
+    if reference is not None:
+        _check_shapes(reference, images[0][1])
+
+    entries, relmse_maps = [], []
+    for k, (label, image) in enumerate(images):
+        entry = {"label": str(label), "data": write_blob(out, image)}
+        if reference is not None:
+            rel = relmse_map(image, reference)
+            flip_map, flip_mean = flip(image, reference)
+            relmse_maps.append(rel)
+            entry["errors"] = {"relmse": write_blob(out, rel), "flip": write_blob(out, flip_map)}
+            entry["stats"] = {"relmse": float(rel.mean()), "flip": flip_mean}
+            entry["note"] = f"relMSE {rel.mean():.3g} · FLIP {flip_mean:.3f}"
+        if notes is not None:
+            entry["note"] = notes[k]
+        entries.append(entry)
+    if reference is not None:
+        zeros = np.zeros(shape[:2], np.float32)
+        entries.append({"label": reference_label, "data": write_blob(out, reference),
+                        "errors": {"relmse": write_blob(out, zeros), "flip": write_blob(out, zeros)},
+                        "note": "reference", "reference": True})
+    height, width = int(shape[0]), int(shape[1])
+    manifest = {"title": title, "width": width, "height": height, "encoding": ENCODING,
+                "images": entries}
+    if reference is not None:
+        manifest["ranges"] = {"relmse": _relmse_range(relmse_maps), "flip": [0, 1]}
+    if viewer_id is None:
+        digest = hashlib.sha1(json.dumps(manifest, sort_keys=True).encode()).hexdigest()[:8]
+        viewer_id = f"{_slug(title)}-{digest}"
+    manifest_json = json.dumps(manifest, separators=(",", ":")).replace("</", "<\\/")
+    esc = html.escape
+    cap = f"<figcaption>{esc(caption)}</figcaption>" if caption else "<figcaption></figcaption>"
+    return (f'<figure class="vrv" data-viewer="{esc(viewer_id)}">'
+            f'<script type="application/json" class="vrv-manifest">{manifest_json}</script>'
+            f'<div class="vrv-placeholder" style="aspect-ratio: {width} / {height}">'
+            f'{esc(title)}: loading the viewer (needs JavaScript)</div>{cap}</figure>')
+
+
+def write_page(out: str, title: str, body: str) -> str:
+    """A standalone page ``<out>/index.html`` around viewer elements; return its path."""
+    install_assets(out)
+    page = (f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">\n'
+            f'<title>{html.escape(title)}</title>\n{HEAD}\n</head>\n'
+            f'<body><h1>{html.escape(title)}</h1>\n{body}\n</body></html>\n')
+    path = os.path.join(out, "index.html")
+    store.write_text(path, page)
+    return path
