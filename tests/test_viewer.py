@@ -62,7 +62,7 @@ def report(tmp_path_factory):
         exr[name] = store.read_exr(os.path.join(out, name + ".exr")).astype(np.float32)
     first = viewer.comparison(out, "first", [("noisy", exr["noisy"]), ("checker", exr["checker"])],
                               reference=exr["reference"], viewer_id="first")
-    second = viewer.comparison(out, "second", [("checker", exr["checker"]), ("noisy", exr["noisy"])],
+    second = viewer.comparison(out, TRICKY_TITLE, [("checker", exr["checker"]), ("noisy", exr["noisy"])],
                                viewer_id="second")
     far = viewer.comparison(out, "far", [("dim", exr["reference"] * np.float32(0.5))],
                             viewer_id="far")
@@ -173,6 +173,7 @@ def green_box(img):
     return xs.min(), ys.min(), xs.max() + 1, ys.max() + 1
 
 
+TRICKY_TITLE = 'second </script> & "quotes" <b>'
 SAMPLE = [(0, 0), (5, 4), (17, 11), (30, 20), (47, 23), (40, 2), MARK]
 
 
@@ -189,6 +190,8 @@ def test_opens_from_file_without_console_errors_and_lazy_loads(page, report):
     viewer_el(page, "far").scroll_into_view_if_needed()
     page.wait_for_selector('[data-viewer="far"][data-state="ready"]')
     assert far_src in page.evaluate("Array.from(document.scripts, s => s.getAttribute('src'))")
+    # titles are text, never markup (the manifest JSON survives "</script>")
+    assert viewer_el(page, "second").locator(".vrv-title").text_content() == TRICKY_TITLE
     assert page.problems == []
 
 

@@ -143,17 +143,17 @@ def _relmse_range(maps: list[np.ndarray]) -> list[int]:
     return [hi - RELMSE_DECADES, hi]
 
 
-def comparison(out: str, title: str, images: list[tuple[str, np.ndarray]],
-               reference: np.ndarray | None = None, reference_label: str = "reference",
-               caption: str = "", notes: list[str] | None = None,
-               viewer_id: str | None = None) -> str:
-    """HTML of one viewer element for ``images`` (label, linear (H, W, 3) array).
+def manifest(out: str, title: str, images: list[tuple[str, np.ndarray]],
+             reference: np.ndarray | None = None, reference_label: str = "reference",
+             notes: list[str] | None = None) -> dict:
+    """The viewer's description of one comparison; writes its pixel data under ``out``.
 
-    Writes the pixel data under ``<out>/viewer-data/``. With a ``reference``,
+    ``images`` are (label, linear (H, W, 3) array) pairs. With a ``reference``,
     it is shown as the last image and each image gets its relMSE and FLIP maps
     (key ``e`` in the viewer); each label's note then gives the image's mean
-    relMSE and FLIP unless ``notes`` (one string per image) is given.
-    ``viewer_id`` names the element (``data-viewer``); default: from the title.
+    relMSE and FLIP unless ``notes`` (one string per image) is given. The
+    manifest is plain JSON data (it can be stored in a report section) and
+    refers to the data files by paths relative to ``out``.
     """
     if not images:
         raise ValueError(f"comparison {title!r} has no images")
@@ -187,21 +187,36 @@ def comparison(out: str, title: str, images: list[tuple[str, np.ndarray]],
         entries.append({"label": reference_label, "data": write_blob(out, reference),
                         "errors": {"relmse": write_blob(out, zeros), "flip": write_blob(out, zeros)},
                         "note": "reference", "reference": True})
-    height, width = int(shape[0]), int(shape[1])
-    manifest = {"title": title, "width": width, "height": height, "encoding": ENCODING,
-                "images": entries}
+    result = {"title": title, "width": int(shape[1]), "height": int(shape[0]),
+              "encoding": ENCODING, "images": entries}
     if reference is not None:
-        manifest["ranges"] = {"relmse": _relmse_range(relmse_maps), "flip": [0, 1]}
+        result["ranges"] = {"relmse": _relmse_range(relmse_maps), "flip": [0, 1]}
+    return result
+
+
+def element(manifest: dict, caption: str = "", viewer_id: str | None = None) -> str:
+    """HTML of the viewer element for a :func:`manifest` (``data-viewer`` = ``viewer_id``,
+    by default made from the title and a hash of the manifest)."""
     if viewer_id is None:
         digest = hashlib.sha1(json.dumps(manifest, sort_keys=True).encode()).hexdigest()[:8]
-        viewer_id = f"{_slug(title)}-{digest}"
-    manifest_json = json.dumps(manifest, separators=(",", ":")).replace("</", "<\\/")
+        viewer_id = f"{_slug(manifest['title'])}-{digest}"
+    data = json.dumps(manifest, separators=(",", ":")).replace("</", "<\\/")
     esc = html.escape
-    cap = f"<figcaption>{esc(caption)}</figcaption>" if caption else "<figcaption></figcaption>"
+    width, height = manifest["width"], manifest["height"]
     return (f'<figure class="vrv" data-viewer="{esc(viewer_id)}">'
-            f'<script type="application/json" class="vrv-manifest">{manifest_json}</script>'
+            f'<script type="application/json" class="vrv-manifest">{data}</script>'
             f'<div class="vrv-placeholder" style="aspect-ratio: {width} / {height}">'
-            f'{esc(title)}: loading the viewer (needs JavaScript)</div>{cap}</figure>')
+            f'{esc(manifest["title"])}: loading the viewer (needs JavaScript)</div>'
+            f'<figcaption>{esc(caption)}</figcaption></figure>')
+
+
+def comparison(out: str, title: str, images: list[tuple[str, np.ndarray]],
+               reference: np.ndarray | None = None, reference_label: str = "reference",
+               caption: str = "", notes: list[str] | None = None,
+               viewer_id: str | None = None) -> str:
+    """HTML of one viewer element for ``images``: :func:`manifest` then :func:`element`."""
+    return element(manifest(out, title, images, reference, reference_label, notes),
+                   caption, viewer_id)
 
 
 def write_page(out: str, title: str, body: str) -> str:
