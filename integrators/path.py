@@ -1,13 +1,30 @@
 """The ``vr_path`` integrator: a path tracer with selectable direction sampling."""
 from __future__ import annotations
 
+import warnings
+from typing import NamedTuple
+
 import drjit as dr
 import mitsuba as mi
 
 from . import warps
 
-#: Valid values of the ``strategy`` parameter.
-STRATEGIES = ("uniform", "cosine", "bsdf")
+#: Valid values of the ``strategy`` parameter (the one definition of the list).
+STRATEGIES = ("uniform", "cosine", "bsdf", "mis")
+
+#: Probability with which the ``mis`` strategy draws from the cosine strategy
+#: (else from the BSDF's own sampling). See :class:`VRPathIntegrator`.
+MIS_COSINE_WEIGHT = 0.25
+
+
+class DirectionSample(NamedTuple):
+    """The next direction of a path, as drawn by a strategy at one vertex."""
+    wo: mi.Vector3f       # local direction
+    pdf: mi.Float         # density of the strategy at wo (solid angle; Dirac lobes: as sampled)
+    weight: mi.Spectrum   # bsdf.eval(wo) / pdf  (the BSDF's own weight on delta lobes)
+    delta: mi.Bool        # sampled from a Dirac delta lobe
+    eta: mi.Float         # relative index of refraction crossed (1 for reflection)
+    null: mi.Bool         # passed straight through a ``null`` component
 
 
 def mis_weight(pdf_a, pdf_b):
@@ -20,25 +37,135 @@ def mis_weight(pdf_a, pdf_b):
     return dr.select(pdf_a > 0, dr.rcp(1.0 + dr.square(ratio)), 0.0)
 
 
+# ------------------------------------------------------------- strategies
+#
+# One function per concern, callable outside the render loop (the warp tests
+# call them on a single BSDF): ``sample_direction`` draws the next direction of
+# a strategy and ``direction_pdf`` reports its density at any direction.
 
-def _strategy_calls(bsdf, ctx, si, wo, sample1, sample2, active):
-    """Per BSDF (inside ``dr.dispatch``), for the uniform and cosine strategies:
-    ``eval`` at the strategy's direction, or, for a BSDF with a delta lobe
-    (which those directions cannot hit), its own ``sample`` instead."""
-    if mi.has_flag(bsdf.flags(), mi.BSDFFlags.Delta):
+def _hemisphere_warp(strategy):
+    """(warp, pdf) on z > 0 of the uniform or cosine strategy (``mis``: cosine)."""
+    if strategy == "uniform":
+        return warps.square_to_uniform_hemisphere, warps.square_to_uniform_hemisphere_pdf
+    return warps.square_to_cosine_hemisphere, warps.square_to_cosine_hemisphere_pdf
+
+
+def _hemisphere_sample(strategy, wi, transmits, sample1, sample2):
+    """Uniform/cosine direction on the side of ``wi``; for a BSDF that transmits,
+    on either side (``sample1 < 0.5``: the far side of the surface's z axis)."""
+    warp, _ = _hemisphere_warp(strategy)
+    below = dr.select(transmits, sample1 < 0.5, wi.z < 0)
+    return warps.reflect_to_side(warp(sample2), below)
+
+
+def _hemisphere_pdf(strategy, wi, wo, transmits):
+    return warps.sided_pdf(_hemisphere_warp(strategy)[1], wo, wi.z, transmits)
+
+
+def _crossing_eta(bsdf, ctx, si, wo, transmits, active):
+    """Relative index of refraction for a direction ``wo`` on the far side.
+
+    Mitsuba's interface gives eta only with a sample, so the BSDF is sampled
+    once with its transmission lobes alone (its eta does not depend on the
+    sample). Only BSDFs that transmit pay for this call.
+    """
+    if not transmits:
+        return mi.Float(1.0)
+    ctx_t = mi.BSDFContext(ctx.mode, mi.BSDFFlags.Transmission)
+    bs, _ = bsdf.sample(ctx_t, si, mi.Float(0.5), mi.Point2f(0.5, 0.5), active)
+    crosses = (si.wi.z * wo.z) < 0
+    return dr.select(crosses & (bs.eta > 0), bs.eta, 1.0)
+
+
+def _vertex(bsdf, strategy, ctx, si, sample1, sample2, wo_em, active):
+    """Per BSDF instance (inside ``dr.dispatch``) for ``uniform``, ``cosine`` and
+    ``mis``: the next direction and, at ``wo_em`` (None: skipped), the BSDF
+    value and the strategy's density there (for NEE and its MIS weight).
+
+    BSDFs with a Dirac delta lobe (mirrors, smooth dielectrics, ``plastic``,
+    ``null``) cannot be hit by a sampled direction: they use their own sampling.
+    """
+    flags = bsdf.flags()
+    if mi.has_flag(flags, mi.BSDFFlags.Delta):
+        return _bsdf_vertex(bsdf, ctx, si, sample1, sample2, wo_em, active)
+    transmits = mi.has_flag(flags, mi.BSDFFlags.Transmission)
+    if strategy == "mis":
+        c = MIS_COSINE_WEIGHT
+        use_cosine = sample1 < c
+        # Reuse sample1: rescaled to [0, 1) within the chosen technique.
+        s1_cos = dr.minimum(sample1 / c, dr.one_minus_epsilon)
+        s1_bsdf = dr.minimum((sample1 - c) / (1.0 - c), dr.one_minus_epsilon)
+        bs, _ = bsdf.sample(ctx, si, s1_bsdf, sample2, active & ~use_cosine)
+        wo_cos = _hemisphere_sample("cosine", si.wi, transmits, s1_cos, sample2)
+        wo = dr.select(use_cosine, wo_cos, bs.wo)
+        drawn = use_cosine | (bs.pdf > 0)      # a failed BSDF sample draws nothing
+        value, bsdf_pdf = bsdf.eval_pdf(ctx, si, wo, active & drawn)
+        pdf = warps.mixture_pdf(c, _hemisphere_pdf("cosine", si.wi, wo, transmits), bsdf_pdf)
+        eta = dr.select(use_cosine, _crossing_eta(bsdf, ctx, si, wo, transmits, active), bs.eta)
+    else:
+        wo = _hemisphere_sample(strategy, si.wi, transmits, sample1, sample2)
+        value = bsdf.eval(ctx, si, wo, active)
+        pdf = _hemisphere_pdf(strategy, si.wi, wo, transmits)
+        eta = _crossing_eta(bsdf, ctx, si, wo, transmits, active)
+        drawn = mi.Bool(True)
+    weight = dr.select(drawn & (pdf > 0), value / dr.maximum(pdf, 1e-30), 0.0)
+    out = (wo, pdf, weight, mi.Bool(False), eta, mi.Bool(False))
+    if wo_em is None:
+        return out
+    em_value, em_bsdf_pdf = bsdf.eval_pdf(ctx, si, wo_em, active)
+    em_pdf = _hemisphere_pdf(strategy if strategy != "mis" else "cosine", si.wi, wo_em, transmits)
+    if strategy == "mis":
+        em_pdf = warps.mixture_pdf(MIS_COSINE_WEIGHT, em_pdf, em_bsdf_pdf)
+    return out + (em_value, em_pdf)
+
+
+def _bsdf_vertex(bsdf, ctx, si, sample1, sample2, wo_em, active):
+    """The ``bsdf`` strategy: the BSDF's own sampling (with ``wo_em``: evaluated
+    there in the same call, ``eval_pdf_sample``, as Mitsuba's ``path``)."""
+    if wo_em is None:
         bs, weight = bsdf.sample(ctx, si, sample1, sample2, active)
-        return dr.zeros(mi.Spectrum), bs, weight
-    return bsdf.eval(ctx, si, wo, active), dr.zeros(mi.BSDFSample3f), dr.zeros(mi.Spectrum)
+    else:
+        em_value, em_pdf, bs, weight = bsdf.eval_pdf_sample(ctx, si, wo_em, sample1, sample2,
+                                                            active)
+    out = (bs.wo, bs.pdf, weight, mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta), bs.eta,
+           mi.has_flag(bs.sampled_type, mi.BSDFFlags.Null))
+    return out if wo_em is None else out + (em_value, em_pdf)
 
 
-def _strategy_calls_nee(bsdf, ctx, si, wo, sample1, sample2, wo_em, active_em, active):
-    """:func:`_strategy_calls` and ``eval_pdf`` at the emitter sample's direction.
+def sample_direction(strategy, bsdf, ctx, si, sample1, sample2, active=True, wo_em=None):
+    """Next direction of ``strategy`` at the vertex ``si`` with BSDF ``bsdf``.
 
-    ``active`` comes last: ``dr.dispatch`` takes the last argument, if a mask,
-    as the mask of the whole call (``active_em`` is a subset of it)."""
-    value, bs, weight = _strategy_calls(bsdf, ctx, si, wo, sample1, sample2, active)
-    nee_value, nee_pdf = bsdf.eval_pdf(ctx, si, wo_em, active_em)
-    return value, bs, weight, nee_value, nee_pdf
+    ``bsdf``: a ``mi.BSDFPtr`` (one dispatch over the BSDFs) or one BSDF.
+    Returns a :class:`DirectionSample`; with ``wo_em`` (a local direction, e.g.
+    of an emitter sample) also ``(bsdf value, strategy density)`` there, from
+    the same BSDF call: ``(DirectionSample, (value, pdf))``.
+    """
+    active = mi.Bool(active)
+    if strategy == "bsdf":
+        out = _bsdf_vertex(bsdf, ctx, si, sample1, sample2, wo_em, active)
+    elif isinstance(bsdf, mi.BSDFPtr):
+        out = dr.dispatch(bsdf, _vertex, strategy, ctx, si, sample1, sample2, wo_em, active)
+    else:
+        out = _vertex(bsdf, strategy, ctx, si, sample1, sample2, wo_em, active)
+    ds = DirectionSample(*out[:6])
+    return ds if wo_em is None else (ds, tuple(out[6:]))
+
+
+def direction_pdf(strategy, bsdf, ctx, si, wo, active=True):
+    """Density with which ``strategy`` draws the local direction ``wo`` at ``si``
+    (for BSDFs without a delta lobe; with one, the BSDF's own pdf)."""
+    flags = bsdf.flags()
+    bsdf_pdf = bsdf.pdf(ctx, si, wo, active)
+    if strategy == "bsdf":
+        return bsdf_pdf
+    transmits = mi.has_flag(flags, mi.BSDFFlags.Transmission)
+    delta = mi.has_flag(flags, mi.BSDFFlags.Delta)
+    if strategy == "mis":
+        pdf = warps.mixture_pdf(MIS_COSINE_WEIGHT,
+                                _hemisphere_pdf("cosine", si.wi, wo, transmits), bsdf_pdf)
+    else:
+        pdf = _hemisphere_pdf(strategy, si.wi, wo, transmits)
+    return dr.select(delta, bsdf_pdf, pdf)
 
 
 class VRPathIntegrator(mi.SamplingIntegrator):
@@ -142,90 +269,50 @@ class VRPathIntegrator(mi.SamplingIntegrator):
         #: path loop) and ``shadow_rays`` (NEE visibility rays), per sample.
         self.count_segments = False
 
-    # ------------------------------------------------------- direction sampling
-
-    def _strategy_pdf(self, wi: mi.Vector3f, wo: mi.Vector3f, transmits: mi.Bool) -> mi.Float:
-        """Density of the uniform or cosine strategy at local direction ``wo``."""
-        same_side = (wi.z * wo.z) > 0
-        flipped = mi.Vector3f(wo.x, wo.y, dr.abs(wo.z))
-        if self.strategy == "uniform":
-            pdf = warps.square_to_uniform_hemisphere_pdf(flipped)
-        else:
-            pdf = warps.square_to_cosine_hemisphere_pdf(flipped)
-        return dr.select(transmits, 0.5 * pdf, dr.select(same_side, pdf, 0.0))
-
-    def _sample_direction(self, bsdf, ctx, si, sample1, sample2, active, bsdf_sample=None,
-                          emitter_dir=None):
-        """Next direction: ((local wo, pdf, weight, sampled delta lobe, eta, uses BSDF
-        pdf), NEE evaluation).
-
-        ``bsdf_sample``: the result of ``bsdf.sample`` with these samples if the
-        caller already has it (from ``eval_pdf_sample``), for ``strategy=bsdf``.
-        ``emitter_dir = (wo_em, active_em)``: for uniform and cosine, also
-        evaluate ``bsdf.eval_pdf`` there, in the same BSDF call; the second
-        return value is then its ``(value, pdf)``, else None.
-        """
-        if self.strategy == "bsdf":
-            if bsdf_sample is None:
-                bsdf_sample = bsdf.sample(ctx, si, sample1, sample2, active)
-            bs, bsdf_weight = bsdf_sample
-            delta = mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta)
-            return (bs.wo, bs.pdf, bsdf_weight, delta, bs.eta, mi.Bool(True)), None
-
-        flags = bsdf.flags()
-        use_bsdf = mi.has_flag(flags, mi.BSDFFlags.Delta)
-        transmits = mi.has_flag(flags, mi.BSDFFlags.Transmission)
-        if self.strategy == "uniform":
-            wo = warps.square_to_uniform_hemisphere(sample2)
-        else:
-            wo = warps.square_to_cosine_hemisphere(sample2)
-        # Hemisphere of the incident direction; either one, by sample1, for transmission.
-        flip = dr.select(transmits, sample1 < 0.5, si.wi.z < 0)
-        wo.z = dr.select(flip, -wo.z, wo.z)
-        pdf = self._strategy_pdf(si.wi, wo, transmits)
-        # One dispatch over the BSDFs for all their work at this vertex.
-        if emitter_dir is None:
-            value, bs, bsdf_weight = dr.dispatch(bsdf, _strategy_calls, ctx, si, wo, sample1,
-                                                 sample2, active)
-            nee = None
-        else:
-            value, bs, bsdf_weight, nee_value, nee_pdf = dr.dispatch(
-                bsdf, _strategy_calls_nee, ctx, si, wo, sample1, sample2, *emitter_dir, active)
-            nee = (nee_value, nee_pdf)
-        delta = mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta)
-        weight = value / dr.maximum(pdf, 1e-20)
-        return (dr.select(use_bsdf, bs.wo, wo),
-                dr.select(use_bsdf, bs.pdf, pdf),
-                dr.select(use_bsdf, bsdf_weight, weight),
-                use_bsdf & delta,
-                dr.select(use_bsdf, bs.eta, 1.0),
-                use_bsdf), nee
-
-    def _direction_pdf(self, bsdf_pdf, si, wo, flags, use_bsdf):
-        """Density with which this strategy would have produced ``wo``."""
-        if self.strategy == "bsdf":
-            return bsdf_pdf
-        transmits = mi.has_flag(flags, mi.BSDFFlags.Transmission)
-        return dr.select(use_bsdf, bsdf_pdf, self._strategy_pdf(si.wi, wo, transmits))
-
     # --------------------------------------------------------------- main loop
+
+    def _check_scene(self, scene) -> None:
+        """Refuse what this integrator does not simulate; warn about what it cannot see."""
+        media = [(f"sensor '{s.id()}'", s.get_medium()) for s in scene.sensors()]
+        for shape in scene.shapes():
+            media += [(f"shape '{shape.id()}' (interior)", shape.interior_medium()),
+                      (f"shape '{shape.id()}' (exterior)", shape.exterior_medium())]
+        media = [(where, m) for where, m in media if m is not None]
+        if media:
+            where, medium = media[0]
+            raise ValueError(
+                f"vr_path: the scene has a participating medium ('{medium.id()}', "
+                f"{str(medium).split('[')[0]}, on the {where}), which vr_path does not simulate "
+                f"(it would render as if the medium were absent); use Mitsuba's 'volpath' "
+                f"integrator for scenes with media.")
+        if not self.emitter_sampling:
+            delta = [e.id() for e in scene.emitters()
+                     if mi.has_flag(e.flags(), mi.EmitterFlags.Delta)]
+            if delta:
+                warnings.warn(
+                    f"vr_path: emitter_sampling is off, so the delta emitter(s) "
+                    f"{', '.join(repr(d) for d in delta)} (point, spot, directional...) are "
+                    f"never reached and light nothing; set emitter_sampling=true.",
+                    RuntimeWarning, stacklevel=2)
 
     @dr.syntax
     def sample(self, scene, sampler, ray, medium=None, active=True):
+        self._check_scene(scene)
+        if dr.hint(self.max_depth == 0, mode='scalar'):
+            return mi.Spectrum(0.0), mi.Bool(False), self._aovs(mi.UInt32(0), mi.UInt32(0))
         ctx = mi.BSDFContext()
         max_depth = mi.UInt32(0xFFFFFFFF if self.max_depth < 0 else self.max_depth)
         nee = self.emitter_sampling
         count = self.count_segments
-        # strategy=bsdf with NEE: evaluate the emitter direction and sample the
-        # next one in a single BSDF call, as Mitsuba's path does.
-        joint = nee and self.strategy == "bsdf"
+        hide = self.hide_emitters
 
         ray = mi.Ray3f(ray)                    # current ray
         L = mi.Spectrum(0.0)                   # radiance accumulator
         beta = mi.Spectrum(1.0)                # path throughput
-        eta = mi.Float(1.0)                    # relative index of refraction so far
+        eta = mi.Float(1.0)                    # relative index of refraction crossed so far
         depth = mi.UInt32(0)                   # vertices so far
-        valid_ray = mi.Bool(False)             # did the camera ray hit anything?
+        # Used for the alpha channel, and to hide the environment (as Mitsuba's path).
+        valid_ray = mi.Bool(not hide and scene.environment() is not None)
         prev_it = dr.zeros(mi.Interaction3f)   # previous vertex (for MIS)
         prev_pdf = mi.Float(1.0)               # pdf of the direction that led here
         prev_delta = mi.Bool(True)             # was that direction a delta lobe?
@@ -238,12 +325,16 @@ class VRPathIntegrator(mi.SamplingIntegrator):
                                      coherent=(depth == 0), active=active)
             if dr.hint(count, mode='scalar'):
                 segments += mi.UInt32(active)
+            emitter = si.emitter(scene, active)
+
+            # hide_emitters: camera rays pass through area emitters (Mitsuba's path).
+            skip = mi.Bool(False)
+            if dr.hint(hide, mode='scalar'):
+                skip = active & (depth == 0) & si.is_valid() & (emitter != None)  # noqa: E711
+            on = active & ~skip
 
             # ------------------------ emission found by the sampled direction
-            emitter = si.emitter(scene, active)
-            visible = active & (emitter != None)  # noqa: E711  (Dr.Jit pointer test)
-            if dr.hint(self.hide_emitters, mode='scalar'):
-                visible &= depth > 0
+            visible = on & (emitter != None)  # noqa: E711  (Dr.Jit pointer test)
             w_dir = mi.Float(1.0)
             if dr.hint(nee, mode='scalar'):
                 ds = mi.DirectionSample3f(scene, si, prev_it)
@@ -251,8 +342,7 @@ class VRPathIntegrator(mi.SamplingIntegrator):
                 w_dir = dr.select(prev_delta, 1.0, mis_weight(prev_pdf, em_pdf))
             L = dr.select(visible, L + beta * emitter.eval(si, visible) * w_dir, L)
 
-            active_next = active & si.is_valid() & (depth + 1 < max_depth)
-            valid_ray |= active & si.is_valid()
+            active_next = on & si.is_valid() & (depth + 1 < max_depth)
             bsdf = si.bsdf(ray)
             flags = bsdf.flags()
 
@@ -264,51 +354,45 @@ class VRPathIntegrator(mi.SamplingIntegrator):
                 if dr.hint(count, mode='scalar'):
                     shadow_rays += mi.UInt32(active_em)
                 active_em &= ds_em.pdf != 0
-                wo_em = si.to_local(ds_em.d)
                 sample1 = sampler.next_1d(active_next)
                 sample2 = sampler.next_2d(active_next)
-                if dr.hint(joint, mode='scalar'):
-                    bsdf_val, bsdf_pdf, bs, bs_weight = bsdf.eval_pdf_sample(
-                        ctx, si, wo_em, sample1, sample2, active_next)
-                    bsdf_sample = (bs, bs_weight)
-                    direction = self._sample_direction(bsdf, ctx, si, sample1, sample2,
-                                                       active_next, bsdf_sample)[0]
-                else:
-                    direction, (bsdf_val, bsdf_pdf) = self._sample_direction(
-                        bsdf, ctx, si, sample1, sample2, active_next,
-                        emitter_dir=(wo_em, active_em))
-                use_bsdf_em = mi.has_flag(flags, mi.BSDFFlags.Delta)
-                pdf_em_dir = self._direction_pdf(bsdf_pdf, si, wo_em, flags, use_bsdf_em)
+                direction, (bsdf_val, pdf_em_dir) = sample_direction(
+                    self.strategy, bsdf, ctx, si, sample1, sample2, active_next,
+                    wo_em=si.to_local(ds_em.d))
                 w_em = dr.select(ds_em.delta, 1.0, mis_weight(ds_em.pdf, pdf_em_dir))
                 L = dr.select(active_em, L + beta * bsdf_val * em_weight * w_em, L)
             else:
                 sample1 = sampler.next_1d(active_next)
                 sample2 = sampler.next_2d(active_next)
-                direction = self._sample_direction(bsdf, ctx, si, sample1, sample2,
-                                                   active_next)[0]
+                direction = sample_direction(self.strategy, bsdf, ctx, si, sample1, sample2,
+                                             active_next)
 
             # ------------------------------------------------ next direction
-            wo, pdf, weight, delta, eta_s, _ = direction
-            ray = si.spawn_ray(si.to_world(wo))
-            beta *= dr.select(active_next, weight, 0.0)
-            eta *= eta_s
+            valid_ray |= on & si.is_valid() & ~direction.null
+            ray = dr.select(skip, si.spawn_ray(ray.d), si.spawn_ray(si.to_world(direction.wo)))
+            beta *= dr.select(active_next, direction.weight, dr.select(skip, 1.0, 0.0))
+            eta *= dr.select(active_next, direction.eta, 1.0)
             if dr.hint(nee, mode='scalar'):
-                prev_it = mi.Interaction3f(si)
-            prev_pdf = pdf
-            prev_delta = delta
-            depth[si.is_valid()] += 1
+                prev_it = dr.select(skip, prev_it, mi.Interaction3f(si))
+            prev_pdf = dr.select(skip, prev_pdf, direction.pdf)
+            prev_delta = dr.select(skip, prev_delta, direction.delta)
+            depth[si.is_valid() & ~skip] += 1
 
             # ------------------------------------------------- Russian roulette
+            # As Mitsuba's path: eta^2 undoes the radiance scaling at refractive
+            # interfaces, so paths inside glass are not ended for it.
             beta_max = dr.max(mi.unpolarized_spectrum(beta))
             rr_active = depth >= self.rr_depth
             rr_prob = dr.minimum(beta_max * dr.square(eta), 0.95)
             rr_continue = sampler.next_1d(active_next) < rr_prob
             beta[rr_active] *= dr.rcp(dr.maximum(rr_prob, 1e-20))
-            active = active_next & (~rr_active | rr_continue) & (beta_max > 0) & (pdf > 0)
+            active = skip | (active_next & (~rr_active | rr_continue) & (beta_max > 0)
+                             & (direction.pdf > 0))
 
-        if dr.hint(count, mode='scalar'):
-            return L, valid_ray, [mi.Float(segments), mi.Float(shadow_rays)]
-        return L, valid_ray, []
+        return dr.select(valid_ray, L, 0.0), valid_ray, self._aovs(segments, shadow_rays)
+
+    def _aovs(self, segments, shadow_rays):
+        return [mi.Float(segments), mi.Float(shadow_rays)] if self.count_segments else []
 
     def aov_names(self):
         return ["segments", "shadow_rays"] if self.count_segments else []

@@ -42,6 +42,34 @@ def square_to_cosine_hemisphere_pdf(v: mi.Vector3f) -> mi.Float:
     return dr.maximum(v.z, 0.0) * dr.inv_pi
 
 
+def reflect_to_side(v: mi.Vector3f, below: mi.Bool) -> mi.Vector3f:
+    """``v`` (a direction with z >= 0) mirrored to z < 0 where ``below``."""
+    return mi.Vector3f(v.x, v.y, dr.select(below, -v.z, v.z))
+
+
+def sided_pdf(hemisphere_pdf, v: mi.Vector3f, wi_z: mi.Float, both_sides: mi.Bool) -> mi.Float:
+    """Density of a hemisphere warp put on a side by :func:`reflect_to_side`.
+
+    ``hemisphere_pdf`` is the warp's density on z > 0. One-sided (``both_sides``
+    False): the hemisphere of the incident direction (``wi_z``'s sign), 0 on the
+    other. Two-sided: either hemisphere with probability 1/2, so half the density
+    of the mirrored direction on both.
+    """
+    mirrored = hemisphere_pdf(mi.Vector3f(v.x, v.y, dr.abs(v.z)))
+    same_side = (wi_z * v.z) > 0
+    return dr.select(both_sides, 0.5 * mirrored, dr.select(same_side, mirrored, 0.0))
+
+
+def mixture_pdf(weight_a: mi.Float, pdf_a: mi.Float, pdf_b: mi.Float) -> mi.Float:
+    """Density of a one-sample mixture that draws from a with probability ``weight_a``.
+
+    ``weight_a * pdf_a + (1 - weight_a) * pdf_b``, whichever technique produced
+    the sample (Veach's one-sample model with the balance heuristic: the
+    weight f / mixture pdf is the balance-heuristic MIS estimator).
+    """
+    return dr.fma(weight_a, pdf_a - pdf_b, pdf_b)
+
+
 def square_to_phong_lobe(u: mi.Point2f, exponent: mi.Float) -> mi.Vector3f:
     """Direction about the z axis with density proportional to cos^n(alpha).
 
