@@ -16,6 +16,8 @@ STRATEGIES = ("uniform", "cosine", "bsdf", "mis")
 #: (else from the BSDF's own sampling). See :class:`VRPathIntegrator`.
 MIS_COSINE_WEIGHT = 0.25
 
+_ONE_MINUS_EPSILON = 1.0 - 2.0 ** -24   # largest float32 below 1
+
 
 class DirectionSample(NamedTuple):
     """The next direction of a path, as drawn by a strategy at one vertex."""
@@ -93,8 +95,8 @@ def _vertex(bsdf, strategy, ctx, si, sample1, sample2, wo_em, active):
         c = MIS_COSINE_WEIGHT
         use_cosine = sample1 < c
         # Reuse sample1: rescaled to [0, 1) within the chosen technique.
-        s1_cos = dr.minimum(sample1 / c, dr.one_minus_epsilon)
-        s1_bsdf = dr.minimum((sample1 - c) / (1.0 - c), dr.one_minus_epsilon)
+        s1_cos = dr.minimum(sample1 / c, _ONE_MINUS_EPSILON)
+        s1_bsdf = dr.minimum((sample1 - c) / (1.0 - c), _ONE_MINUS_EPSILON)
         bs, _ = bsdf.sample(ctx, si, s1_bsdf, sample2, active & ~use_cosine)
         wo_cos = _hemisphere_sample("cosine", si.wi, transmits, s1_cos, sample2)
         wo = dr.select(use_cosine, wo_cos, bs.wo)

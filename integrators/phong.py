@@ -11,21 +11,52 @@ import numpy as np
 from . import warps
 
 
-def texture_range(texture: mi.Texture, resolution: int = 64) -> tuple[float, float]:
-    """Smallest and largest channel value of ``texture``.
+#: Sums kd + ks within this of 1 count as 1 (float32 rounding of e.g. 0.3 + 0.7).
+SUM_TOLERANCE = 1e-6
 
-    Evaluated on a ``resolution`` x ``resolution`` grid of uv coordinates,
-    together with the texture's own ``max()``; exact for constant textures.
+
+def texture_range(texture: mi.Texture, resolution: int = 64):
+    """Smallest and largest channel value of ``texture``, or None where unknown.
+
+    Mitsuba's ``Texture::max()`` is not implemented by most textures
+    (``bitmap``, ``checkerboard``...), so it is not used. A ``bitmap`` is
+    bounded by its texels (its filters interpolate them); textures driven by
+    mesh data (``mesh_attribute``) are unknown until rendered (None); any
+    other texture is evaluated on a ``resolution`` x ``resolution`` grid of uv
+    coordinates, exact for constant and piecewise-constant (``checkerboard``)
+    ones.
     """
+    kind = _kind(texture)
+    if kind == "MeshAttribute":
+        return None
+    if kind == "BitmapTexture":
+        values = np.array(mi.traverse(texture)["data"], dtype=np.float64)
+    else:
+        values = uv_grid_values(texture, resolution)
+    if np.isnan(values).any():
+        return math.nan, math.nan
+    return float(values.min()), float(values.max())
+
+
+def uv_grid_values(texture: mi.Texture, resolution: int) -> np.ndarray:
+    """(channels, resolution^2) values of ``texture`` at the centres of a uv grid."""
     n = resolution * resolution
     si = dr.zeros(mi.SurfaceInteraction3f, n)
     idx = dr.arange(mi.UInt32, n)
     si.uv = mi.Point2f((mi.Float(idx % resolution) + 0.5) / resolution,
                        (mi.Float(idx // resolution) + 0.5) / resolution)
-    values = np.array(texture.eval(si), dtype=np.float64)
-    if np.isnan(values).any():
-        return math.nan, math.nan
-    return float(values.min()), max(float(values.max()), float(texture.max()))
+    return np.atleast_2d(np.array(texture.eval(si), dtype=np.float64))
+
+
+def _kind(texture: mi.Texture) -> str:
+    return str(texture).split("[")[0].strip()
+
+
+def _grid_resolution(*textures) -> int:
+    """64, or the finest bitmap's resolution (grid points then hit its texel centres)."""
+    res = [64] + [max(texture.resolution()) for texture in textures
+                  if _kind(texture) == "BitmapTexture"]
+    return int(min(max(res), 2048))
 
 
 class PhongBSDF(mi.BSDF):
@@ -60,10 +91,15 @@ class PhongBSDF(mi.BSDF):
     where :math:`\alpha` is the angle between :math:`\omega_o` and the mirror
     direction of :math:`\omega_i`, and :math:`\cos\alpha` is clamped at 0. It
     reflects at most :math:`k_d + k_s` of the incident energy, so
-    :math:`k_d + k_s \le 1` per channel. Where a channel exceeds 1 (for
-    textures: its largest values), a warning is issued and both reflectances
-    are scaled down by the same factor so that the sum is 1; negative or NaN
-    values, values above 1 and a negative or NaN exponent raise ``ValueError``.
+    :math:`k_d + k_s \le 1` per channel. Wherever the largest channel of the
+    sum exceeds 1, both reflectances are scaled down there by the same factor
+    so that it is 1 (at every shading point, so any texture is safe), and a
+    warning is issued at load when the textures' values show it. Any Mitsuba
+    texture works for both reflectances (``bitmap``, ``checkerboard``,
+    ``mesh_attribute``, ...): their range is read from the texels, or
+    evaluated over the uv square (``mesh_attribute`` values are only known
+    when rendering, so they get no load-time check). Negative or NaN values,
+    values above 1 and a negative or NaN exponent raise ``ValueError``.
 
     Importance sampling picks the specular lobe with probability
     :math:`P_s = \bar k_s / (\bar k_d + \bar k_s)` (channel means at the shading
@@ -104,7 +140,6 @@ class PhongBSDF(mi.BSDF):
         exponent = props.get("exponent", 30.0)
         self._check_exponent(exponent)
         self.exponent = dr.opaque(mi.Float, float(exponent))
-        self.scale = 1.0
         self._check_reflectances()
 
         diffuse = mi.BSDFFlags.DiffuseReflection | mi.BSDFFlags.FrontSide
@@ -126,18 +161,24 @@ class PhongBSDF(mi.BSDF):
     def _check_reflectances(self) -> None:
         ranges = {}
         for name in ("diffuse_reflectance", "specular_reflectance"):
-            lo, hi = texture_range(getattr(self, name))
-            if not (0.0 <= lo and hi <= 1.0):
-                bad = lo if not 0.0 <= lo else hi
-                raise ValueError(f"phong: '{name}' must lie in [0, 1], got a value of {bad}")
-            ranges[name] = hi
-        total = ranges["diffuse_reflectance"] + ranges["specular_reflectance"]
-        self.scale = 1.0
-        if total > 1.0:
-            self.scale = 1.0 / total
+            rng = texture_range(getattr(self, name))
+            if rng is not None:
+                lo, hi = rng
+                if not (0.0 <= lo and hi <= 1.0 + SUM_TOLERANCE):
+                    bad = lo if not 0.0 <= lo else hi
+                    raise ValueError(f"phong: '{name}' must lie in [0, 1], got a value of {bad}")
+            ranges[name] = rng
+        if None in ranges.values():
+            return
+        # Largest channel of kd + ks at the same point (not max kd + max ks).
+        kd, ks = self.diffuse_reflectance, self.specular_reflectance
+        res = _grid_resolution(kd, ks)
+        total = float(np.max(uv_grid_values(kd, res) + uv_grid_values(ks, res)))
+        if total > 1.0 + SUM_TOLERANCE:
             warnings.warn(
                 f"phong: diffuse_reflectance + specular_reflectance reaches {total:.4g} > 1, "
-                f"which would create energy; both are scaled by {self.scale:.4g}.",
+                f"which would create energy; both are scaled by {1.0 / total:.4g} where "
+                f"their sum reaches that value (down to a sum of 1 wherever it exceeds 1).",
                 RuntimeWarning, stacklevel=3)
 
     def traverse(self, callback):
@@ -157,10 +198,17 @@ class PhongBSDF(mi.BSDF):
 
     # --------------------------------------------------------------- helpers
 
+    def _reflectances(self, si, active):
+        """kd and ks at ``si``, both scaled down where the largest channel of
+        kd + ks exceeds 1 (energy conservation for any texture)."""
+        kd = self.diffuse_reflectance.eval(si, active)
+        ks = self.specular_reflectance.eval(si, active)
+        scale = dr.rcp(dr.maximum(dr.max(mi.unpolarized_spectrum(kd + ks)), 1.0))
+        return kd * scale, ks * scale
+
     def _lobes(self, ctx, si, active):
         """Scaled reflectances and the probability of sampling the glossy lobe."""
-        kd = self.diffuse_reflectance.eval(si, active) * self.scale
-        ks = self.specular_reflectance.eval(si, active) * self.scale
+        kd, ks = self._reflectances(si, active)
         has_diffuse = ctx.is_enabled(mi.BSDFFlags.DiffuseReflection, 0)
         has_glossy = ctx.is_enabled(mi.BSDFFlags.GlossyReflection, 1)
         if not has_diffuse:
@@ -231,12 +279,12 @@ class PhongBSDF(mi.BSDF):
         return dr.select(active, value, 0.0), dr.select(active, pdf, 0.0)
 
     def eval_diffuse_reflectance(self, si, active=True):
-        return self.diffuse_reflectance.eval(si, active) * self.scale
+        return self._reflectances(si, active)[0]
 
     def to_string(self):
         return (f"PhongBSDF[\n  diffuse_reflectance = {self.diffuse_reflectance},\n"
                 f"  specular_reflectance = {self.specular_reflectance},\n"
-                f"  exponent = {dr.slice(self.exponent, 0)},\n  scale = {self.scale}\n]")
+                f"  exponent = {dr.slice(self.exponent, 0)}\n]")
 
 
 mi.register_bsdf("phong", PhongBSDF)  # the class of this variant, bound now

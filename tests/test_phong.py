@@ -221,3 +221,67 @@ def test_energy_creating_reflectances_warn_and_rescale():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         make_phong(0.5, 0.5, 10)   # exactly 1: no warning
+
+
+# ---------------------------------------------------------------- textures
+
+def _checker(c0, c1):
+    return {"type": "checkerboard", "color0": c0, "color1": c1}
+
+
+def _value_at(bsdf, uv):
+    """f cos at normal incidence and exit (exponent term: (n+2)/(2 pi))."""
+    si = interaction(mi.Vector3f(0, 0, 1), 1)
+    si.uv = mi.Point2f(*uv)
+    return np.array(bsdf.eval(mi.BSDFContext(), si, mi.Vector3f(0, 0, 1)))[:, 0]
+
+
+@pytest.mark.parametrize("texture", [
+    _checker(0.2, 0.6),
+    {"type": "bitmap", "bitmap": mi.Bitmap(np.linspace(0, 0.5, 48, dtype=np.float32).reshape(4, 4, 3))},
+    {"type": "mesh_attribute", "name": "vertex_color"},
+], ids=["checkerboard", "bitmap", "mesh_attribute"])
+def test_any_texture_loads_for_both_reflectances(texture):
+    """Texture::max() is not implemented by these: loading must not depend on it."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for name, other in [("diffuse_reflectance", "specular_reflectance"),
+                            ("specular_reflectance", "diffuse_reflectance")]:
+            assert mi.load_dict({"type": "phong", name: texture, other: 0.3}) is not None
+
+
+def test_checkerboard_values_are_exact_and_scaled_per_point():
+    """kd = checkerboard(0.2, 0.7), ks = 0.4: the 0.7 cells sum to 1.1 and are scaled
+    by 1/1.1 there; the 0.2 cells (sum 0.6) keep their values."""
+    n = 20
+    with pytest.warns(RuntimeWarning, match="1.1 > 1"):
+        bsdf = mi.load_dict({"type": "phong", "diffuse_reflectance": _checker(0.2, 0.7),
+                             "specular_reflectance": 0.4, "exponent": n})
+    glossy = (n + 2) / (2 * math.pi)
+    tex = mi.load_dict(_checker(0.2, 0.7))
+    for uv in [(0.25, 0.25), (0.75, 0.25)]:
+        si = dr.zeros(mi.SurfaceInteraction3f, 1)
+        si.uv = mi.Point2f(*uv)
+        kd = float(np.array(tex.eval(si))[0, 0])
+        scale = 1.0 / max(1.0, kd + 0.4)
+        expected = scale * (kd / math.pi + 0.4 * glossy)
+        assert _value_at(bsdf, uv) == pytest.approx([expected] * 3, rel=1e-5)
+
+
+@pytest.mark.parametrize("kd,ks", [(0.3, 0.7), (0.1, 0.9), (0.7, 0.3), (0.45, 0.55)])
+def test_sum_exactly_one_does_not_warn(kd, ks):
+    """Float rounding of kd + ks = 1 (0.3f + 0.7f) is not energy creation."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        make_phong(kd, ks, 10)
+        make_phong({"type": "rgb", "value": [kd, 0.5, kd]}, {"type": "rgb", "value": [ks, 0.5, ks]}, 10)
+
+
+def test_textured_phong_renders_with_path_and_vr_path():
+    scene = {"type": "scene", "sensor": {"type": "perspective", "film": {"type": "hdrfilm", "width": 8, "height": 8}},
+             "light": {"type": "constant"},
+             "ball": {"type": "sphere", "to_world": mi.ScalarTransform4f().translate([0, 0, 4]),
+                      "bsdf": {"type": "phong", "diffuse_reflectance": _checker(0.1, 0.5)}}}
+    for integrator in ({"type": "path"}, {"type": "vr_path", "strategy": "mis"}):
+        img = np.array(mi.render(mi.load_dict({**scene, "integrator": integrator}), spp=4))
+        assert np.all(np.isfinite(img)) and img.max() > 0
