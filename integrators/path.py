@@ -22,7 +22,8 @@ _ONE_MINUS_EPSILON = 1.0 - 2.0 ** -24   # largest float32 below 1
 class DirectionSample(NamedTuple):
     """The next direction of a path, as drawn by a strategy at one vertex."""
     wo: mi.Vector3f       # local direction
-    pdf: mi.Float         # density of the strategy at wo (solid angle; Dirac lobes: as sampled)
+    pdf: mi.Float         # density of the strategy at wo (solid angle; Dirac lobes: as
+                          # sampled); 0 where no direction was drawn (failed BSDF sample)
     weight: mi.Spectrum   # bsdf.eval(wo) / pdf  (the BSDF's own weight on delta lobes)
     delta: mi.Bool        # sampled from a Dirac delta lobe
     eta: mi.Float         # relative index of refraction crossed (1 for reflection)
@@ -97,12 +98,13 @@ def _vertex(bsdf, strategy, ctx, si, sample1, sample2, wo_em, active):
         # Reuse sample1: rescaled to [0, 1) within the chosen technique.
         s1_cos = dr.minimum(sample1 / c, _ONE_MINUS_EPSILON)
         s1_bsdf = dr.minimum((sample1 - c) / (1.0 - c), _ONE_MINUS_EPSILON)
-        bs, _ = bsdf.sample(ctx, si, s1_bsdf, sample2, active & ~use_cosine)
+        bs, bs_weight = bsdf.sample(ctx, si, s1_bsdf, sample2, active & ~use_cosine)
         wo_cos = _hemisphere_sample("cosine", si.wi, transmits, s1_cos, sample2)
         wo = dr.select(use_cosine, wo_cos, bs.wo)
-        drawn = use_cosine | (bs.pdf > 0)      # a failed BSDF sample draws nothing
+        drawn = use_cosine | _drawn(bs_weight)
         value, bsdf_pdf = bsdf.eval_pdf(ctx, si, wo, active & drawn)
         pdf = warps.mixture_pdf(c, _hemisphere_pdf("cosine", si.wi, wo, transmits), bsdf_pdf)
+        pdf = dr.select(drawn, pdf, 0.0)
         eta = dr.select(use_cosine, _crossing_eta(bsdf, ctx, si, wo, transmits, active), bs.eta)
     else:
         wo = _hemisphere_sample(strategy, si.wi, transmits, sample1, sample2)
@@ -121,6 +123,12 @@ def _vertex(bsdf, strategy, ctx, si, sample1, sample2, wo_em, active):
     return out + (em_value, em_pdf)
 
 
+def _drawn(bsdf_weight):
+    """Did ``bsdf.sample`` draw a direction? Mitsuba marks a failed sample (e.g.
+    below the horizon of a one-sided BSDF) by a zero weight, its pdf may be > 0."""
+    return dr.any(mi.unpolarized_spectrum(bsdf_weight) != 0)
+
+
 def _bsdf_vertex(bsdf, ctx, si, sample1, sample2, wo_em, active):
     """The ``bsdf`` strategy: the BSDF's own sampling (with ``wo_em``: evaluated
     there in the same call, ``eval_pdf_sample``, as Mitsuba's ``path``)."""
@@ -129,7 +137,7 @@ def _bsdf_vertex(bsdf, ctx, si, sample1, sample2, wo_em, active):
     else:
         em_value, em_pdf, bs, weight = bsdf.eval_pdf_sample(ctx, si, wo_em, sample1, sample2,
                                                             active)
-    out = (bs.wo, bs.pdf, weight, mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta), bs.eta,
+    out = (bs.wo, dr.select(_drawn(weight), bs.pdf, 0.0), weight, mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta), bs.eta,
            mi.has_flag(bs.sampled_type, mi.BSDFFlags.Null))
     return out if wo_em is None else out + (em_value, em_pdf)
 
