@@ -341,14 +341,14 @@ def test_e_shows_the_relmse_map_and_m_the_flip_map(page, report):
     # the marker is exact in both images: zero error, the colour map's darkest colour
     assert np.abs(shown_colours(page, [MARK])[0] - [0, 0, 4]).max() <= 1
     r = readout(page)
-    assert r["metric"] == "relmse" and r["error"] == pytest.approx(rel[11, 17], rel=1e-6)
+    assert r["metric"] == "relmse" and r["error"] == float(np.float16(rel[11, 17]))  # f16 map
     page.keyboard.press("m")
     wait_attr(page, "data-drawn", "error:flip:0")
     import flip_evaluator
     direct, _, _ = flip_evaluator.evaluate(exr["reference"], exr["noisy"], "HDR", applyMagma=False)
     page.wait_for_function("JSON.parse(document.querySelector('[data-viewer=\"first\"]')"
                            ".dataset.readout).metric === 'flip'")
-    assert readout(page)["error"] == pytest.approx(float(direct[11, 17, 0]), rel=1e-6)
+    assert readout(page)["error"] == float(np.float16(direct[11, 17, 0]))
     expected = np.round(matplotlib.colormaps["magma"](
         np.array([direct[y, x, 0] for x, y in points]))[:, :3] * 255)
     assert np.abs(shown_colours(page, points) - expected).max() <= MAGMA_TOLERANCE
@@ -392,9 +392,14 @@ def test_data_files_round_trip_and_are_shared(tmp_path):
     a = viewer.write_blob(str(tmp_path), image)
     b = viewer.write_blob(str(tmp_path), image.copy())
     assert a == b and len(os.listdir(tmp_path / viewer.DATA_DIR)) == 1
-    assert np.array_equal(viewer.read_blob(str(tmp_path), a["src"], image.shape), image)
+    assert np.array_equal(viewer.read_blob(str(tmp_path), a, image.shape), image)
     c = viewer.write_blob(str(tmp_path), image.reshape(W, H, 3))
     assert c["id"] != a["id"]
+    half = viewer.write_blob(str(tmp_path), image * 1e5, "f16")  # clipped to the f16 range
+    back = viewer.read_blob(str(tmp_path), half, image.shape)
+    assert np.array_equal(back, np.minimum(image * 1e5, 65504).astype(np.float16).astype(np.float32))
+    with pytest.raises(ValueError, match=r"unknown data type 'f64'.*\['f16', 'f32'\]"):
+        viewer.write_blob(str(tmp_path), image, "f64")
 
 
 def test_bad_comparisons_raise_clear_errors(tmp_path):

@@ -9,8 +9,10 @@ the pixel data it needs. The page side is ``viewer_assets/viewer.js`` and
 Why ``<script>`` files: a report opened from disk (file://) cannot read image
 pixels in Chromium (a canvas that draws a file:// image is tainted) and cannot
 ``fetch`` files, but it may run scripts. Each image and error map is therefore
-one content-addressed script ``viewer-data/<id>.js`` holding its float32
-values (zlib-compressed, base64) and calling ``VRViewer.blob(id, data)``.
+one content-addressed script ``viewer-data/<id>.js`` holding its values
+(zlib-compressed, base64; images as float32 so the pixel readout shows the
+EXR value exactly, error maps as float16, half the size) and calling
+``VRViewer.blob(id, data)``.
 Identical arrays (a reference shown in several comparisons) are written once,
 existing files are not rewritten, and viewers load their scripts only when
 they come near the viewport, so the page opens fast however many there are.
@@ -37,7 +39,9 @@ from . import store
 ASSETS_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "viewer_assets")
 ASSETS = ("viewer.js", "viewer.css")
 DATA_DIR = "viewer-data"
-ENCODING = "f32-zlib"
+#: Value types of the data files, as numpy dtypes (little-endian).
+DTYPES = {"f32": "<f4", "f16": "<f2"}
+F16_MAX = 65504.0
 #: The ``<head>`` lines a page with viewers needs (paths relative to the page).
 HEAD = '<link rel="stylesheet" href="viewer.css">\n<script src="viewer.js"></script>'
 #: Denominator offset of relMSE (as experiments/lib/metrics.py).
@@ -106,28 +110,34 @@ def _check_shapes(image, reference) -> None:
 
 # -------------------------------------------------------------------- data
 
-def write_blob(out: str, array: np.ndarray) -> dict:
-    """Write ``array`` (as little-endian float32) to ``<out>/viewer-data/<id>.js``.
+def write_blob(out: str, array: np.ndarray, dtype: str = "f32") -> dict:
+    """Write ``array`` as ``dtype`` (f32, or f16 clipped to +-65504) to ``<out>/viewer-data/<id>.js``.
 
-    The id is a hash of the values and shape, so equal arrays share one file
-    and an existing file is never rewritten. Returns ``{"id", "src"}`` with
-    ``src`` relative to ``out``.
+    The id is a hash of the values, type and shape, so equal arrays share one
+    file and an existing file is never rewritten. Returns ``{"id", "src",
+    "type"}`` with ``src`` relative to ``out``.
     """
-    values = np.ascontiguousarray(array, dtype="<f4")
-    digest = hashlib.sha1(repr(values.shape).encode() + values.tobytes()).hexdigest()[:20]
+    if dtype not in DTYPES:
+        raise ValueError(f"unknown data type {dtype!r}: expected one of {sorted(DTYPES)}")
+    values = np.asarray(array, np.float32)
+    if dtype == "f16":
+        values = np.clip(values, -F16_MAX, F16_MAX)
+    values = np.ascontiguousarray(values, dtype=DTYPES[dtype])
+    digest = hashlib.sha1(f"{dtype}{values.shape}".encode() + values.tobytes()).hexdigest()[:20]
     src = f"{DATA_DIR}/{digest}.js"
     path = os.path.join(out, DATA_DIR, digest + ".js")
     if not os.path.exists(path):
         payload = base64.b64encode(zlib.compress(values.tobytes(), 6)).decode("ascii")
         store.write_text(path, f'VRViewer.blob("{digest}","{payload}");\n')
-    return {"id": digest, "src": src}
+    return {"id": digest, "src": src, "type": dtype}
 
 
-def read_blob(out: str, src: str, shape) -> np.ndarray:
-    """The float32 array a data script holds (the inverse of :func:`write_blob`)."""
-    with open(os.path.join(out, src), encoding="ascii") as f:
+def read_blob(out: str, ref: dict, shape) -> np.ndarray:
+    """The array a data script holds (the inverse of :func:`write_blob`), as float32."""
+    with open(os.path.join(out, ref["src"]), encoding="ascii") as f:
         payload = re.search(r',"([A-Za-z0-9+/=]*)"\);', f.read()).group(1)
-    return np.frombuffer(zlib.decompress(base64.b64decode(payload)), "<f4").reshape(shape)
+    values = np.frombuffer(zlib.decompress(base64.b64decode(payload)), DTYPES[ref["type"]])
+    return values.astype(np.float32).reshape(shape)
 
 
 def _slug(text: str) -> str:
@@ -176,7 +186,8 @@ def manifest(out: str, title: str, images: list[tuple[str, np.ndarray]],
             rel = relmse_map(image, reference)
             flip_map, flip_mean = flip(image, reference)
             relmse_maps.append(rel)
-            entry["errors"] = {"relmse": write_blob(out, rel), "flip": write_blob(out, flip_map)}
+            entry["errors"] = {"relmse": write_blob(out, rel, "f16"),
+                               "flip": write_blob(out, flip_map, "f16")}
             entry["stats"] = {"relmse": float(rel.mean()), "flip": flip_mean}
             entry["note"] = f"relMSE {rel.mean():.3g} · FLIP {flip_mean:.3f}"
         if notes is not None:
@@ -185,10 +196,11 @@ def manifest(out: str, title: str, images: list[tuple[str, np.ndarray]],
     if reference is not None:
         zeros = np.zeros(shape[:2], np.float32)
         entries.append({"label": reference_label, "data": write_blob(out, reference),
-                        "errors": {"relmse": write_blob(out, zeros), "flip": write_blob(out, zeros)},
+                        "errors": {"relmse": write_blob(out, zeros, "f16"),
+                                   "flip": write_blob(out, zeros, "f16")},
                         "note": "reference", "reference": True})
     result = {"title": title, "width": int(shape[1]), "height": int(shape[0]),
-              "encoding": ENCODING, "images": entries}
+              "images": entries}
     if reference is not None:
         result["ranges"] = {"relmse": _relmse_range(relmse_maps), "flip": [0, 1]}
     return result

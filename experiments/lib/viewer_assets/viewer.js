@@ -3,7 +3,8 @@
  * Each comparison is an element with a `data-viewer` attribute holding a JSON
  * manifest (<script type="application/json" class="vrv-manifest">) written by
  * experiments/lib/viewer.py. Pixel data (linear float32 RGB, error maps) comes
- * in <script> files `viewer-data/<id>.js` that call VRViewer.blob(id, base64):
+ * in <script> files `viewer-data/<id>.js` that call VRViewer.blob(id, base64)
+ * (zlib-compressed float32 images, float16 error maps):
  * a page opened from file:// cannot read image pixels (Chromium taints a canvas
  * that draws a file:// image) nor fetch files, but it can run scripts. Data of
  * viewers below the fold is loaded when they come near the viewport.
@@ -81,19 +82,38 @@
   /** Called by the data scripts: one base64 string per id. */
   function receive(id, base64) { blobEntry(id).resolve(base64); }
 
-  function decode(base64, encoding) {
-    var bin = atob(base64), bytes = new Uint8Array(bin.length);
-    for (var i = 0; i < bin.length; i++) bytes[i] = bin.charCodeAt(i);
-    if (encoding === "f32") return Promise.resolve(new Float32Array(bytes.buffer));
-    if (encoding !== "f32-zlib") return Promise.reject(new Error("unknown encoding " + encoding));
-    if (typeof DecompressionStream === "undefined")
-      return Promise.reject(new Error("this browser has no DecompressionStream"));
-    var stream = new Blob([bytes]).stream().pipeThrough(new DecompressionStream("deflate"));
-    return new Response(stream).arrayBuffer().then(function (buf) { return new Float32Array(buf); });
+  var HALF = null;  // float16 bit pattern -> value, built on first use
+
+  function halfTable() {
+    if (!HALF) {
+      HALF = new Float32Array(65536);
+      for (var h = 0; h < 65536; h++) {
+        var sign = h & 0x8000 ? -1 : 1, e = (h >> 10) & 0x1f, f = h & 0x3ff;
+        HALF[h] = e === 0 ? sign * f * Math.pow(2, -24) :
+          e === 31 ? (f ? NaN : sign * Infinity) : sign * (1 + f / 1024) * Math.pow(2, e - 15);
+      }
+    }
+    return HALF;
   }
 
-  /** Promise of the Float32Array of blob {id, src}; injects its script once. */
-  function loadBlob(ref, encoding) {
+  /** base64 of zlib-compressed little-endian f32 or f16 values -> Promise of a Float32Array. */
+  function decode(base64, type) {
+    if (type !== "f32" && type !== "f16") return Promise.reject(new Error("unknown data type " + type));
+    if (typeof DecompressionStream === "undefined")
+      return Promise.reject(new Error("this browser has no DecompressionStream"));
+    var bin = atob(base64), bytes = new Uint8Array(bin.length);
+    for (var i = 0; i < bin.length; i++) bytes[i] = bin.charCodeAt(i);
+    var stream = new Blob([bytes]).stream().pipeThrough(new DecompressionStream("deflate"));
+    return new Response(stream).arrayBuffer().then(function (buf) {
+      if (type === "f32") return new Float32Array(buf);
+      var bits = new Uint16Array(buf), table = halfTable(), out = new Float32Array(bits.length);
+      for (var j = 0; j < bits.length; j++) out[j] = table[bits[j]];
+      return out;
+    });
+  }
+
+  /** Promise of the Float32Array of blob {id, src, type}; injects its script once. */
+  function loadBlob(ref) {
     var e = blobEntry(ref.id);
     if (!e.script) {
       e.script = document.createElement("script");
@@ -102,7 +122,7 @@
       e.script.onerror = function () { e.reject(new Error("viewer data missing: " + ref.src)); };
       document.head.appendChild(e.script);
     }
-    if (!e.decoded) e.decoded = e.promise.then(function (b64) { return decode(b64, encoding); });
+    if (!e.decoded) e.decoded = e.promise.then(function (b64) { return decode(b64, ref.type); });
     return e.decoded;
   }
 
@@ -231,7 +251,7 @@
     if (this.loading) return this.loading;
     this.setState("loading");
     this.loading = Promise.all(this.m.images.map(function (im) {
-      return loadBlob(im.data, self.m.encoding);
+      return loadBlob(im.data);
     })).then(function (arrays) {
       arrays.forEach(function (a, i) {
         if (a.length !== 3 * self.W * self.H)
@@ -251,7 +271,7 @@
     var self = this;
     if (!this.errorLoads[metric]) {
       this.errorLoads[metric] = Promise.all(this.m.images.map(function (im) {
-        return im.errors ? loadBlob(im.errors[metric], self.m.encoding) : Promise.resolve(null);
+        return im.errors ? loadBlob(im.errors[metric]) : Promise.resolve(null);
       })).then(function (arrays) {
         self.errors[metric] = arrays;
         self.draw();
