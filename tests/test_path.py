@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 from conftest import ROOT, scene_path
+from integrators.path import STRATEGIES
 
 Z = 3.89              # two-sided p = 1e-4
-STRATEGIES = ["uniform", "cosine", "bsdf"]
 
 
 def render_passes(scene, passes, spp, integrator=None, seed0=0):
@@ -178,6 +178,65 @@ def test_max_depth_one_shows_only_emitters_and_hide_emitters_hides_them():
     assert np.all(np.array(mi.render(scene, integrator=hidden)) == 0)
     scene = mi.load_file(scene_path("cbox.xml"), width=32, height=16, spp=4, max_depth=1)
     assert np.all(np.array(mi.render(scene)) == 0)               # the light is out of view
+
+
+@pytest.mark.parametrize("strategy", STRATEGIES)
+def test_max_depth_zero_renders_black_as_path(strategy):
+    scene = mi.load_file(scene_path("furnace.xml"), max_depth=0, strategy=strategy)
+    assert np.all(np.array(mi.render(scene, spp=2)) == 0)
+    path = mi.load_dict({"type": "path", "max_depth": 0})
+    assert np.all(np.array(mi.render(scene, integrator=path, spp=2)) == 0)
+
+
+def _light_in_front_of_wall(integrator):
+    """An area light covering the view, 0.5 in front of a red wall, constant environment."""
+    return mi.load_dict({
+        "type": "scene", "integrator": integrator,
+        "sensor": {"type": "perspective", "fov": 20,
+                   "film": {"type": "hdrfilm", "width": 4, "height": 4, "rfilter": {"type": "box"}}},
+        "light": {"type": "rectangle", "to_world": mi.ScalarTransform4f().translate([0, 0, 3])
+                  .rotate([0, 1, 0], 180), "emitter": {"type": "area", "radiance": 10.0}},
+        "wall": {"type": "rectangle", "to_world": mi.ScalarTransform4f().translate([0, 0, 3.5])
+                 .rotate([0, 1, 0], 180).scale(5),
+                 "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.8, 0, 0]}}},
+        "env": {"type": "constant", "radiance": 1.0}})
+
+
+@pytest.mark.parametrize("nee", [False, True])
+def test_hide_emitters_sees_through_area_lights_as_path(nee):
+    """Camera rays pass through hidden area emitters (Mitsuba 3.9's path): the pixels show
+    the red wall behind the light (lit by the environment around the light), not the
+    light, and agree with path."""
+    vr = {"type": "vr_path", "hide_emitters": True, "emitter_sampling": nee, "max_depth": 3}
+    img = np.array(mi.render(_light_in_front_of_wall(vr), spp=256, seed=1))
+    ref = np.array(mi.render(_light_in_front_of_wall({"type": "path", "hide_emitters": True,
+                                                      "max_depth": 3}), spp=256, seed=2))
+    assert np.all(img[..., 1:] == 0) and np.all(img[..., 0] > 0)     # the red wall, not the light
+    assert abs(img.mean() - ref.mean()) < 0.05 * ref.mean()
+
+
+def test_participating_medium_is_refused_with_its_name():
+    scene = mi.load_dict({"type": "scene", "integrator": {"type": "vr_path"},
+                          "sensor": {"type": "perspective",
+                                     "film": {"type": "hdrfilm", "width": 4, "height": 4}},
+                          "fog": {"type": "sphere", "bsdf": {"type": "null"},
+                                  "interior": {"type": "homogeneous", "id": "thick_fog"}}})
+    with pytest.raises(Exception) as info:
+        mi.render(scene, spp=1)
+    chain, e = [], info.value       # mi.render re-raises it as the cause of its own error
+    while e is not None:
+        chain.append(str(e))
+        e = e.__cause__ or e.__context__
+    assert any(re.search(r"medium \('thick_fog', HomogeneousMedium.*'fog'.*volpath", m) for m in chain), chain
+
+
+def test_delta_emitter_without_nee_warns():
+    scene = mi.load_dict({"type": "scene", "integrator": {"type": "vr_path"},
+                          "sensor": {"type": "perspective",
+                                     "film": {"type": "hdrfilm", "width": 4, "height": 4}},
+                          "bulb": {"type": "point", "position": [0, 0, 1]}})
+    with pytest.warns(RuntimeWarning, match="bulb.*emitter_sampling"):
+        mi.render(scene, spp=1)
 
 
 @pytest.mark.parametrize("props,match", [

@@ -104,9 +104,32 @@ SCENES = {
 }
 CASES = [(scene, strategy, nee) for scene, (_, nee_only, _) in SCENES.items()
          for strategy in STRATEGIES for nee in ([True] if nee_only else [False, True])]
-BLOCKS_PER_IMAGE = (32 // BLOCK) ** 2 * 3
+
+
+def null_scene():
+    """Alpha (valid_ray) through a ``null`` shape: a diffuse sphere half behind an
+    invisible one, a constant environment, hidden emitters, an RGBA film."""
+    d, max_depth = open_scene(
+        {"ghost": {"type": "sphere", "radius": 0.7, "to_world": T().translate([0.4, 0.2, 1.0]),
+                   "bsdf": {"type": "null"}},
+         "ball": {"type": "sphere", "radius": 0.5, "bsdf": {"type": "diffuse"}}},
+        {"env": {"type": "constant"}})
+    d["sensor"]["film"]["pixel_format"] = "rgba"
+    del d["floor"]
+    return d, max_depth
+
+
+#: Edge cases compared the same way: (scene, integrator parameters shared by both
+#: sides, vr_path strategy, NEE, channels).
+EDGE_CASES = [("cbox-diffuse", {"hide_emitters": True}, "uniform", True, 3),
+              ("cbox-diffuse", {"hide_emitters": True}, "mis", True, 3),
+              ("null-alpha", {"hide_emitters": True}, "cosine", True, 4),
+              ("null-alpha", {"hide_emitters": True}, "bsdf", False, 4)]
+SCENES["null-alpha"] = (null_scene, True, 32)
+BLOCKS_PER_IMAGE = (32 // BLOCK) ** 2
 #: Comparisons the module's significance is shared over (Sidak).
-COMPARISONS = len(CASES) * BLOCKS_PER_IMAGE
+COMPARISONS = (len(CASES) * BLOCKS_PER_IMAGE * 3
+               + sum(c for *_, c in EDGE_CASES) * BLOCKS_PER_IMAGE)
 
 
 def sidak(alpha=SIGNIFICANCE, n=COMPARISONS):
@@ -129,7 +152,8 @@ def render_seeds(scene, spp, seed0, k=SEEDS):
 
 
 def block_means(images, block=BLOCK):
-    """(k, H, W, C) -> (k, blocks * C): means of block x block pixel tiles, per channel."""
+    """(k, H, W, C) -> (k, blocks * C): means of block x block pixel tiles, per channel
+    (index block * C + channel)."""
     k, h, w, c = images.shape
     tiles = images.reshape(k, h // block, block, w // block, block, c).mean(axis=(2, 4))
     return tiles.reshape(k, -1)
@@ -156,8 +180,9 @@ def compare_blocks(images, reference, rounding=1e-5):
 def assert_blocks_agree(images, reference, what=""):
     t, p = compare_blocks(images, reference)
     worst = int(np.argmin(p))
+    c = images.shape[-1]
     assert p[worst] > sidak(), (
-        f"{what}: block {worst // 3} channel {worst % 3} differs: t = {t[worst]:.2f}, "
+        f"{what}: block {worst // c} channel {worst % c} differs: t = {t[worst]:.2f}, "
         f"p = {p[worst]:.2e} <= {sidak():.2e} (0.01 Sidak-corrected over {COMPARISONS})")
     return t
 
@@ -165,16 +190,19 @@ def assert_blocks_agree(images, reference, what=""):
 _references = {}
 
 
-def reference(name):
+def reference(name, **params):
     """K renders of Mitsuba's path (NEE + MIS) at 4x the spp, cached per scene."""
-    if name not in _references:
+    key = (name, tuple(sorted(params.items())))
+    if key not in _references:
         spp = SCENES[name][2]
-        _references[name] = render_seeds(load(name, {"type": "path"}), 4 * spp, seed0=1)
-    return _references[name]
+        _references[key] = render_seeds(load(name, {"type": "path", **params}), 4 * spp,
+                                        seed0=1)
+    return _references[key]
 
 
-def vr_images(name, strategy, nee, seed0=5):
-    scene = load(name, {"type": "vr_path", "strategy": strategy, "emitter_sampling": nee})
+def vr_images(name, strategy, nee, seed0=5, **params):
+    scene = load(name, {"type": "vr_path", "strategy": strategy, "emitter_sampling": nee,
+                        **params})
     return render_seeds(scene, SCENES[name][2], seed0)
 
 
@@ -185,6 +213,16 @@ def vr_images(name, strategy, nee, seed0=5):
 def test_blocks_agree_with_builtin_path(name, strategy, nee):
     assert_blocks_agree(vr_images(name, strategy, nee), reference(name),
                         f"{name}, {strategy}, nee={nee}")
+
+
+@pytest.mark.parametrize("name,params,strategy,nee,channels", EDGE_CASES,
+                         ids=[f"{n}-{s}-{'nee' if e else 'nonee'}" for n, _, s, e, _ in EDGE_CASES])
+def test_edge_cases_agree_with_builtin_path(name, params, strategy, nee, channels):
+    """hide_emitters with NEE (camera rays pass through area emitters), and the alpha
+    channel (valid_ray) through a ``null`` BSDF with a hidden environment."""
+    images = vr_images(name, strategy, nee, **params)
+    assert images.shape[-1] == channels
+    assert_blocks_agree(images, reference(name, **params), f"{name}, {params}, {strategy}")
 
 
 def test_wrong_pdf_fails(monkeypatch):
