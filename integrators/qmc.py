@@ -41,20 +41,29 @@ Randomizations (pbrt-v4's ``RandomizeStrategy``):
     ``OwenScrambledRadicalInverse``).
 
 Both are driven by a 32-bit scramble seed (per dimension, and in the sampler
-per pixel) instead of stored tables. Digit permutations are random affine maps
-``d -> (A d + c) mod b`` (permutations since ``b`` is prime). Each tree node
-(``permute_digits``: each digit position; ``owen``: each prefix of digits)
-carries a 32-bit fixed-point fraction ``z``: ``c`` is the top base-``b``
-digit of ``z`` and ``A`` is hashed from it; the child reached by digit 0
-takes the fraction ``z * b mod 2^32`` (the remaining digits of ``z``), any
-other digit a fresh hash. The permuted leading zeros of an index that has run
-out of digits are then exactly the remaining digits of ``z``, added in one
-step, so the loop only runs over the index's own digits (about
-``log_b(spp)``), and the result is the same as scrambling all digits down to
-precision ``2^-32``. Every point is uniform on [0, 1) and the first ``b^m``
-indices keep their stratification into ``b^m`` intervals. Base 2: the
-permutations are bit flips, an XOR with a random 32-bit mask
-(``permute_digits``), and pbrt's ``FastOwenScrambler`` (``owen``).
+per pixel) instead of per-seed tables. Each tree node (``permute_digits``:
+each digit position; ``owen``: each prefix of digits) carries a 32-bit
+fixed-point fraction ``z`` and permutes its digit as ``d -> (c + T(d)) mod
+b``: ``c`` is the top base-``b`` digit of ``z`` and ``T`` (with ``T(0) = 0``)
+one of the base's permutations in :data:`_NP_TABLES` (``perms``), chosen by a
+hash of ``z``. For ``b <= 7`` (dimensions 1-3, whose many digits matter most)
+the table holds all ``(b-1)!`` such permutations, so every node's permutation
+is uniform over all ``b!``; above, 64 (4, 1) random ones per base (see
+:func:`permutations_per_base`), so every permuted digit is still exactly
+uniform (through ``c``) and each 2-D projection of a pixel's points is a
+random-looking set rather than the shifted lattice an affine map ``A d + c``
+gives. The child reached by digit 0 takes the fraction ``z * b mod 2^32``
+(the remaining digits of ``z``), any other digit (``owen``) a fresh hash. The
+permuted leading zeros of an index that has run out of digits are then
+exactly the remaining digits of ``z``, added in one step, so the loop only
+runs over the index's own digits (about ``log_b(spp)``), and the result is
+the same as scrambling all digits down to precision ``2^-32``. Every point is
+uniform on [0, 1) and the first ``b^m`` indices keep their stratification
+into ``b^m`` intervals. Base 2: the permutations are bit flips, an XOR with a
+random 32-bit mask (``permute_digits``, exactly uniform), and pbrt's
+``FastOwenScrambler`` (``owen``). (pbrt-v4's hashed ``PermutationElement``,
+tried first, reaches only 8 of the 24 permutations of 4 elements and 336 of
+720 of 6, and cost 1.3x ``independent`` per sample.)
 
 Dimensions map to primes: dimension ``j`` uses ``PRIMES[j % PRIME_TABLE_SIZE]``
 (the table holds the first 1000 primes, 2 .. 7919). Past the table the bases
@@ -64,6 +73,9 @@ dimension, while ``none`` repeats exactly. All outputs lie in [0, 1), clamped
 to ``1 - 2^-24`` at most.
 """
 from __future__ import annotations
+
+import itertools
+import math
 
 import drjit as dr
 import mitsuba as mi
@@ -116,13 +128,43 @@ def division_magic(b: int) -> tuple[int, int]:
     return (1 << (32 + s)) // b + 1, s
 
 
+def permutations_per_base(b: int) -> int:
+    """How many digit permutations :data:`PERMUTATIONS` holds for base ``b``.
+
+    Every permutation with ``0 -> 0`` for ``b <= 7`` ((b-1)! of them, so the
+    choice is exactly uniform), 64 random ones below 128, 4 below 1024 and
+    one above (dimensions >= 172), which bounds the table at about 4 M entries.
+    """
+    if b <= 7:
+        return math.factorial(b - 1)
+    return 64 if b < 128 else 4 if b < 1024 else 1
+
+
 def _build_tables():
     primes = [int(p) for p in PRIMES]
     magic = [division_magic(p) for p in primes]
     # One 64-bit entry per base: magic multiplier (bits 32..63), shift (bits
     # 16..23) and base (bits 0..15), so that a call needs a single gather.
     packed = [(m << 32) | (s << 16) | p for p, (m, s) in zip(primes, magic)]
-    return {"packed": np.array(packed, dtype=np.uint64)}
+    # Digit permutations T with T(0) = 0, base after base, each a run of b
+    # entries; info = offset of the base's first entry (bits 0..21) and the
+    # number of its permutations minus one (bits 22..31).
+    rng = np.random.default_rng(0x6A09E667)
+    runs, info, offset = [], [], 0
+    for b in primes:
+        count = permutations_per_base(b) if b > 2 else 1
+        if b <= 7:
+            perms = np.array([(0,) + t for t in itertools.permutations(range(1, b))])
+        else:
+            perms = np.array([np.concatenate([[0], 1 + rng.permutation(b - 1)])
+                              for _ in range(count)])
+        runs.append(perms.astype(np.uint32).ravel())
+        info.append(offset | ((count - 1) << 22))
+        offset += count * b
+    assert offset < 1 << 22
+    return {"packed": np.array(packed, dtype=np.uint64),
+            "perm_info": np.array(info, dtype=np.uint32),
+            "perms": np.concatenate(runs)}
 
 
 _NP_TABLES = _build_tables()
@@ -134,7 +176,8 @@ def _tables():
     key = (mi.variant(), mi.UInt32)
     tables = _JIT_TABLES.get(key)
     if tables is None:
-        tables = {name: dr.uint64_array_t(mi.UInt32)(arr) for name, arr in _NP_TABLES.items()}
+        tables = {name: (dr.uint64_array_t(mi.UInt32) if arr.dtype == np.uint64 else mi.UInt32)(arr)
+                  for name, arr in _NP_TABLES.items()}
         _JIT_TABLES[key] = tables
     return tables
 
@@ -231,7 +274,10 @@ def _radical_inverse_odd(base_index, a, seed, randomization):
     s = mi.UInt32(packed >> 16) & 0xFF
     b = mi.UInt32(packed) & 0xFFFF
     inv_b = 1.0 / _to_float(b)
-    bm1 = b - 1
+    if randomization != "none":
+        info = dr.gather(mi.UInt32, _tables()["perm_info"], base_index)
+        perm_offset = info & 0x3FFFFF
+        perm_count = (info >> 22) + 1
 
     def cond(a, v, w, z):
         return a > 0
@@ -240,13 +286,16 @@ def _radical_inverse_odd(base_index, a, seed, randomization):
         q = dr.mul_hi(a, m) >> s
         d = a - q * b
         if randomization != "none":
-            # Affine permutation d -> (A d + c) mod b of this node, with
-            # c = the top base-b digit of the node's fraction z (so that the
-            # permuted zero digits continue z) and A in [1, b) from z.
+            # The node's permutation d -> (c + T(d)) mod b: c is the top
+            # base-b digit of the node's fraction z (so that the permuted
+            # zero digits continue z) and T, with T(0) = 0, one of the
+            # base's table permutations, chosen by a hash of z (for b <= 7
+            # the table holds all of them: uniform over all b! permutations).
             c = dr.mul_hi(z, b)
-            g = 1 + (((z * 0x2C9277B5) >> 16) * bm1 >> 16)
-            t_ = g * d + c                           # < b^2 < 2^31
-            d_new = t_ - (dr.mul_hi(t_, m) >> s) * b
+            h = (z ^ (z >> 15)) * 0x2C9277B5
+            t_ = dr.gather(mi.UInt32, _tables()["perms"],
+                           perm_offset + dr.mul_hi(h, perm_count) * b + d) + c
+            d_new = dr.select(t_ >= b, t_ - b, t_)
             if randomization == "owen":
                 # Child node: digit 0 continues the fraction, other digits
                 # start a fresh one (hash of the parent and the digit).

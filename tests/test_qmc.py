@@ -174,3 +174,110 @@ def test_works_inside_symbolic_loop(randomization):
     got = np.array(out).reshape(n, steps)
     for d in range(steps):
         np.testing.assert_array_equal(got[:, d], _values(d, index, 9, randomization))
+
+
+# ------------------------------------------------- permutation quality
+
+def _permuted_digits(dimension, k, seeds, randomization, low=0):
+    """pi_k(d) for d = 0 .. b-1 and each seed: digit k of the point of index
+    d b^k + low (``low < b^k``), as a (seeds, b) integer array."""
+    b = int(qmc.PRIMES[dimension])
+    n = len(seeds)
+    d = dr.tile(dr.arange(mi.UInt32, b), n)
+    index = d * b**k + low
+    seed = dr.repeat(mi.UInt32(seeds), b)
+    v = np.array(qmc.halton_sample(dimension, index, seed, randomization), dtype=np.float64)
+    return (np.floor(v * b ** (k + 1)).astype(np.int64) % b).reshape(n, b)
+
+
+def _affine_permutations(b, n, rng):
+    """The old scramble, d -> (A d + c) mod b: a negative control."""
+    a, c = rng.integers(1, b, (n, 1)), rng.integers(0, b, (n, 1))
+    return (a * np.arange(b) + c) % b
+
+
+def _permutation_pvalues(perm):
+    """p-values of chi-square tests that ``perm`` (seeds, b) holds uniform random
+    permutations: each pi(d) uniform on {0..b-1} (1-D, per digit value), and the
+    triple (pi(0), pi(1), pi(2)) uniform over the b(b-1)(b-2) distinct triples."""
+    n, b = perm.shape
+    # permutations (but for a few points whose float32 value rounds up onto
+    # the next stratum's edge)
+    assert np.mean(np.all(np.sort(perm, axis=1) == np.arange(b), axis=1)) > 0.97
+    one_d = [stats.chisquare(np.bincount(perm[:, d], minlength=b)).pvalue for d in range(b)]
+    if b > 7:
+        return one_d, None
+    triple = (perm[:, 0] * b + perm[:, 1]) * b + perm[:, 2]
+    counts = np.bincount(triple, minlength=b**3)
+    distinct = [(x * b + y) * b + z for x in range(b) for y in range(b) for z in range(b)
+                if len({x, y, z}) == 3]
+    return one_d, stats.chisquare(counts[distinct]).pvalue
+
+
+@pytest.mark.parametrize("randomization", ["permute_digits", "owen"])
+def test_digit_permutations_are_uniform(randomization):
+    """Every digit position goes through a random permutation: each permuted
+    digit is uniform (1-D, per digit value and position; bases 5, 7, 67 and
+    719), and for bases up to 7, whose tables hold every permutation, triples
+    of permuted digits are uniform over the distinct triples, which affine maps
+    d -> A d + c (pi(2) = 2 pi(1) - pi(0)) fail. Significance 1e-3 per test,
+    Sidak-corrected over the tests of one base and position."""
+    seeds = (np.arange(6000, dtype=np.uint64) * 2654435761 % 2**32).astype(np.uint32)
+    cases = [(2, 0, 0), (2, 1, 0), (2, 2, 3), (3, 0, 0), (3, 1, 5), (18, 0, 0), (18, 1, 2),
+             (127, 0, 0)]
+    for dimension, k, low in cases:
+        b = int(qmc.PRIMES[dimension])
+        alpha = 1 - (1 - ALPHA) ** (1.0 / (b + 1))
+        perm = _permuted_digits(dimension, k, seeds, randomization, low)
+        one_d, triple = _permutation_pvalues(perm)
+        assert min(one_d) > alpha, (b, k, min(one_d))
+        if b <= 7:
+            assert triple > alpha, (b, k, triple)
+    # negative control: the affine scramble fails the triple test
+    rng = np.random.default_rng(5)
+    for b in (5, 7):
+        _, triple = _permutation_pvalues(_affine_permutations(b, len(seeds), rng))
+        assert triple < 1e-6, (b, triple)
+
+
+def _empty_cells(x, y, grid=8):
+    """Empty cells of a grid x grid partition, per row of the (pixels, n) coordinates."""
+    cell = np.floor(x * grid).astype(np.int64) * grid + np.floor(y * grid).astype(np.int64)
+    occupied = np.zeros((x.shape[0], grid * grid), dtype=bool)
+    np.put_along_axis(occupied, cell, True, axis=1)
+    return grid * grid - occupied.sum(axis=1)
+
+
+def _empty_tail_pvalue(empty, reference, threshold):
+    """One-sided Fisher exact test: are counts >= threshold more frequent in
+    ``empty`` than in ``reference`` (random points)?"""
+    a, b = int(np.sum(empty >= threshold)), int(np.sum(reference >= threshold))
+    table = [[a, len(empty) - a], [b, len(reference) - b]]
+    return stats.fisher_exact(table, alternative="greater").pvalue
+
+
+@pytest.mark.parametrize("randomization", ["permute_digits", "owen"])
+def test_high_base_projections_no_worse_than_random(randomization):
+    """Bases 67/71 (dimensions 18/19) and 127/131, 64 points per pixel, 8x8 grid:
+    the fraction of pixels with >= 40 (and >= 30) of 64 cells empty is no larger
+    than for 64 random points (one-sided Fisher exact test, significance 1e-3,
+    and none at all at >= 40); the affine scramble's shifted lattices fail."""
+    pixels, n = 3000, 64
+    rng = np.random.default_rng(6)
+    reference = _empty_cells(rng.random((pixels, n)), rng.random((pixels, n)))
+    index = dr.tile(dr.arange(mi.UInt32, n), pixels)
+    seed = dr.repeat(dr.arange(mi.UInt32, pixels), n) * 7919 + 17
+    for d0, d1 in ((18, 19), (30, 31)):
+        x, y = (np.array(qmc.halton_sample(d, index, seed, randomization)).reshape(pixels, n)
+                for d in (d0, d1))
+        empty = _empty_cells(x, y)
+        assert np.sum(empty >= 40) == 0, (d0, d1)
+        for threshold in (40, 30):
+            p = _empty_tail_pvalue(empty, reference, threshold)
+            assert p > ALPHA, (d0, d1, threshold, p)
+    # negative control: the affine scramble (plus a shared random tail per pixel)
+    tail = rng.random((pixels, 2))
+    x = (_affine_permutations(67, pixels, rng)[:, :n] + tail[:, :1]) / 67
+    y = (_affine_permutations(71, pixels, rng)[:, :n] + tail[:, 1:]) / 71
+    empty = _empty_cells(x, y)
+    assert _empty_tail_pvalue(empty, reference, 40) < 1e-6
