@@ -89,6 +89,7 @@ def prepare_worker(variant: str) -> None:
     import mitsuba as mi
     mi.set_variant(variant)
     mi.load_dict({"type": "vr_path"})   # the plugins are registered for this variant
+    mi.set_log_level(mi.LogLevel.Error)  # as the scripts: no "rounding to N" per render
 
 
 class WorkerSetup(WorkerPlugin):
@@ -172,8 +173,14 @@ class DaskExecutor:
             client = Client(address, timeout=timeout, set_as_default=False)
         except Exception as e:    # refused, timed out, bad address, not a Dask scheduler
             _close_half_started(e)
-            raise ClusterError(f"cannot use the Dask scheduler at '{address}' (connect "
-                               f"timeout {timeout:g} s): {_first_line(e)}") from None
+            if isinstance(e, OSError):
+                why = f"cannot reach the Dask scheduler at '{address}' within {timeout:g} s"
+            elif isinstance(e, (ValueError, TypeError)):
+                why = f"invalid Dask scheduler address '{address}': {_first_line(e)}"
+            else:
+                why = (f"'{address}' does not answer as a Dask scheduler "
+                       f"({type(e).__name__}: {_first_line(e)})")
+            raise ClusterError(why) from None
         return cls(client, variant, **options)
 
     def close(self) -> None:
