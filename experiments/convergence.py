@@ -1,9 +1,12 @@
 """Convergence sequences, error against spp and time, equal-time panel, efficiency table.
 
-For each method: render 1, 2, 4, ... --spp samples per pixel by accumulating
-passes, keep every intermediate image (EXR + PNG) with its cumulative render
-time, measure MSE / relMSE against a cached high-spp reference, then plot and
-tabulate. Also an equal-time comparison (--time-budget seconds per method).
+For each method: render 1, 2, 4, ... --spp samples per pixel as a ladder of
+jobs (each image is the sum of the jobs before it), keep every intermediate
+image (EXR + PNG) with its cumulative render time, measure MSE / relMSE
+against a high-spp reference, then plot and tabulate. Then an equal-time
+comparison: each method renders as many samples as fit in --time-budget
+seconds at the speed measured on its ladder. The default methods include
+``bsdf+nee`` and Mitsuba's ``path`` as what a user would run instead.
 
     python -m experiments.convergence --help
 """
@@ -12,50 +15,64 @@ from __future__ import annotations
 import os
 import time
 
-from experiments.lib import cli, figures, metrics, report
-from experiments.lib import render as R
+from experiments.lib import cli, figures, metrics, report, store
+from experiments.lib import plan as P
+from experiments.lib.study import Study
 
 NAME = "convergence"
 
 
 def build_parser() -> cli.Parser:
     return cli.common_parser("python -m experiments.convergence", __doc__.split("\n")[0],
-                          spp=256, time_budget=2.0)
+                             spp=256, time_budget=2.0)
 
 
 def fmt(x: float) -> str:
     return f"{x:.3g}"
 
 
-def sequences(args, ref) -> tuple[dict, list[dict]]:
-    """Part 1: progressive renders of every method to 1, 2, 4, ... --spp, their errors.
+def plan_sequences(st: Study) -> dict[str, list[P.Job]]:
+    targets = P.doubling_targets(st.args.spp)
+    return {m: st.ladder(f"{NAME}/{m}", m, targets, timing_group=NAME)
+            for m in st.args.methods}
 
-    Returns ({metric: {method: (spp, seconds, errors)}}, report blocks).
-    """
-    out, (width, height) = args.out, args.resolution
-    targets = R.doubling_targets(args.spp)
+
+def plan_equal_time(st: Study, ladders: dict[str, list[P.Job]]) -> dict[str, P.Job]:
+    """One job per method with as many spp as fit in the budget at its measured speed."""
+    jobs = {}
+    for m, ladder in ladders.items():
+        results = [st.store.get(j.key) for j in ladder]
+        per_spp = sum(r.seconds for r in results) / sum(r.spp for r in results)
+        spp = max(1, int(st.args.time_budget / per_spp))
+        jobs[m] = st.job(f"equal_time/{m}", m, spp, timing_group=NAME)
+    return jobs
+
+
+def sequences(st: Study, ladders, ref) -> tuple[dict, list[dict]]:
+    """Errors of every ladder image; returns ({metric: {method: (spp, seconds, errors)}},
+    report blocks)."""
+    out = st.out
     table, series, grid, captions = [], {"MSE": {}, "relMSE": {}}, [], []
-    for method in args.method_objs:
-        job = R.method_job(out, NAME, args.info, method, width, height, args.variant, args.seed)
-        R.run_progressive(job, targets)
+    for m, jobs in ladders.items():
         points = []
         grid.append([]), captions.append([])
-        for cp in (c for c in job.checkpoints if c["spp"] in targets):
-            image = R.read_checkpoint(job, cp)
-            err = metrics.errors(image, ref)
-            points.append((cp["spp"], cp["seconds"], err["mse"], err["relmse"]))
-            table.append([method.name, cp["spp"], round(cp["seconds"], 4), fmt(err["mse"]),
+        for acc in P.accumulate(st.store, jobs):
+            stem = os.path.join(out, NAME, m, f"spp{acc.spp:05d}")
+            store.write_image(stem, acc.mean)
+            err = metrics.errors(acc.mean, ref)
+            points.append((acc.spp, acc.seconds, err["mse"], err["relmse"]))
+            table.append([m, acc.spp, round(acc.seconds, 4), fmt(err["mse"]),
                           fmt(err["relmse"]), fmt(err["rmse"]),
-                          f"{NAME}/{method.name}/{cp['exr']}"])
-            grid[-1].append(image)
+                          f"{NAME}/{m}/spp{acc.spp:05d}.exr"])
+            grid[-1].append(acc.mean)
             captions[-1].append(f"MSE {err['mse']:.2e}\nrelMSE {err['relmse']:.2e}\n"
-                                f"{cp['seconds']:.2f} s")
+                                f"{acc.seconds:.2f} s")
         spp, secs, mse, rel = (list(v) for v in zip(*points))
-        series["MSE"][method.name] = (spp, secs, mse)
-        series["relMSE"][method.name] = (spp, secs, rel)
-
-    figures.image_grid(os.path.join(out, NAME, "sequences.png"), grid,
-                       [m.name for m in args.method_objs], [f"{t} spp" for t in targets], captions)
+        series["MSE"][m] = (spp, secs, mse)
+        series["relMSE"][m] = (spp, secs, rel)
+    targets = P.doubling_targets(st.args.spp)
+    figures.image_grid(os.path.join(out, NAME, "sequences.png"), grid, list(ladders),
+                       [f"{t} spp" for t in targets], captions)
     for metric in series:
         figures.error_plots(os.path.join(out, NAME, f"error_{metric.lower()}.png"),
                             series[metric], metric)
@@ -64,8 +81,8 @@ def sequences(args, ref) -> tuple[dict, list[dict]]:
                      "spp; MSE, relMSE and cumulative render time under each tile."),
         report.image(f"{NAME}/error_mse.png", "MSE against spp and against render time "
                      "(log-log); fitted slopes in the legend (-1 is the Monte Carlo rate)."),
-        report.image(f"{NAME}/error_relmse.png", "relMSE = mean((x - ref)^2 / (ref^2 + 0.01)) "
-                     "against spp and time."),
+        report.image(f"{NAME}/error_relmse.png", f"relMSE = mean((x - ref)^2 / (ref^2 + "
+                     f"{metrics.RELMSE_EPS})) against spp and time."),
         report.write_table(out, f"{NAME}/errors", ["method", "spp", "seconds", "MSE", "relMSE",
                                                    "RMSE", "image"], table,
                            "Every intermediate image with its error and cumulative time",
@@ -89,33 +106,26 @@ def slope_rows(series: dict) -> list[list]:
     return rows
 
 
-def equal_time(args, ref) -> tuple[dict, list[dict]]:
-    """Part 2: every method renders for --time-budget seconds; returns ({method: (spp,
-    seconds, MSE)}, report blocks)."""
-    out, (width, height) = args.out, args.resolution
+def equal_time(st: Study, jobs: dict[str, P.Job], ref) -> tuple[dict, list[dict]]:
+    """The equal-time panel; returns ({method: (spp, seconds, MSE)}, report blocks)."""
     images, captions, result = [], [], {}
-    for method in args.method_objs:
-        job = R.method_job(out, "equal_time", args.info, method, width, height, args.variant,
-                           args.seed, extra_settings={"time_budget": args.time_budget})
-        R.run_progressive(job, time_budget=args.time_budget)
-        cp = job.checkpoints[-1]
-        image = R.read_checkpoint(job, cp)
-        err = metrics.errors(image, ref)
-        result[method.name] = (cp["spp"], cp["seconds"], err["mse"])
+    for m, job in jobs.items():
+        r = st.store.get(job.key)
+        image = r.image.astype(float)
+        store.write_image(os.path.join(st.out, "equal_time", m), image)
+        mse = metrics.mse(image, ref)
+        result[m] = (r.spp, r.seconds, mse)
         images.append(image)
-        captions.append(f"{cp['spp']} spp in {cp['seconds']:.2f} s\nMSE {err['mse']:.2e}\n"
-                        f"relMSE {err['relmse']:.2e}")
-    figures.image_grid(os.path.join(out, NAME, "equal_time.png"), [images + [ref]],
-                       [f"{args.time_budget:g} s each"],
-                       [m.name for m in args.method_objs] + ["reference"],
-                       [captions + [f"{args.reference_spp} spp"]])
-    return result, [report.image(f"{NAME}/equal_time.png",
-                                 f"Equal time: every method renders for {args.time_budget:g} s "
-                                 f"(in passes of 4 spp); errors under each image.")]
+        captions.append(f"{r.spp} spp, {r.seconds:.2f} s\nMSE {mse:.2e}")
+    figures.image_grid(os.path.join(st.out, NAME, "equal_time.png"), [images], ["equal time"],
+                       list(jobs), [captions])
+    return result, [report.image(
+        f"{NAME}/equal_time.png", f"Equal time: each method renders the samples that fit in "
+        f"{st.args.time_budget:g} s at the speed measured on its convergence sequence "
+        f"(actual render time under each image).")]
 
 
-def efficiency(args, series: dict, equal: dict) -> list[dict]:
-    """Part 3: Veach efficiency 1/(MSE x time) relative to uniform, as CSV and markdown."""
+def efficiency(st: Study, series: dict, equal: dict) -> list[dict]:
     final = {n: (spp[-1], secs[-1], mse[-1], series["relMSE"][n][2][-1])
              for n, (spp, secs, mse) in series["MSE"].items()}
     base = "uniform" if "uniform" in final else next(iter(final))
@@ -127,43 +137,46 @@ def efficiency(args, series: dict, equal: dict) -> list[dict]:
     best = max(eff, key=eff.get)
     return [
         report.write_table(
-            args.out, f"{NAME}/efficiency",
+            st.out, f"{NAME}/efficiency",
             ["method", "spp", "seconds", "MSE", "relMSE", "1/(MSE x time)",
              f"relative to {base}", "equal-time spp", "equal-time MSE",
              f"equal-time relative to {base}"], rows,
-            f"Veach efficiency 1/(MSE x time) after {args.spp} spp and at equal time, "
+            f"Veach efficiency 1/(MSE x time) after {st.args.spp} spp and at equal time, "
             f"relative to {base}"),
         report.text(
-            f"Most efficient after {args.spp} spp: {best}, {eff[best] / eff[base]:.1f} times "
-            f"{base}. Timings are wall-clock render times on this machine and vary with its "
-            f"load (other processes sharing the cores slow every method); MSE does not."),
+            f"Most efficient after {st.args.spp} spp: {best}, {eff[best] / eff[base]:.1f} times "
+            f"{base}. Timings are warm render times on this machine and vary with its load "
+            f"(other processes sharing the cores slow every method); MSE does not."),
     ]
 
 
 def run(args) -> None:
     start = time.perf_counter()
-    width, height = args.resolution
-    ref, ref_meta = R.reference(args.out, args.info, width, height, args.reference_spp,
-                                args.reference_integrator, args.variant, args.seed)
+    st = Study(args)
+    ref_jobs = st.reference_jobs()
+    ladders = plan_sequences(st)
+    st.run(ref_jobs + [j for jobs in ladders.values() for j in jobs], f"{NAME}: sequences")
+    equal_jobs = plan_equal_time(st, ladders)
+    st.run(list(equal_jobs.values()), f"{NAME}: equal time")
+
+    ref, ref_meta = st.reference(ref_jobs)
     blocks = [report.text(
-        f"Progressive renders of {os.path.basename(args.scene)} at {width}x{height}: each "
-        f"method accumulates passes (a new seed each; Halton continues its sequence) to 1, 2, "
-        f"4, ... {args.spp} spp. Errors are against a {args.reference_spp}-spp reference "
-        f"({args.reference_integrator} with emitter sampling, max_depth {args.info.max_depth}; "
-        f"its own expected MSE, from the spread of its passes, is about "
-        f"{ref_meta.get('mse_floor', float('nan')):.1e}, a floor under every MSE below). "
-        f"Times are warm render times (JIT compilation excluded), cumulative over passes.")]
-    series, part = sequences(args, ref)
+        f"Progressive renders of {os.path.basename(args.scene)} at {st.width}x{st.height} "
+        f"({args.depth.describe()}): each method accumulates jobs (a new seed each; Halton "
+        f"continues its sequence) to 1, 2, 4, ... {args.spp} spp (Mitsuba's stratified, "
+        f"orthogonal and ldsampler round counts up; the spp shown are those rendered). Errors "
+        f"are against the reference: {st.describe_reference(ref_meta)}, a floor under every "
+        f"MSE below. Times are warm render times (JIT compilation excluded), cumulative over "
+        f"passes.")]
+    series, part = sequences(st, ladders, ref)
     blocks += part
-    equal, part = equal_time(args, ref)
-    blocks += part + efficiency(args, series, equal)
-    settings = {"scene": args.scene, "resolution": f"{width}x{height}", "spp": args.spp,
-                "methods": ", ".join(m.name for m in args.method_objs),
-                "variant": args.variant, "seed": args.seed,
-                "time budget (s)": args.time_budget, "max_depth": args.info.max_depth,
-                "reference": f"{args.reference_spp} spp, {args.reference_integrator} + NEE, "
-                             f"cache/{ref_meta['exr']} ({ref_meta['seconds']:.1f} s)",
-                "max lanes per pass": R.MAX_LANES}
+    equal, part = equal_time(st, equal_jobs, ref)
+    blocks += part + efficiency(st, series, equal)
+    settings = {"scene": args.scene, "resolution": f"{st.width}x{st.height}", "spp": args.spp,
+                "methods": ", ".join(args.methods), "variant": args.variant,
+                "seed": args.seed, "time budget (s)": args.time_budget,
+                "path settings": args.depth.describe(),
+                "reference": st.describe_reference(ref_meta), "max lanes per pass": P.MAX_LANES}
     report.write_section(args.out, NAME, "Convergence, error against time, efficiency", 10,
                          settings, blocks, args.variant, time.perf_counter() - start)
 

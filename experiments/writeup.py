@@ -16,8 +16,9 @@ import os
 import time
 
 from experiments.lib import cli, figures, metrics, report
-from experiments.lib import methods as M
-from experiments.lib import render as R
+from experiments.lib import plan as P
+from experiments.lib.methods import parse_method
+from experiments.lib.study import Study
 
 NAME = "writeup"
 #: (method, compared against, which spp option) of the 256x128 figures.
@@ -50,18 +51,31 @@ def build_parser() -> cli.Parser:
 
 
 def _selected(args, pairs):
-    names = {m.name for m in args.method_objs}
+    names = set(args.methods)
     return [p for p in pairs if p[0] in names and p[1] in names]
 
 
-def _render(args, experiment, method_name, width, height, targets, **options):
-    """Render one method to ``targets`` spp; return {spp: (mean, variance of mean, entry)}."""
-    job = R.method_job(args.out, experiment, args.info, M.parse_method(method_name), width,
-                       height, args.variant, args.seed, save_variance=True, **options)
-    R.run_progressive(job, targets)
-    return {cp["spp"]: (R.read_checkpoint(job, cp), R.read_checkpoint(job, cp, "var_exr"),
-                        dict(cp, path=f"{experiment}/{method_name}/{cp['png']}"))
-            for cp in job.checkpoints if cp["spp"] in targets}
+def _plan(st: Study, experiment: str, name: str, targets, resolution, pass_spp: int):
+    """The ladder of ``name`` to ``targets`` (plain Halton also to 1/4 and 1/2 of the last,
+    for its convergence check)."""
+    targets = set(targets)
+    if parse_method(name).deterministic:
+        targets |= {max(1, max(targets) // 4), max(1, max(targets) // 2)}
+    return st.ladder(f"{experiment}/{name}", name, sorted(targets), resolution=resolution,
+                     pass_spp=pass_spp)
+
+
+def _images(st: Study, jobs) -> dict[int, P.Accumulator]:
+    """{requested spp: cumulative image} of a ladder."""
+    return dict(zip(_targets(jobs), P.accumulate(st.store, jobs)))
+
+
+def _targets(jobs) -> list[int]:
+    out, total = [], 0
+    for j in jobs:
+        total += j.spp
+        out.append(total)
+    return out
 
 
 def _bias_row(label, check):
@@ -74,9 +88,28 @@ def _bias_row(label, check):
 
 BIAS_HEADER = ["pair", "mean difference A − B per channel (R, G, B) ± 99% CI",
                "CI contains 0", "pixel values passing z-test", "per channel"]
+DETERMINISTIC_HEADER = ["method", "spp", "MSE against the reference",
+                        "image-mean difference to the reference (R, G, B)",
+                        "MSE slope vs spp", "converges"]
+DETERMINISTIC_TEXT = (
+    "Plain Halton (uniform+halton) is deterministic: the same points in every pixel and every "
+    "run, so its 1-spp passes are not independent samples and a z-test from their spread "
+    "does not apply. It is checked the way a deterministic sequence can be: its error "
+    "against the reference must fall as the sequence continues (MSE at 1/4, 1/2 and all of "
+    "the samples, fitted slope against spp, and the image-mean difference per channel).")
 
 
-def short_figures(args, ref) -> list[dict]:
+def _deterministic_rows(name, images, ref, ref_var):
+    spps = sorted(images)
+    check = metrics.deterministic_check(spps, [images[s].mean for s in spps], ref, ref_var)
+    rows = [[name, s, f"{e:.3e}", ", ".join(f"{d:+.2e}" for d in diff),
+             f"{check['slope']:.2f}", "yes" if check["converges"] else "no"]
+            for s, e, diff in zip(check["spp"], check["mse"], check["mean_diff"])]
+    return rows, check
+
+
+def short_figures(st: Study, ref, ref_var) -> list[dict]:
+    args = st.args
     width, height = args.resolution
     pairs = _selected(args, SHORT_PAIRS)
     if not pairs:
@@ -85,12 +118,14 @@ def short_figures(args, ref) -> list[dict]:
     for a, b, opt in pairs:
         for name in (a, b):
             wanted.setdefault(name, set()).add(getattr(args, opt))
-    renders = {n: _render(args, NAME, n, width, height, sorted(t), max_pass_spp=1)
-               for n, t in wanted.items()}
-    blocks, rows, bias_rows = [], [], []
+    ladders = {n: _plan(st, NAME, n, t, args.resolution, 1) for n, t in wanted.items()}
+    st.run([j for jobs in ladders.values() for j in jobs], f"{NAME}: figures")
+    renders = {n: _images(st, jobs) for n, jobs in ladders.items()}
+    blocks, rows, bias_rows, det_rows = [], [], [], []
     for a, b, opt in pairs:
         spp = getattr(args, opt)
-        (img_a, var_a, _), (img_b, var_b, _) = renders[a][spp], renders[b][spp]
+        acc_a, acc_b = renders[a][spp], renders[b][spp]
+        img_a, img_b = acc_a.mean, acc_b.mean
         rmse_a, rmse_b = metrics.rmse(img_a, ref), metrics.rmse(img_b, ref)
         stem = f"{a}_vs_{b}_{spp}spp".replace("+", "_")
         figures.image_grid(os.path.join(args.out, NAME, stem + ".png"), [[img_b, img_a, ref]],
@@ -103,70 +138,97 @@ def short_figures(args, ref) -> list[dict]:
                                    f"{rmse_b / rmse_a:.2f}"))
         rows.append([f"{a} vs {b}", spp, f"{rmse_b:.4f}", f"{rmse_a:.4f}",
                      f"{rmse_b / rmse_a:.2f}", f"{(rmse_b / rmse_a) ** 2:.2f}"])
-        bias_rows.append(_bias_row(f"{a} − {b} ({spp} spp)",
-                                   metrics.bias_check(img_a, var_a, img_b, var_b)))
+        if parse_method(a).deterministic:
+            det_rows += _deterministic_rows(a, renders[a], ref, ref_var)[0]
+        else:
+            bias_rows.append(_bias_row(f"{a} − {b} ({spp} spp)", metrics.bias_check(
+                img_a, acc_a.variance_of_mean(), img_b, acc_b.variance_of_mean())))
     blocks.insert(0, report.write_table(
         args.out, f"{NAME}/rmse", ["pair A vs B", "spp", "RMSE B", "RMSE A", "RMSE ratio B/A",
                                    "variance ratio B/A"], rows,
         f"RMSE against the reference at {width}x{height} (ratio > 1: A has less error)"))
-    blocks.append(report.write_table(
-        args.out, f"{NAME}/bias_short", BIAS_HEADER, bias_rows,
-        f"Bias check of the same pairs at {width}x{height} (variances from 1-spp passes)"))
+    if bias_rows:
+        blocks.append(report.write_table(
+            args.out, f"{NAME}/bias_short", BIAS_HEADER, bias_rows,
+            f"Bias check of the random pairs at {width}x{height} (variances from 1-spp "
+            f"passes)"))
+    if det_rows:
+        blocks += [report.text(DETERMINISTIC_TEXT), report.write_table(
+            args.out, f"{NAME}/deterministic_short", DETERMINISTIC_HEADER, det_rows,
+            f"Convergence check of plain Halton at {width}x{height}")]
     return blocks
 
 
-def full_checks(args) -> list[dict]:
+def full_checks(st: Study) -> list[dict]:
+    args = st.args
     width, height = args.full_resolution
     pairs = _selected(args, FULL_PAIRS)
     if not pairs:
         return []
     pass_spp = max(1, args.full_spp // FULL_PASSES)
-    renders = {n: _render(args, NAME + "_full", n, width, height, [args.full_spp],
-                          max_pass_spp=pass_spp)[args.full_spp]
+    chunk = pass_spp * 10                     # 10 passes per job: an interruption loses little
+    targets = list(range(chunk, args.full_spp, chunk)) + [args.full_spp]
+    ref_jobs = st.reference_jobs(resolution=args.full_resolution)
+    ladders = {n: _plan(st, NAME + "_full", n, targets, args.full_resolution, pass_spp)
                for n in dict.fromkeys(x for p in pairs for x in p)}
-    blocks, rows = [], []
+    st.run(ref_jobs + [j for jobs in ladders.values() for j in jobs], f"{NAME}: --full")
+    renders = {n: _images(st, jobs) for n, jobs in ladders.items()}
+    ref = P.accumulate(st.store, ref_jobs)[-1]
+    blocks, rows, det_rows = [], [], []
     for a, b in pairs:
-        (img_a, var_a, cp_a), (img_b, var_b, cp_b) = renders[a], renders[b]
-        check = metrics.bias_check(img_a, var_a, img_b, var_b)
-        rows.append(_bias_row(f"{a} − {b}", check) + [cp_a["passes"], f"{cp_a['seconds']:.1f}",
-                                                        f"{cp_b['seconds']:.1f}"])
+        acc_a, acc_b = renders[a][args.full_spp], renders[b][args.full_spp]
+        img_a, img_b = acc_a.mean, acc_b.mean
         stem = f"bias_{a}_vs_{b}".replace("+", "_")
         figures.image_grid(os.path.join(args.out, NAME, stem + ".png"), [[img_b, img_a]],
                            [f"{args.full_spp} spp"], [b, a],
-                           [[f"{cp_b['seconds']:.1f} s", f"{cp_a['seconds']:.1f} s"]])
+                           [[f"{acc_b.seconds:.1f} s", f"{acc_a.seconds:.1f} s"]])
+        blocks.append(report.image(f"{NAME}/{stem}.png", f"{b} and {a} at {width}x{height} "
+                                   f"after {args.full_spp} spp"))
+        if parse_method(a).deterministic:
+            det_rows += _deterministic_rows(a, renders[a], ref.mean, ref.variance_of_mean())[0]
+            continue
+        var_a, var_b = acc_a.variance_of_mean(), acc_b.variance_of_mean()
+        check = metrics.bias_check(img_a, var_a, img_b, var_b)
+        rows.append(_bias_row(f"{a} − {b}", check) + [acc_a.passes, f"{acc_a.seconds:.1f}",
+                                                        f"{acc_b.seconds:.1f}"])
         figures.zscore_map(os.path.join(args.out, NAME, stem + "_z.png"), img_a - img_b,
                            var_a + var_b, f"|z| of {a} − {b}; {check['pass_fraction']:.2%} "
                            f"of pixel values below 2.576")
-        blocks += [report.image(f"{NAME}/{stem}.png", f"{b} and {a} at {width}x{height} after "
-                                f"{args.full_spp} spp"),
-                   report.image(f"{NAME}/{stem}_z.png", f"Per-pixel z-score of {a} − {b}")]
-    blocks.insert(0, report.write_table(
-        args.out, f"{NAME}/bias_full", BIAS_HEADER + ["passes", "seconds A", "seconds B"], rows,
-        f"No bias at {width}x{height} after {args.full_spp} spp: A − B per channel with its "
-        f"99% confidence interval, and the fraction of pixel values with |z| < 2.576"))
-    blocks.insert(0, report.text(
-        "Each image is rendered in independent passes (Halton: one sequence continued over "
-        "the passes); the per-pixel variance of each mean comes from the spread of its "
-        "passes. Without bias, the confidence intervals contain 0 and about 99% of pixel "
-        "values pass the z-test. For plain Halton (no randomization, the same points in "
-        "every pixel) the pass spread is only a proxy for the error and pixel errors are "
-        "correlated, so its interval is approximate."))
+        blocks.append(report.image(f"{NAME}/{stem}_z.png", f"Per-pixel z-score of {a} − {b}"))
+    if rows:
+        blocks.insert(0, report.write_table(
+            args.out, f"{NAME}/bias_full", BIAS_HEADER + ["passes", "seconds A", "seconds B"],
+            rows, f"No bias at {width}x{height} after {args.full_spp} spp: A − B per channel "
+            f"with its 99% confidence interval, and the fraction of pixel values with "
+            f"|z| < 2.576"))
+        blocks.insert(0, report.text(
+            "Each random image is rendered in independent passes; the per-pixel variance of "
+            "each mean comes from the spread of its passes. Without bias, the confidence "
+            "intervals contain 0 and about 99% of pixel values pass the z-test."))
+    if det_rows:
+        blocks += [report.text(DETERMINISTIC_TEXT), report.write_table(
+            args.out, f"{NAME}/deterministic_full", DETERMINISTIC_HEADER, det_rows,
+            f"Convergence check of plain Halton at {width}x{height} against a "
+            f"{args.reference_spp}-spp reference")]
     return blocks
 
 
 def run(args) -> None:
     start = time.perf_counter()
+    st = Study(args)
     width, height = args.resolution
-    ref, ref_meta = R.reference(args.out, args.info, width, height, args.reference_spp,
-                                args.reference_integrator, args.variant, args.seed)
+    ref_jobs = st.reference_jobs()
+    st.run(ref_jobs, f"{NAME}: reference")
+    ref, ref_meta = st.reference(ref_jobs)
+    ref_var = P.accumulate(st.store, ref_jobs)[-1].variance_of_mean()
     blocks = [report.text(
         "The writeup's comparisons, measured. Methods: uniform hemisphere, cosine-weighted "
         "hemisphere and Phong-lobe (bsdf) direction sampling, and uniform sampling driven by "
         "the plain Halton sequence (uniform+halton), all without emitter sampling, as in the "
-        "writeup.")]
-    blocks += short_figures(args, ref)
+        f"writeup ({args.depth.describe()}).")]
+    blocks += short_figures(st, ref, ref_var)
     if args.full:
-        blocks += full_checks(args)
+        blocks += full_checks(st)
     else:
         blocks.append(report.text(
             f"The {args.full_resolution[0]}x{args.full_resolution[1]}, {args.full_spp}-spp "
@@ -174,10 +236,10 @@ def run(args) -> None:
     settings = {"scene": args.scene, "resolution": f"{width}x{height}",
                 "short spp": args.short_spp, "halton spp": args.halton_spp, "full": args.full,
                 "full resolution": "{}x{}".format(*args.full_resolution),
-                "full spp": args.full_spp, "methods": ", ".join(m.name for m in args.method_objs),
-                "variant": args.variant, "seed": args.seed, "max_depth": args.info.max_depth,
-                "reference": f"{args.reference_spp} spp, {args.reference_integrator} + NEE, "
-                             f"cache/{ref_meta['exr']}"}
+                "full spp": args.full_spp, "methods": ", ".join(args.methods),
+                "variant": args.variant, "seed": args.seed,
+                "path settings": args.depth.describe(),
+                "reference": st.describe_reference(ref_meta)}
     report.write_section(args.out, NAME, "The writeup's figures, with numbers", 20, settings,
                          blocks, args.variant, time.perf_counter() - start)
 

@@ -1,5 +1,7 @@
-"""Tests of the experiment suite (experiments/): metrics, accumulation, resume,
-reference cache, scene loading, argument errors, report, and tiny end-to-end runs."""
+"""Tests of the experiment suite (experiments/): metrics, jobs and their store, resume,
+reference cache, scene loading, argument errors, report, and tiny end-to-end runs.
+The method grammar has its own file (test_methods.py), the sampler study too."""
+import json
 import math
 import os
 import re
@@ -11,9 +13,10 @@ import pytest
 from conftest import ROOT, scene_path
 
 from experiments import convergence, run_all, writeup
-from experiments.lib import metrics, report, store
+from experiments.lib import execute as X
 from experiments.lib import methods as M
-from experiments.lib import render as R
+from experiments.lib import metrics, report, store
+from experiments.lib import plan as P
 
 PYTHON = sys.executable
 
@@ -30,6 +33,8 @@ def test_metrics_against_hand_computed_values():
     assert metrics.rmse(img, ref) == pytest.approx(math.sqrt(5 / 6))
     # relMSE: 1 / (0 + 0.01) and 4 / (1 + 0.01), averaged over 6 values
     assert metrics.relmse(img, ref) == pytest.approx((1 / 0.01 + 4 / 1.01) / 6)
+    mask = np.array([[False, True]])                 # only the second pixel: 4 / 1.01 over 3
+    assert metrics.relmse(img, ref, mask) == pytest.approx(4 / 1.01 / 3)
     assert metrics.efficiency(0.5, 4.0) == pytest.approx(0.5)
     assert metrics.loglog_slope([1, 2, 4, 8], [3.0, 1.5, 0.75, 0.375]) == pytest.approx(-1.0)
     assert metrics.loglog_slope([1, 10, 100], [1, 100, 10000]) == pytest.approx(2.0)
@@ -54,14 +59,14 @@ def test_bias_check_against_hand_computed_values():
 def test_accumulator_is_the_weighted_average_of_pass_images():
     rng = np.random.default_rng(1)
     passes = [(rng.random((3, 4, 3)), k) for k in (1, 1, 2, 4)]
-    acc = R.Accumulator.empty(3, 4)
+    acc = P.Accumulator.empty(3, 4)
     for image, k in passes:
         acc.add(image, k, 0.5)
     expected = sum(im * k for im, k in passes) / 8
     np.testing.assert_allclose(acc.mean, expected, rtol=1e-14)
     assert (acc.spp, acc.passes, acc.seconds) == (8, 4, 2.0)
     # equal passes: variance of the mean = sample variance / passes
-    equal = R.Accumulator.empty(3, 4)
+    equal = P.Accumulator.empty(3, 4)
     images = [rng.random((3, 4, 3)) for _ in range(5)]
     for image in images:
         equal.add(image, 2)
@@ -69,137 +74,187 @@ def test_accumulator_is_the_weighted_average_of_pass_images():
                                np.var(images, axis=0, ddof=1) / 5, rtol=1e-9)
 
 
-def _job(tmp_path, name="uniform", width=16, height=8, **options):
-    info = M.read_scene(scene_path("cbox.xml"))
-    return R.method_job(str(tmp_path), "t", info, M.parse_method(name), width, height,
-                        "llvm_ad_rgb", 7, **options)
+def _info():
+    return M.read_scene(scene_path("cbox.xml"))
+
+
+def _ladder(name="uniform", targets=(1, 2, 4, 8), width=16, height=8, seed=7, **options):
+    info = _info()
+    return P.ladder(f"t/{name}", info, name, width, height, targets, seed, info.depth,
+                    "llvm_ad_rgb", **options)
 
 
 @pytest.fixture
-def count_passes(monkeypatch):
-    """Record every pass rendered (spp, image) through render_pass."""
+def count_jobs(monkeypatch):
+    """Record every job rendered (job, result) through execute.run_job."""
     calls = []
-    real = R.render_pass
+    real = X.run_job
 
-    def counting(*args, **kwargs):
-        image, seconds = real(*args, **kwargs)
-        calls.append((args[2], image))
-        return image, seconds
-    monkeypatch.setattr(R, "render_pass", counting)
+    def counting(job, variant):
+        result = real(job, variant)
+        calls.append((job, result))
+        return result
+    monkeypatch.setattr(X, "run_job", counting)
     return calls
 
 
-def test_progressive_render_equals_average_of_its_passes(tmp_path, count_passes):
-    job = _job(tmp_path, max_pass_spp=2)
-    acc = R.run_progressive(job, [1, 2, 4, 8])
-    passes = count_passes[1:]                       # the first call is the warm-up
-    assert [k for k, _ in passes] == [1, 1, 2, 2, 2]
-    expected = sum(k * im for k, im in passes) / 8
-    np.testing.assert_allclose(acc.mean, expected, rtol=1e-12)
-    assert [c["spp"] for c in job.checkpoints] == [1, 2, 4, 8]
-    saved = store.read_exr(os.path.join(job.directory, job.checkpoints[-1]["exr"]))
-    np.testing.assert_allclose(saved, expected, rtol=1e-6, atol=1e-7)
-    assert all(os.path.exists(os.path.join(job.directory, c["png"])) for c in job.checkpoints)
-    times = [c["seconds"] for c in job.checkpoints]
+def test_ladder_images_are_the_average_of_their_passes(tmp_path, count_jobs):
+    st = store.JobStore(str(tmp_path))
+    jobs = _ladder(pass_spp=2)
+    X.execute(jobs, st, progress=False)
+    assert [j.passes() for j in jobs] == [[1], [1], [2], [2, 2]]
+    assert [r.passes for _, r in count_jobs] == [1, 1, 1, 2]
+    accs = P.accumulate(st, jobs)
+    assert [a.spp for a in accs] == [1, 2, 4, 8] and accs[-1].passes == 5
+    expected = sum(r.spp * r.image.astype(float) for _, r in count_jobs) / 8
+    np.testing.assert_allclose(accs[-1].mean, expected, rtol=1e-6)
+    times = [a.seconds for a in accs]
     assert times == sorted(times) and times[0] > 0
+    # seeds come from the plan: every stretch of an independent ladder has its own
+    assert len({j.seed for j in jobs}) == len(jobs)
 
 
-def test_halton_passes_continue_one_sequence(tmp_path, count_passes):
-    if not M.plugin_available("halton"):
-        pytest.skip("halton sampler not installed")
-    a = R.run_progressive(_job(tmp_path / "a", "bsdf+halton"), [1, 2, 4])
-    b = R.run_progressive(_job(tmp_path / "b", "bsdf+halton", max_pass_spp=4), [4])
-    np.testing.assert_allclose(a.mean, b.mean, atol=1e-5)
+def test_halton_passes_continue_one_sequence(tmp_path):
+    st = store.JobStore(str(tmp_path))
+    stretched = _ladder("bsdf+halton", (1, 2, 4))
+    whole = _ladder("bsdf+halton", (4,), pass_spp=4)
+    assert [j.sample_offset for j in stretched] == [0, 1, 2]
+    assert len({j.seed for j in stretched + whole}) == 1
+    X.execute(stretched + whole, st, progress=False)
+    np.testing.assert_allclose(P.accumulate(st, stretched)[-1].mean,
+                               P.accumulate(st, whole)[-1].mean, atol=1e-5)
 
 
-def test_resume_skips_finished_work_and_reproduces_results(tmp_path, count_passes):
-    full = R.run_progressive(_job(tmp_path / "once"), [1, 2, 4, 8])
-    # the same command again: nothing rendered, same checkpoints
-    count_passes.clear()
-    job = _job(tmp_path / "once")
-    again = R.run_progressive(job, [1, 2, 4, 8])
-    assert count_passes == []
-    np.testing.assert_array_equal(again.mean, full.mean)
-    # a run stopped after 2 spp, then resumed: only the missing passes are rendered
-    R.run_progressive(_job(tmp_path / "resumed"), [1, 2])
-    count_passes.clear()
-    resumed = R.run_progressive(_job(tmp_path / "resumed"), [1, 2, 4, 8])
-    assert [k for k, _ in count_passes[1:]] == [2, 4]
-    np.testing.assert_allclose(resumed.mean, full.mean, rtol=1e-12)
-    assert resumed.passes == full.passes
+@pytest.mark.parametrize("name", ["uniform", "path", "bsdf+nee+stratified", "cosine+ldsampler",
+                                  "path+halton:owen"])
+def test_resume_skips_finished_jobs_and_reproduces_results(name, tmp_path, count_jobs,
+                                                          monkeypatch):
+    """Our methods, Mitsuba's path and native samplers go through the same job renderer."""
+    once = store.JobStore(str(tmp_path / "once"))
+    jobs = _ladder(name, (1, 2, 4))
+    X.execute(jobs, once, progress=False)
+    full = P.accumulate(once, jobs)
+    assert len(count_jobs) == 3
+    count_jobs.clear()
+    X.execute(jobs, once, progress=False)             # the same command again
+    assert count_jobs == []
+    # interrupted after the first job (Ctrl-C inside the second), then resumed
+    cut = store.JobStore(str(tmp_path / "cut"))
+    real, calls = X.run_job, []
 
-
-def test_interrupted_render_keeps_files_and_resumes(tmp_path, monkeypatch):
-    full = R.run_progressive(_job(tmp_path / "once"), [1, 2, 4])
-    real, calls = R.render_pass, []
-
-    def interrupted(*args, **kwargs):
-        calls.append(1)
-        if len(calls) == 4:                 # warm-up, 1, 1, then Ctrl-C in the 2-spp pass
+    def interrupted(job, variant):
+        calls.append(job)
+        if len(calls) == 2:
             raise KeyboardInterrupt
-        return real(*args, **kwargs)
-    monkeypatch.setattr(R, "render_pass", interrupted)
+        return real(job, variant)
+    monkeypatch.setattr(X, "run_job", interrupted)
     with pytest.raises(KeyboardInterrupt):
-        R.run_progressive(_job(tmp_path / "cut"), [1, 2, 4])
-    files = sorted(os.listdir(tmp_path / "cut" / "t" / "uniform"))
-    assert not [f for f in files if f.startswith(".tmp")]
-    assert "spp00002.exr" in files and "spp00004.exr" not in files
-    monkeypatch.setattr(R, "render_pass", real)
-    job = _job(tmp_path / "cut")
-    resumed = R.run_progressive(job, [1, 2, 4])
-    np.testing.assert_allclose(resumed.mean, full.mean, rtol=1e-12)
-    assert [c["spp"] for c in job.checkpoints] == [1, 2, 4]
+        X.execute(jobs, cut, progress=False)
+    files = [f for _, _, names in os.walk(tmp_path / "cut") for f in names]
+    assert len(files) == 1 and not [f for f in files if f.startswith(".tmp")]
+    monkeypatch.setattr(X, "run_job", real)
+    assert [j.key for j in X.pending(jobs, cut)] == [j.key for j in jobs[1:]]
+    X.execute(jobs, cut, progress=False)
+    resumed = P.accumulate(cut, jobs)
+    for a, b in zip(resumed, full):
+        assert a.spp == b.spp
+        np.testing.assert_allclose(a.mean, b.mean, rtol=1e-6, atol=1e-7)
 
 
-def test_changed_settings_start_over(tmp_path, count_passes):
-    R.run_progressive(_job(tmp_path), [2])
-    count_passes.clear()
-    R.run_progressive(_job(tmp_path, name="uniform", max_pass_spp=1), [2])
-    assert [k for k, _ in count_passes[1:]] == [1, 1]
+def test_native_samplers_count_the_samples_they_render(tmp_path):
+    """orthogonal renders a prime squared (16 -> 25), ldsampler a power of two (1 -> 4)."""
+    st = store.JobStore(str(tmp_path))
+    jobs = {n: _ladder(n, (16,))[0] for n in ("bsdf+orthogonal", "bsdf+ldsampler")}
+    jobs["ld1"] = _ladder("bsdf+ldsampler", (1,))[0]
+    X.execute(list(jobs.values()), st, progress=False)
+    assert [st.get(j.key).spp for j in jobs.values()] == [25, 16, 4]
 
 
-def test_reference_is_cached_and_remade_when_settings_change(tmp_path, count_passes):
-    info = M.read_scene(scene_path("cbox.xml"))
-    ref, meta = R.reference(str(tmp_path), info, 16, 8, 4, "path", "llvm_ad_rgb")
-    assert count_passes and meta["settings"]["spp"] == 4
-    count_passes.clear()
-    again, _ = R.reference(str(tmp_path), info, 16, 8, 4, "path", "llvm_ad_rgb")
-    assert count_passes == []
-    np.testing.assert_allclose(again, ref, rtol=1e-6)
-    R.reference(str(tmp_path), info, 16, 8, 8, "path", "llvm_ad_rgb")
-    assert count_passes
-    assert len([f for f in os.listdir(tmp_path / "cache") if f.endswith(".exr")]) == 2
+def test_changed_settings_make_another_job():
+    a, b = _ladder(targets=(2,))[0], _ladder(targets=(2,), pass_spp=1)[0]
+    c = _ladder(targets=(2,), width=8)[0]
+    assert len({a.key, b.key, c.key}) == 3
+    assert a.key == _ladder(targets=(2,))[0].key          # stable
+
+
+def test_jobs_are_plain_picklable_data():
+    import pickle
+    job = _ladder("bsdf+halton:owen", (1, 4))[1]
+    assert pickle.loads(pickle.dumps(job)) == job
+    assert job.sample_offset == 1 and job.spp == 3
+
+
+def test_reference_is_cached_and_remade_when_settings_change(tmp_path, count_jobs):
+    st = store.JobStore(str(tmp_path))
+    info = _info()
+    jobs = P.reference_jobs(info, 16, 8, 16, "path", info.depth, "llvm_ad_rgb")
+    assert len(jobs) == 8                      # at least 8 pieces: the floor estimate
+    X.execute(jobs, st, progress=False)
+    assert len(count_jobs) == 8
+    count_jobs.clear()
+    X.execute(P.reference_jobs(info, 16, 8, 16, "path", info.depth, "llvm_ad_rgb"), st,
+              progress=False)
+    assert count_jobs == []
+    X.execute(P.reference_jobs(info, 16, 8, 32, "path", info.depth, "llvm_ad_rgb"), st,
+              progress=False)
+    assert count_jobs
 
 
 # ------------------------------------------------------------- scenes, methods
 
-def test_method_names():
-    assert M.parse_method("cosine") == M.Method("cosine", "cosine", "independent")
-    assert M.parse_method("uniform+halton").sampler_params == (("randomization", "none"),)
-    assert M.parse_method("bsdf+halton").sampler_params == ()
-    assert M.parse_method("bsdf+halton:owen").sampler_params == (("randomization", "owen"),)
-    for bad in ("phong", "bsdf+sobol", "cosine:owen", "bsdf+halton:bogus"):
-        with pytest.raises(ValueError, match="unknown method"):
-            M.parse_method(bad)
-
-
-def test_any_scene_loads_with_the_methods_integrator_and_resolution(tmp_path):
+def test_any_scene_keeps_its_integrator_settings_unless_overridden(tmp_path):
     (tmp_path / "sub").mkdir()
     (tmp_path / "sub" / "light.xml").write_text(
         '<scene version="3.0.0"><emitter type="constant"/></scene>')
     scene = tmp_path / "user.xml"
     scene.write_text("""<scene version="3.0.0">
-      <integrator type="path"><integer name="max_depth" value="5"/></integrator>
+      <integrator type="path"><integer name="max_depth" value="5"/>
+        <integer name="rr_depth" value="3"/><boolean name="hide_emitters" value="true"/>
+      </integrator>
       <sensor type="perspective"><sampler type="stratified"/>
         <film type="hdrfilm"><integer name="width" value="40"/></film></sensor>
       <include filename="sub/light.xml"/>
       <shape type="sphere"><bsdf type="diffuse"/></shape></scene>""")
     info = M.read_scene(str(scene))
-    assert (info.width, info.max_depth) == (40, 5)
-    loaded = M.load_method_scene(info, M.parse_method("cosine"), 12, 6)
-    assert "strategy=cosine, max_depth=5" in str(loaded.integrator())
+    assert (info.width, info.depth) == (40, M.Depth(5, 3, True))
+    loaded = M.load_scene(info.path, 12, 6, M.parse_method("cosine"), info.depth)
+    integrator = loaded.integrator()
+    assert (integrator.strategy, integrator.max_depth, integrator.rr_depth,
+            integrator.hide_emitters) == ("cosine", 5, 3, True)
     assert list(loaded.sensors()[0].film().size()) == [12, 6]
     assert "Independent" in str(loaded.sensors()[0].sampler())
+    # --max-depth 2 replaces only max_depth; path keeps the scene's others too
+    depth = M.effective_depth(info, max_depth=2)
+    assert depth == M.Depth(2, 3, True)
+    path = M.load_scene(info.path, 12, 6, M.parse_method("path+orthogonal"), depth)
+    assert "max_depth = 2" in str(path.integrator())
+    assert "Orthogonal" in str(path.sensors()[0].sampler())
+
+
+def test_a_scene_without_integrator_gets_the_plugin_defaults_not_a_silent_8(tmp_path):
+    scene = tmp_path / "bare.xml"
+    scene.write_text('<scene version="3.0.0"><sensor type="perspective"><film type="hdrfilm"/>'
+                     '</sensor><shape type="sphere"/></scene>')
+    info = M.read_scene(str(scene))
+    assert info.depth == M.Depth(None, None, None)
+    loaded = M.load_scene(info.path, 8, 4, M.parse_method("bsdf"), info.depth)
+    assert loaded.integrator().max_depth == -1          # vr_path's own default
+
+
+def test_cornell_box_as_xml_renders_like_mitsubas_dict(tmp_path):
+    import mitsuba as mi
+    path = M.builtin_scene("cornell_box", str(tmp_path))
+    info = M.read_scene(path)
+    assert (info.width, info.height, info.depth.max_depth) == (256, 256, 8)
+    from_xml = M.load_scene(path, 32, 32, M.parse_method("path"), info.depth)
+    d = mi.cornell_box()
+    d["sensor"]["film"]["width"] = d["sensor"]["film"]["height"] = 32
+    d["sensor"]["sampler"] = {"type": "independent"}
+    from_dict = mi.load_dict(d)
+    a = np.array(mi.render(from_xml, spp=4, seed=3))
+    b = np.array(mi.render(from_dict, spp=4, seed=3))
+    assert a.mean() > 0.05
+    np.testing.assert_allclose(a, b, rtol=1e-4, atol=1e-5)
 
 
 # ------------------------------------------------------------ argument errors
@@ -207,6 +262,10 @@ def test_any_scene_loads_with_the_methods_integrator_and_resolution(tmp_path):
 BAD_ARGS = [
     (["--scene", "nope.xml"], "scene file 'nope.xml' does not exist"),
     (["--methods", "uniform,phong"], "unknown method 'phong'"),
+    (["--max-depth", "-2"], "invalid value '-2'"),
+    (["--rr-depth", "0"], "invalid value '0'"),
+    (["--reference-method", "path+sobol"], "unknown method 'path+sobol'"),
+    (["--scene", "cornell"], "scene file 'cornell' does not exist (or use a built-in scene"),
     (["--resolution", "256by128"], "invalid resolution '256by128'"),
     (["--resolution", "0x10"], "invalid resolution '0x10'"),
     (["--spp", "-3"], "invalid value '-3'"),
@@ -236,12 +295,14 @@ def test_bad_argument_in_a_real_process_has_no_traceback(tmp_path):
     assert "Traceback" not in proc.stderr and not (tmp_path / "r").exists()
 
 
-@pytest.mark.parametrize("module", ["convergence", "writeup", "run_all"])
+@pytest.mark.parametrize("module", ["convergence", "writeup", "samplers", "stability",
+                                    "run_all"])
 def test_help(module):
     proc = subprocess.run([PYTHON, "-m", f"experiments.{module}", "--help"], cwd=ROOT,
                           capture_output=True, text=True)
     assert proc.returncode == 0
-    for option in ("--scene", "--resolution", "--methods", "--variant", "--seed", "--out"):
+    for option in ("--scene", "--resolution", "--methods", "--variant", "--seed", "--out",
+                   "--max-depth", "--rr-depth"):
         assert option in proc.stdout
 
 
@@ -261,6 +322,7 @@ def test_convergence_end_to_end(tmp_path):
                              "--methods", "uniform,cosine,bsdf"])
     rows = (out / "convergence" / "errors.csv").read_text().splitlines()
     assert len(rows) == 1 + 3 * 3                    # header + 3 methods x (1, 2, 4 spp)
+    assert (out / "convergence" / "bsdf" / "spp00004.exr").exists()
     eff = (out / "convergence" / "efficiency.md").read_text()
     assert "| uniform | 4 |" in eff and "1.00" in eff
     for name in ("sequences.png", "error_mse.png", "error_relmse.png", "equal_time.png"):
@@ -276,22 +338,27 @@ def test_writeup_end_to_end_with_full(tmp_path):
     rmse = (out / "writeup" / "rmse.md").read_text()
     assert "cosine vs uniform" in rmse and "bsdf vs uniform" in rmse
     bias = (out / "writeup" / "bias_full.md").read_text()
-    assert "cosine − uniform" in bias
+    assert "cosine − uniform" in bias and "uniform+halton" not in bias
+    # plain Halton: the deterministic check, not the z-test, and the report says why
+    det = (out / "writeup" / "deterministic_short.md").read_text()
+    assert "| uniform+halton | 3 |" in det
+    assert "uniform+halton" not in (out / "writeup" / "bias_short.md").read_text()
+    assert "not independent samples" in (out / "writeup" / "summary.md").read_text()
     assert (out / "writeup" / "bias_cosine_vs_uniform_z.png").exists()
 
 
-def test_run_all_report_lists_every_produced_file_and_reruns_resume(tmp_path, count_passes):
+def test_run_all_report_lists_every_produced_file_and_reruns_resume(tmp_path, count_jobs):
     out = tmp_path / "r"
     argv = TINY + ["--spp", "2", "--time-budget", "0.02", "--short-spp", "2",
-                   "--halton-spp", "2", "--methods", "uniform,cosine,bsdf", "--out", str(out),
-                   "--stability", "quick"]
+                   "--halton-spp", "2", "--methods", "uniform,cosine,bsdf,bsdf+nee,path",
+                   "--out", str(out), "--stability", "quick", "--samplers", "quick"]
     run_all.main(argv)
-    assert count_passes
+    assert count_jobs
     errors = (out / "convergence" / "errors.csv").read_text()
     rmse = (out / "writeup" / "rmse.csv").read_text()
-    count_passes.clear()
+    count_jobs.clear()
     run_all.main(argv)                                  # the same command again
-    assert count_passes == []                           # nothing rendered
+    assert count_jobs == []                             # nothing rendered
     assert (out / "convergence" / "errors.csv").read_text() == errors
     assert (out / "writeup" / "rmse.csv").read_text() == rmse
     files = report.produced_files(str(out))
@@ -300,4 +367,28 @@ def test_run_all_report_lists_every_produced_file_and_reruns_resume(tmp_path, co
     for f in links:
         assert (out / f).exists(), f
     sections = [s["name"] for s in report.read_sections(str(out))]
-    assert sections == ["convergence", "writeup", "stability", "run_all"]
+    assert sections == ["convergence", "writeup", "samplers", "stability", "run_all"]
+    eff = (out / "convergence" / "efficiency.md").read_text()
+    assert "| bsdf+nee |" in eff and "| path |" in eff
+    # the sub-studies honour the options given to run_all (here only --resolution)
+    stab = json.loads((out / "stability" / "section.json").read_text())["settings"]
+    assert stab["resolution"] == "16x8"
+
+
+def test_run_all_forwards_methods_spp_and_max_depth_to_the_stability_study(tmp_path):
+    out = str(tmp_path / "r")
+    parser = run_all.build_parser()
+    args = run_all.cli.parse_args(parser, ["--methods", "cosine,bsdf+nee", "--spp", "8",
+                                           "--max-depth", "3", "--out", out])
+    sub = run_all.stability.parse(run_all.sub_argv(args, (("methods", "--methods"),)))
+    assert (sub.spp, sub.methods, sub.depth.max_depth, sub.resolution) == \
+        (8, ["cosine", "bsdf+nee"], 3, (128, 64))          # its own default resolution
+    sw = run_all.stability.Sweeps(sub, sub.config)
+    assert sw.strategies == ["cosine", "bsdf"] and sw.halton_depths == [2, 3]
+    # options left at run_all's defaults are not forwarded: the study keeps its own
+    args = run_all.cli.parse_args(parser, ["--out", out])
+    sub = run_all.stability.parse(run_all.sub_argv(args, (("methods", "--methods"),)))
+    assert (sub.spp, sub.methods, sub.depth.max_depth) == (32, ["uniform", "cosine", "bsdf"], 8)
+    smp = run_all.cli.parse_args(run_all.samplers.build_parser(),
+                                 run_all.sub_argv(args) + ["--resolution", "16x8"])
+    assert (smp.spp, smp.resolution, run_all.samplers.depths(smp)) == (256, (16, 8), [2, 8])

@@ -24,6 +24,8 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
+from experiments.lib.methods import strategies
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PYTHON = sys.executable
 
@@ -94,7 +96,7 @@ def raw_samples(scene, spp: int, seed: int = 0) -> np.ndarray:
     return np.array(L)
 
 
-@pytest.mark.parametrize("strategy", ["uniform", "cosine", "bsdf"])
+@pytest.mark.parametrize("strategy", strategies())
 @pytest.mark.parametrize("nee", [False, True], ids=["no_nee", "nee"])
 @pytest.mark.parametrize("view", ["front", "grazing"])
 def test_no_nan_or_inf_reaches_the_film(view, strategy, nee):
@@ -142,7 +144,7 @@ def test_phong_is_finite_at_grazing_and_below_the_horizon(exponent, kd, ks):
 # ---------------------------------------------------------------- parameters
 
 BAD_PARAMETERS = [
-    ({"type": "vr_path", "strategy": "importance"}, ["'importance'", "uniform, cosine, bsdf"]),
+    ({"type": "vr_path", "strategy": "importance"}, ["'importance'", ", ".join(strategies())]),
     ({"type": "vr_path", "max_depth": -2}, ["-2", "-1", ">= 0"]),
     ({"type": "vr_path", "rr_depth": 0}, ["got 0", "> 0"]),
     ({"type": "phong", "exponent": -1.0}, ["-1.0", ">= 0"]),
@@ -177,12 +179,13 @@ def test_bad_parameter_in_a_scene_file_is_reported_too(tmp_path):
                     '<string name="strategy" value="bogus"/></integrator></scene>')
     with pytest.raises(Exception) as exc:
         mi.load_file(str(path))
-    assert "unknown strategy 'bogus'; valid choices are uniform, cosine, bsdf" in str(exc.value)
+    assert f"unknown strategy 'bogus'; valid choices are {', '.join(strategies())}" in \
+        str(exc.value)
 
 
 # ------------------------------------------------------------------ scripts
 
-SCRIPTS = ["convergence", "writeup", "run_all", "stability"]
+SCRIPTS = ["convergence", "writeup", "run_all", "stability", "samplers"]
 
 
 def _bad_inputs(tmp_path):

@@ -15,7 +15,8 @@ import pytest
 
 from experiments import stability
 from experiments.lib import methods as M
-from experiments.lib import stability as S
+from experiments.lib import metrics
+from experiments.lib import scene_probes as SP
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 CBOX = os.path.join(ROOT, "scenes", "cbox.xml")
@@ -30,24 +31,23 @@ def phong(kd, ks, n):
 
 def test_scene_variant_changes_only_the_given_defaults(tmp_path):
     info = M.read_scene(CBOX)
-    v = S.scene_variant(info, str(tmp_path), "e", {"exponent": 1234.0, "light_size": 0.25})
-    defaults = S.scene_defaults(v.path)
-    original = S.scene_defaults(CBOX)
+    v = M.scene_variant(info, str(tmp_path), "e", {"exponent": 1234.0, "light_size": 0.25})
+    defaults = M.scene_defaults(v.path)
+    original = M.scene_defaults(CBOX)
     assert float(defaults["exponent"]) == 1234.0 and float(defaults["light_size"]) == 0.25
     assert {k: d for k, d in defaults.items() if k not in ("exponent", "light_size")} == \
         {k: d for k, d in original.items() if k not in ("exponent", "light_size")}
-    assert v.max_depth == info.max_depth and v.sha256 != info.sha256
-    scene = M.load_scene(v, 8, 4, {"type": "vr_path"})
+    assert v.depth == info.depth and v.sha256 != info.sha256
+    scene = M.load_scene(v.path, 8, 4, M.parse_method("bsdf"))
     exps = [float(p["exponent"][0]) for s in scene.shapes()
             if type(s.bsdf()).__name__ == "PhongBSDF" for p in [mi.traverse(s.bsdf())]]
     assert exps == [1234.0]
     with pytest.raises(KeyError, match="roughness"):
-        S.scene_variant(info, str(tmp_path), "x", {"roughness": 0.1})
+        M.scene_variant(info, str(tmp_path), "x", {"roughness": 0.1})
 
 
 def test_phong_mask_is_the_glossy_sphere():
-    info = M.read_scene(CBOX)
-    mask = S.phong_mask(info, 64, 32)
+    mask = SP.phong_mask(SP.probe_scene(CBOX, 64, 32))
     # the glossy sphere is right of centre, in the lower half; nothing else is Phong
     ys, xs = np.nonzero(mask)
     assert 20 < mask.sum() < 0.25 * mask.size
@@ -65,7 +65,7 @@ def test_outliers_counts_planted_nan_inf_and_fireflies_but_not_highlights():
     image[21, 31, 1] = np.inf
     image[10, 40] = 50.0                               # fireflies: errors far beyond the MAD
     image[11, 50] = 9.0
-    o = S.outliers(image, ref)
+    o = metrics.outliers(image, ref)
     assert o["nonfinite"] == 2
     assert o["fireflies"] == 2
     assert o["max"] == pytest.approx(image[4:8, 4:8].max())
@@ -76,21 +76,21 @@ def test_neighbour_correlation_of_independent_and_shared_noise():
     ref = np.ones((64, 128, 3))
     independent = ref + rng.normal(0, 0.1, ref.shape)
     n = 64 * 127
-    assert abs(S.neighbour_correlation(independent, ref)) < 5 / math.sqrt(n)
+    assert abs(metrics.neighbour_correlation(independent, ref)) < 5 / math.sqrt(n)
     row = rng.normal(0, 0.1, (64, 1, 1))               # the same error along each row
-    assert S.neighbour_correlation(ref + row, ref) > 0.999
+    assert metrics.neighbour_correlation(ref + row, ref) > 0.999
 
 
 def test_lambertian_is_sampled_perfectly_and_lobe_sampling_wastes_samples_at_grazing():
     diffuse = phong(0.5, 0.0, 10.0)
-    st = S.direction_sampling_stats(diffuse, 1.0, "bsdf", 4096)
+    st = SP.direction_sampling_stats(diffuse, 1.0, "bsdf", 4096)
     assert st["wasted"] == 0 and st["relvar"] < 1e-10 and st["albedo"] == pytest.approx(0.5)
 
     glossy = phong(0.0, 0.9, 1000.0)
     n = 2 ** 14
-    normal = S.direction_sampling_stats(glossy, 1.0, "bsdf", n)
-    steep = S.direction_sampling_stats(glossy, math.cos(math.radians(60)), "bsdf", n)
-    grazing = S.direction_sampling_stats(glossy, math.cos(math.radians(89)), "bsdf", n)
+    normal = SP.direction_sampling_stats(glossy, 1.0, "bsdf", n)
+    steep = SP.direction_sampling_stats(glossy, math.cos(math.radians(60)), "bsdf", n)
+    grazing = SP.direction_sampling_stats(glossy, math.cos(math.radians(89)), "bsdf", n)
     assert normal["wasted"] == 0
     # binomial standard error <= 0.5 / sqrt(n) = 0.004: margins of > 5 of them
     assert grazing["wasted"] > steep["wasted"] + 0.1
@@ -104,7 +104,7 @@ def test_strategies_estimate_the_same_albedo(cos_i):
     """Unbiased: bsdf, cosine and uniform agree within 5 combined standard errors."""
     bsdf = phong(0.3, 0.5, 20.0)
     n = 2 ** 16
-    stats = {s: S.direction_sampling_stats(bsdf, cos_i, s, n, seed=i)
+    stats = {s: SP.direction_sampling_stats(bsdf, cos_i, s, n, seed=i)
              for i, s in enumerate(("bsdf", "cosine", "uniform"))}
     se = {s: st["albedo"] * math.sqrt(st["relvar"] / n) for s, st in stats.items()}
     for s in ("cosine", "uniform"):
@@ -113,9 +113,9 @@ def test_strategies_estimate_the_same_albedo(cos_i):
 
 
 def test_first_where_and_ratio():
-    assert S.first_where([1, 10, 100], [False, True, True]) == 10
-    assert S.first_where([1, 10], [False, False]) is None
-    assert S.ratio(1.0, 0.0) == math.inf and S.ratio(3.0, 2.0) == 1.5
+    assert metrics.first_where([1, 10, 100], [False, True, True]) == 10
+    assert metrics.first_where([1, 10], [False, False]) is None
+    assert metrics.ratio(1.0, 0.0) == math.inf and metrics.ratio(3.0, 2.0) == 1.5
 
 
 # ----------------------------------------------------------------- end to end
@@ -129,6 +129,8 @@ def test_sweep_list_rejects_unknown_sweeps():
 def test_stability_quick_end_to_end(tmp_path, capsys):
     out = tmp_path / "r"
     stability.main(["--quick", "--resolution", "24x12", "--out", str(out)])
+    settings = json.loads((out / "stability" / "section.json").read_text())["settings"]
+    assert settings["resolution"] == "24x12" and settings["spp"] == 4     # quick, not 32
     section = json.loads((out / "stability" / "section.json").read_text())
     assert section["order"] > 20                       # after convergence and the writeup
     images = [b["src"] for b in section["blocks"] if b["kind"] == "image"]
@@ -145,6 +147,12 @@ def test_stability_quick_end_to_end(tmp_path, capsys):
     assert summary["outliers"] and all(v["nonfinite"] == 0
                                        for v in summary["outliers"].values())
     assert "0 non-finite sample weights" in notes
+    # the exponent sweep compares every vr_path strategy the plugin defines
+    table = (out / "stability" / "exponent.csv").read_text()
+    for strategy in M.strategies():
+        assert f",{strategy}," in table
+    if "mis" in M.strategies():
+        assert "relMSE(mis) / min(relMSE(cosine), relMSE(bsdf))" in notes
     closing = [b["text"] for b in section["blocks"] if b["kind"] == "text"][-1]
     assert closing.startswith("Closing note")
     page = (out / "index.html").read_text()
@@ -152,3 +160,13 @@ def test_stability_quick_end_to_end(tmp_path, capsys):
     # the sweep points are plain scene files, loadable by Mitsuba
     for name in os.listdir(out / "stability" / "scenes"):
         ET.parse(out / "stability" / "scenes" / name)
+
+
+def test_sweeps_are_skipped_with_a_sentence_on_a_scene_without_their_parameters(tmp_path):
+    out = tmp_path / "r"
+    stability.main(["--quick", "--scene", "cornell_box", "--sweeps", "exponent,light,halton",
+                    "--out", str(out)])
+    section = json.loads((out / "stability" / "section.json").read_text())
+    texts = " ".join(b["text"] for b in section["blocks"] if b["kind"] == "text")
+    assert "Sweep 'exponent' skipped: the scene has no <default> parameter exponent" in texts
+    assert "Sweep 'light' skipped" in texts and "Halton at max_depth 2" in texts

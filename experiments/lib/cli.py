@@ -79,21 +79,29 @@ def method_list(text: str) -> list[str]:
 
 
 def common_parser(prog: str, description: str, spp: int | None = None,
-                  time_budget: float | None = None) -> Parser:
+                  time_budget: float | None = None, default_resolution: str = "256x128",
+                  methods=M.DEFAULT_METHODS) -> Parser:
     """The options every script takes; ``spp``/``time_budget`` add those options (defaults)."""
     p = Parser(prog=prog, description=description,
                formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     p.add_argument("--scene", default=DEFAULT_SCENE,
-                   help="Mitsuba scene XML (its integrator and sampler are replaced per method)")
-    p.add_argument("--resolution", type=resolution, default="256x128",
+                   help="Mitsuba scene XML (its integrator and sampler are replaced per method), "
+                        f"or a built-in scene: {', '.join(M.BUILTIN_SCENES)} (Mitsuba's "
+                        "mi.cornell_box())")
+    p.add_argument("--resolution", type=resolution, default=default_resolution,
                    metavar="WxH", help="film resolution")
     if spp is not None:
         p.add_argument("--spp", type=positive_int, default=spp,
                        help="samples per pixel of the longest render")
-    p.add_argument("--methods", type=method_list, default=",".join(M.DEFAULT_METHODS),
-                   help="comma-separated methods: strategy[+sampler[:randomization]], "
-                        "strategy uniform|cosine|bsdf, sampler independent|halton "
-                        "(uniform+halton is plain Halton, bsdf+halton scrambled)")
+    p.add_argument("--methods", type=method_list, default=",".join(methods),
+                   help="comma-separated methods: " + M.grammar()
+                        + " (uniform+halton is the writeup's plain Halton)")
+    p.add_argument("--max-depth", type=max_depth, default=None,
+                   help="longest path (-1: unbounded); default: the scene's integrator's, "
+                        "else the integrator's own default")
+    p.add_argument("--rr-depth", type=positive_int, default=None,
+                   help="depth where Russian roulette starts; default: the scene's, else the "
+                        "integrator's own")
     p.add_argument("--variant", default=DEFAULT_VARIANT,
                    help="Mitsuba variant: llvm_* or cuda_* (e.g. cuda_ad_rgb on a GPU)")
     p.add_argument("--seed", type=nonnegative_int, default=0, help="base random seed")
@@ -102,11 +110,33 @@ def common_parser(prog: str, description: str, spp: int | None = None,
         p.add_argument("--time-budget", type=positive_float, default=time_budget, metavar="SECONDS",
                        help="render time per method in the equal-time comparison")
     p.add_argument("--reference-spp", type=positive_int, default=1024,
-                   help="samples per pixel of the reference (NEE + MIS)")
-    p.add_argument("--reference-integrator", choices=M.REFERENCE_INTEGRATORS, default="path",
-                   help="integrator of the reference: Mitsuba's path or vr_path (bsdf), both "
-                        "with emitter sampling")
+                   help="samples per pixel of the reference")
+    p.add_argument("--reference-method", type=one_method, default="path",
+                   help="method of the reference, with next-event estimation: path (Mitsuba's) "
+                        "or e.g. bsdf+nee")
     return p
+
+
+def max_depth(text: str) -> int:
+    return _int_at_least(text, -1)
+
+
+def one_method(text: str) -> str:
+    try:
+        M.parse_method(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+    return text.strip()
+
+
+def explicit_options(parser: Parser, argv) -> set[str]:
+    """Destinations of the options given on the command line (not left at their default)."""
+    given = set()
+    for token in (sys.argv[1:] if argv is None else argv):
+        action = parser._option_string_actions.get(token.split("=", 1)[0])
+        if action is not None:
+            given.add(action.dest)
+    return given
 
 
 def _check_out(out: str) -> str | None:
@@ -143,31 +173,34 @@ def _set_variant(parser: Parser, variant: str) -> None:
 
 
 def parse_args(parser: Parser, argv=None) -> argparse.Namespace:
-    """Parse and validate; set the Mitsuba variant. Adds ``args.info`` and ``args.method_objs``."""
+    """Parse and validate; set the Mitsuba variant.
+
+    Adds ``args.info`` (the scene), ``args.depth`` (its integrator settings
+    with --max-depth/--rr-depth applied), ``args.method_objs`` and
+    ``args.explicit`` (the options given on the command line).
+    """
     args = parser.parse_args(argv)
-    if not os.path.isfile(args.scene):
-        parser.error(f"scene file '{args.scene}' does not exist")
+    args.explicit = explicit_options(parser, argv)
+    builtin = args.scene in M.BUILTIN_SCENES
+    if not builtin and not os.path.isfile(args.scene):
+        parser.error(f"scene file '{args.scene}' does not exist (or use a built-in scene: "
+                     f"{', '.join(M.BUILTIN_SCENES)})")
     problem = _check_out(args.out)
     if problem:
         parser.error(problem)
     _set_variant(parser, args.variant)
+    mi.set_log_level(mi.LogLevel.Error)   # not the samplers' "rounding to N" per render
+    if builtin:
+        args.scene = M.builtin_scene(args.scene, os.path.join(args.out, "cache", "scenes"))
     try:
         args.info = M.read_scene(args.scene)
     except (ValueError, OSError) as e:
         parser.error(str(e))
-    methods = args.methods            # already checked by method_list
-    args.method_objs = [M.parse_method(n) for n in methods]
-    if any(m.is_halton for m in args.method_objs) and not M.plugin_available("halton"):
-        if methods == list(M.DEFAULT_METHODS):
-            args.method_objs = [m for m in args.method_objs if not m.is_halton]
-            print("note: the halton sampler is not installed; running without the halton "
-                  "methods", file=sys.stderr)
-        else:
-            parser.error("the halton sampler plugin is not available in this installation; "
-                         "choose methods without +halton")
+    args.depth = M.effective_depth(args.info, args.max_depth, args.rr_depth)
+    args.method_objs = [M.parse_method(n) for n in args.methods]   # checked by method_list
     width, height = args.resolution
     try:   # the scene must load as every method would load it
-        M.load_method_scene(args.info, args.method_objs[0], width, height)
+        M.load_scene(args.scene, width, height, args.method_objs[0], args.depth)
     except Exception as e:  # noqa: BLE001
         parser.error(f"scene '{args.scene}' does not load: {str(e).strip().splitlines()[-1]}")
     return args

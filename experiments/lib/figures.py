@@ -89,3 +89,48 @@ def zscore_map(path: str, diff: np.ndarray, var: np.ndarray, title: str) -> str:
     ax.set_title(title, fontsize=10)
     fig.colorbar(im, ax=ax, fraction=0.03, label="|z| (max over RGB)")
     return _save(fig, path)
+
+
+def sweep_chart(path: str, xlabel: str, xs: list, series: dict[str, tuple[list, list]],
+                ylabel: str, title: str, reverse_x: bool = False) -> str:
+    """Two log-log panels against the swept parameter: error, and error x render time.
+
+    ``series[label] = (errors, seconds)`` over ``xs``; non-finite points are dropped.
+    """
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    for label, (err, secs) in series.items():
+        e, s = np.asarray(err, float), np.asarray(secs, float)
+        axes[0].loglog(xs, np.where(np.isfinite(e) & (e > 0), e, np.nan), "o-", ms=3,
+                       label=label)
+        axes[1].loglog(xs, np.where(np.isfinite(e * s) & (e > 0), e * s, np.nan), "o-", ms=3,
+                       label=label)
+    for ax, y in zip(axes, (ylabel, f"{ylabel} x render time (s)")):
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(y)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+        if reverse_x:
+            ax.invert_xaxis()
+    axes[0].set_title(f"{title}: error")
+    axes[1].set_title(f"{title}: error x time (lower is more efficient)")
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def line_chart(path: str, panels: list[tuple[str, str, dict[str, tuple[list, list]]]],
+               xlabel: str, logy: tuple[bool, ...]) -> str:
+    """Side-by-side panels ``(title, ylabel, {label: (xs, ys)})`` with linear x."""
+    fig, axes = plt.subplots(1, len(panels), figsize=(5.5 * len(panels), 4), squeeze=False)
+    for ax, (title, ylabel, lines), log in zip(axes[0], panels, logy):
+        for label, (xs, ys) in lines.items():
+            style = "--" if "cosine" in label else ":" if "uniform" in label else "-"
+            ax.plot(xs, ys, style, marker="o", ms=3, label=label)
+        if log:
+            ax.set_yscale("log")
+        ax.set_title(title)
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(ylabel)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    return _save(fig, path)

@@ -1,19 +1,30 @@
-"""Methods (direction-sampling strategy + sampler) and scene loading for any Mitsuba scene.
+"""The method grammar, the integrator/sampler dicts, and the one way to load and vary a scene.
 
-A method name is ``strategy[+sampler[:randomization]]``, e.g. ``cosine``,
-``bsdf+halton`` or ``bsdf+halton:owen``. Two names are fixed by the writeup:
-``uniform+halton`` is plain (unrandomized) Halton, and ``bsdf+halton`` is
-Halton with the sampler's default scrambling.
+Method names (one definition of every part, read from the plugins)::
 
-Scenes are loaded through :func:`load_scene`: the XML is read, the sensor's
-``<sampler>`` is replaced by the method's sampler, the ``<integrator>`` by
-``vr_path`` with the method's strategy (or the reference integrator), and the
-film's size by the requested resolution. A user's own scene therefore needs no
-``$strategy``-style parameters.
+    STRATEGY[+nee][+SAMPLER[:RANDOMIZATION]]      vr_path, e.g. cosine, bsdf+nee+orthogonal
+    path[+SAMPLER[:RANDOMIZATION]]                Mitsuba's C++ path (always NEE + MIS)
+
+STRATEGY is any ``vr_path`` strategy (:func:`strategies`, from
+:mod:`integrators.path`), ``+nee`` turns on emitter sampling (next-event
+estimation + MIS), SAMPLER is one of :data:`SAMPLERS` (default
+``independent``) and RANDOMIZATION one of :data:`RANDOMIZATIONS` (``halton``
+only; from :mod:`integrators.qmc`). One name is fixed by the writeup:
+``uniform+halton`` is its plain (unrandomized) Halton; any other ``+halton``
+without a randomization uses the sampler's default scrambling.
+
+Scenes: :func:`read_scene` reads a scene file (film size, and the integrator
+settings the experiments keep: max_depth, rr_depth, hide_emitters);
+:func:`scene_xml` writes the scene with the method's integrator, sampler and
+the requested resolution; :func:`scene_variant` writes a copy with some
+``<default>`` parameters changed (the only way the experiments vary a scene).
+``--scene cornell_box`` is Mitsuba's ``mi.cornell_box()``, written as XML by
+:func:`builtin_scene`.
 """
 from __future__ import annotations
 
 import copy
+import dataclasses
 import hashlib
 import os
 import xml.etree.ElementTree as ET
@@ -21,87 +32,155 @@ from dataclasses import dataclass
 
 import mitsuba as mi
 
-STRATEGIES = ("uniform", "cosine", "bsdf")
-SAMPLERS = ("independent", "halton")
-DEFAULT_METHODS = ("uniform", "cosine", "bsdf", "uniform+halton", "bsdf+halton")
-DEFAULT_MAX_DEPTH = 8
-#: Reference integrators: Mitsuba's ``path`` or ``vr_path`` (bsdf), both with
-#: next-event estimation + MIS, which converge much faster than the methods.
-REFERENCE_INTEGRATORS = ("path", "vr_path")
+from integrators.qmc import RANDOMIZATIONS
+
+#: Variant set when a strategy list is needed before the scripts set theirs.
+DEFAULT_VARIANT = "llvm_ad_rgb"
+
+
+def strategies() -> tuple[str, ...]:
+    """The ``vr_path`` strategies: ``integrators.path.STRATEGIES``, the one definition.
+
+    That module defines a Mitsuba plugin class, so it needs a variant; if none
+    is set yet, :data:`DEFAULT_VARIANT` is set (a script sets its own later).
+    """
+    if mi.variant() is None:
+        mi.set_variant(DEFAULT_VARIANT)
+    from integrators import path
+    return tuple(path.STRATEGIES)
+
+
+#: Samplers a method may use: Mitsuba's own and the bundled ``halton``.
+NATIVE_SAMPLERS = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler")
+SAMPLERS = NATIVE_SAMPLERS + ("halton",)
+#: Mitsuba's C++ path tracer as a method (NEE + MIS): ``path[+SAMPLER]``.
+PATH = "path"
+#: The writeup's methods (no NEE), then what a user would run instead.
+DEFAULT_METHODS = ("uniform", "cosine", "bsdf", "uniform+halton", "bsdf+halton", "bsdf+nee",
+                   "path")
+#: Names whose meaning is fixed rather than parsed.
+PLAIN_HALTON = "uniform+halton"
+#: Scene names that ``--scene`` accepts besides files.
+BUILTIN_SCENES = ("cornell_box",)
 
 
 @dataclass(frozen=True)
 class Method:
-    """One compared method: a ``vr_path`` strategy and a sampler with its parameters."""
+    """One compared method: integrator (``vr_path`` strategy or ``path``), NEE, sampler."""
     name: str
-    strategy: str
+    strategy: str | None            # None for Mitsuba's path
+    nee: bool = False
     sampler: str = "independent"
-    sampler_params: tuple = ()   # ((name, value), ...), string values
+    randomization: str | None = None   # halton only; None = the sampler's default
+
+    @property
+    def integrator(self) -> str:
+        return PATH if self.strategy is None else "vr_path"
 
     @property
     def is_halton(self) -> bool:
         return self.sampler == "halton"
 
+    @property
+    def continues_sequence(self) -> bool:
+        """Passes continue one sequence (seed kept, sample offset advanced): ``halton``."""
+        return self.is_halton
+
+    @property
+    def deterministic(self) -> bool:
+        """The same points in every pixel and every run: plain Halton."""
+        return self.is_halton and self.randomization == "none"
+
     def settings(self) -> dict:
-        return {"name": self.name, "strategy": self.strategy, "sampler": self.sampler,
-                "sampler_params": dict(self.sampler_params)}
+        return dataclasses.asdict(self)
 
 
-#: Names whose meaning is fixed rather than parsed.
-NAMED = {"uniform+halton": Method("uniform+halton", "uniform", "halton",
-                                  (("randomization", "none"),))}
-
-
-def halton_randomizations() -> tuple[str, ...] | None:
-    """Randomizations the ``halton`` sampler documents, or None if it does not say."""
-    import importlib
-    for module in ("integrators.halton", "integrators.qmc"):
-        try:
-            values = getattr(importlib.import_module(module), "RANDOMIZATIONS", None)
-        except ImportError:
-            continue
-        if values is not None:
-            return tuple(values)
-    return None
+def grammar() -> str:
+    """The valid parts, for error messages and --help."""
+    return (f"STRATEGY[+nee][+SAMPLER[:RANDOMIZATION]] or path[+SAMPLER[:RANDOMIZATION]]; "
+            f"STRATEGY {'|'.join(strategies())}, SAMPLER {'|'.join(SAMPLERS)}, RANDOMIZATION "
+            f"(halton only) {'|'.join(RANDOMIZATIONS)}")
 
 
 def parse_method(name: str) -> Method:
     """The :class:`Method` called ``name``; ValueError with one clear line otherwise."""
     name = name.strip()
-    if name in NAMED:
-        return NAMED[name]
-    strategy, _, rest = name.partition("+")
-    sampler, _, randomization = rest.partition(":")
-    sampler = sampler or "independent"
-    if strategy not in STRATEGIES:
-        raise ValueError(f"unknown method '{name}': strategy '{strategy}' is not one of "
-                         f"{', '.join(STRATEGIES)} (methods look like "
-                         f"{', '.join(DEFAULT_METHODS)}, or e.g. bsdf+halton:owen)")
-    if sampler not in SAMPLERS:
-        raise ValueError(f"unknown method '{name}': sampler '{sampler}' is not one of "
-                         f"{', '.join(SAMPLERS)}")
-    params = ()
-    if randomization:
-        if sampler != "halton":
-            raise ValueError(f"unknown method '{name}': only halton takes a randomization")
-        valid = halton_randomizations()
-        if valid is not None and randomization not in valid:
-            raise ValueError(f"unknown method '{name}': randomization '{randomization}' is "
-                             f"not one of {', '.join(valid)}")
-        params = (("randomization", randomization),)
-    return Method(name, strategy, sampler, params)
+
+    def bad(why: str) -> ValueError:
+        return ValueError(f"unknown method '{name}': {why} (methods look like {grammar()})")
+
+    if name == PLAIN_HALTON:
+        return Method(name, "uniform", False, "halton", "none")
+    parts = name.split("+")
+    head, rest = parts[0], parts[1:]
+    if head != PATH and head not in strategies():
+        raise bad(f"strategy '{head}' is not one of {', '.join(strategies())} or {PATH}")
+    nee = head == PATH
+    if rest and rest[0] == "nee":
+        if head == PATH:
+            raise bad("path always uses next-event estimation, '+nee' is not needed")
+        nee, rest = True, rest[1:]
+    sampler, randomization = "independent", None
+    if rest:
+        if len(rest) > 1:
+            raise bad(f"too many parts after '{parts[0]}'")
+        sampler, colon, randomization = rest[0].partition(":")
+        randomization = randomization if colon else None
+        if sampler not in SAMPLERS:
+            raise bad(f"sampler '{sampler}' is not one of {', '.join(SAMPLERS)}")
+        if colon and sampler != "halton":
+            raise bad(f"only halton takes a randomization, not {sampler}")
+        if colon and randomization not in RANDOMIZATIONS:
+            raise bad(f"randomization '{randomization}' is not one of "
+                      f"{', '.join(RANDOMIZATIONS)}")
+    return Method(name, None if head == PATH else head, nee, sampler, randomization)
 
 
-def plugin_available(plugin_type: str) -> bool:
-    """True if a sampler plugin of this type can be instantiated in the current variant."""
-    try:
-        mi.load_dict({"type": plugin_type})
-        return True
-    except Exception:  # noqa: BLE001  (Mitsuba raises RuntimeError for unknown plugins)
-        return False
+# ------------------------------------------------------------ plugin dicts
+
+def vr_path_dict(strategy: str = "bsdf", emitter_sampling: bool = False,
+                 max_depth: int | None = None, rr_depth: int | None = None,
+                 hide_emitters: bool | None = None) -> dict:
+    """The ``vr_path`` plugin dict (settings left None keep the plugin's defaults)."""
+    d = {"type": "vr_path", "strategy": strategy, "emitter_sampling": emitter_sampling}
+    for key, value in (("max_depth", max_depth), ("rr_depth", rr_depth),
+                       ("hide_emitters", hide_emitters)):
+        if value is not None:
+            d[key] = value
+    return d
 
 
-# ------------------------------------------------------------ scene XML
+@dataclass(frozen=True)
+class Depth:
+    """Path-length settings of a render (None: the integrator's own default)."""
+    max_depth: int | None = None
+    rr_depth: int | None = None
+    hide_emitters: bool | None = None
+
+    def describe(self) -> str:
+        return ", ".join(f"{k} {'plugin default' if v is None else v}"
+                         for k, v in dataclasses.asdict(self).items())
+
+
+def integrator_dict(method: Method, depth: Depth = Depth()) -> dict:
+    if method.integrator == PATH:
+        d = {"type": "path"}
+        for key, value in dataclasses.asdict(depth).items():
+            if value is not None:
+                d[key] = value
+        return d
+    return vr_path_dict(method.strategy, method.nee, depth.max_depth, depth.rr_depth,
+                        depth.hide_emitters)
+
+
+def sampler_dict(method: Method, spp: int = 1) -> dict:
+    d = {"type": method.sampler, "sample_count": spp}
+    if method.randomization is not None:
+        d["randomization"] = method.randomization
+    return d
+
+
+# ------------------------------------------------------------ scene files
 
 def file_hash(path: str) -> str:
     with open(path, "rb") as f:
@@ -111,8 +190,8 @@ def file_hash(path: str) -> str:
 def plugins_version() -> str:
     """Hash of the plugin sources (``integrators/*.py``) and Mitsuba's version.
 
-    Part of every render's settings, so renders and references made with other
-    plugin code are made again rather than reused.
+    Part of every render job's key, so renders made with other plugin code are
+    made again rather than reused.
     """
     import integrators
     digest = hashlib.sha256(mi.__version__.encode())
@@ -134,9 +213,9 @@ def _resolve(value: str | None, defaults: dict[str, str]) -> str | None:
     return value
 
 
-def _child(parent: ET.Element, tag: str, name: str) -> ET.Element | None:
-    for el in parent.findall(tag):
-        if el.get("name") == name:
+def _child(parent: ET.Element, tags, name: str) -> ET.Element | None:
+    for el in parent:
+        if el.tag in tags and el.get("name") == name:
             return el
     return None
 
@@ -147,12 +226,12 @@ class SceneInfo:
     path: str
     width: int
     height: int
-    max_depth: int
+    depth: Depth          # the scene's own integrator settings (None where it has none)
     sha256: str
 
 
 def read_scene(path: str) -> SceneInfo:
-    """Parse a scene file: film size and the integrator's max_depth (ValueError if unusable)."""
+    """Parse a scene file: film size and integrator settings (ValueError if unusable)."""
     try:
         root = ET.parse(path).getroot()
     except ET.ParseError as e:
@@ -164,58 +243,72 @@ def read_scene(path: str) -> SceneInfo:
     if film is None:
         raise ValueError(f"scene '{path}' has no <sensor> with a <film>")
 
-    def film_int(name, default):
-        el = _child(film, "integer", name)
-        return int(_resolve(el.get("value"), defaults)) if el is not None else default
+    def value(parent, tag, name, convert, default=None):
+        el = _child(parent, (tag,), name) if parent is not None else None
+        if el is None:
+            return default
+        text = _resolve(el.get("value"), defaults)
+        try:
+            return convert(text)
+        except (TypeError, ValueError):
+            raise ValueError(f"scene '{path}': {tag} '{name}' = '{text}' is not a valid "
+                             f"{tag}") from None
 
-    max_depth = DEFAULT_MAX_DEPTH
+    def boolean(text):
+        if text.lower() not in ("true", "false"):
+            raise ValueError(text)
+        return text.lower() == "true"
+
     integrator = root.find("integrator")
-    if integrator is not None:
-        el = _child(integrator, "integer", "max_depth")
-        if el is not None:
-            max_depth = int(_resolve(el.get("value"), defaults))
-    return SceneInfo(os.path.abspath(path), film_int("width", 768), film_int("height", 576),
-                     max_depth, file_hash(path))
+    depth = Depth(value(integrator, "integer", "max_depth", int),
+                  value(integrator, "integer", "rr_depth", int),
+                  value(integrator, "boolean", "hide_emitters", boolean))
+    return SceneInfo(os.path.abspath(path), value(film, "integer", "width", int, 768),
+                     value(film, "integer", "height", int, 576), depth, file_hash(path))
 
 
-def _set_int(parent: ET.Element, name: str, value: int) -> None:
-    el = _child(parent, "integer", name)
+def _set(parent: ET.Element, tag: str, name: str, value) -> None:
+    el = _child(parent, (tag,), name)
     if el is None:
-        el = ET.SubElement(parent, "integer", name=name)
-    el.set("value", str(value))
+        el = ET.SubElement(parent, tag, name=name)
+    el.set("value", _xml_value(value))
 
 
-def scene_xml(path: str, width: int, height: int, integrator: dict,
-              sampler: str = "independent", sampler_params: tuple = ()) -> str:
+def _xml_value(value) -> str:
+    if isinstance(value, bool):
+        return str(value).lower()
+    return repr(float(value)) if isinstance(value, float) else str(value)
+
+
+def _tag(value) -> str:
+    return ("boolean" if isinstance(value, bool) else "integer" if isinstance(value, int)
+            else "float" if isinstance(value, float) else "string")
+
+
+def scene_xml(path: str, width: int, height: int, integrator: dict, sampler: dict) -> str:
     """The scene's XML with its integrator, sampler and film size replaced.
 
-    ``integrator`` is a dict of properties with a ``type`` entry; ints, bools and
-    strings become the matching XML elements.
+    ``integrator``/``sampler`` are flat plugin dicts with a ``type`` entry.
     """
     root = copy.deepcopy(ET.parse(path).getroot())
     for old in root.findall("integrator"):
         root.remove(old)
     node = ET.Element("integrator", type=integrator["type"])
     for key, value in integrator.items():
-        if key == "type":
-            continue
-        tag = ("boolean" if isinstance(value, bool) else "integer" if isinstance(value, int)
-               else "string")
-        ET.SubElement(node, tag, name=key,
-                      value=str(value).lower() if isinstance(value, bool) else str(value))
+        if key != "type":
+            ET.SubElement(node, _tag(value), name=key, value=_xml_value(value))
     root.insert(0, node)
 
     sensor = root.find("sensor")
     for old in sensor.findall("sampler"):
         sensor.remove(old)
-    node = ET.SubElement(sensor, "sampler", type=sampler)
-    ET.SubElement(node, "integer", name="sample_count", value="1")
-    for key, value in sampler_params:
-        ET.SubElement(node, "string", name=key, value=str(value))
-
+    node = ET.SubElement(sensor, "sampler", type=sampler["type"])
+    for key, value in sampler.items():
+        if key != "type":
+            ET.SubElement(node, _tag(value), name=key, value=_xml_value(value))
     film = sensor.find("film")
-    _set_int(film, "width", width)
-    _set_int(film, "height", height)
+    _set(film, "integer", "width", width)
+    _set(film, "integer", "height", height)
     return ET.tostring(root, encoding="unicode")
 
 
@@ -230,26 +323,109 @@ def _add_scene_dir(path: str) -> None:
         _resolver_dirs.add(directory)
 
 
-def method_integrator(method: Method, max_depth: int) -> dict:
-    return {"type": "vr_path", "strategy": method.strategy, "max_depth": max_depth,
-            "emitter_sampling": False}
+def load_scene(path: str, width: int, height: int, method: Method, depth: Depth = Depth(),
+               spp: int = 1):
+    """Load the scene file with ``method``'s integrator and sampler at ``width`` x ``height``."""
+    _add_scene_dir(path)
+    return mi.load_string(scene_xml(path, width, height, integrator_dict(method, depth),
+                                    sampler_dict(method, spp)))
 
 
-def reference_integrator(kind: str, max_depth: int) -> dict:
-    if kind == "path":
-        return {"type": "path", "max_depth": max_depth}
-    return {"type": "vr_path", "strategy": "bsdf", "max_depth": max_depth,
-            "emitter_sampling": True}
+def effective_depth(info: SceneInfo, max_depth: int | None = None,
+                    rr_depth: int | None = None, hide_emitters: bool | None = None) -> Depth:
+    """The scene's own settings, each replaced where the command line gives one."""
+    d = info.depth
+    return Depth(d.max_depth if max_depth is None else max_depth,
+                 d.rr_depth if rr_depth is None else rr_depth,
+                 d.hide_emitters if hide_emitters is None else hide_emitters)
 
 
-def load_scene(info: SceneInfo, width: int, height: int, integrator: dict,
-               sampler: str = "independent", sampler_params: tuple = ()):
-    """Load ``info``'s scene with the given integrator, sampler and resolution."""
+# ------------------------------------------------------------ scene variants
+
+def scene_defaults(path: str) -> dict[str, str]:
+    """The ``<default name=... value=...>`` parameters of a scene file."""
+    return _defaults(ET.parse(path).getroot())
+
+
+def scene_variant(info: SceneInfo, directory: str, name: str,
+                  overrides: dict[str, object]) -> SceneInfo:
+    """``info``'s scene with some ``<default>`` values replaced, written to ``directory/name.xml``.
+
+    KeyError if the scene does not declare one of the parameters. Relative
+    paths inside the scene keep resolving against the original file's folder.
+    """
+    from . import store
+    root = copy.deepcopy(ET.parse(info.path).getroot())
+    found = set()
+    for d in root.iter("default"):
+        if d.get("name") in overrides:
+            d.set("value", _xml_value(overrides[d.get("name")]))
+            found.add(d.get("name"))
+    missing = set(overrides) - found
+    if missing:
+        raise KeyError(", ".join(sorted(missing)))
+    path = os.path.join(directory, name + ".xml")
+    text = ET.tostring(root, encoding="unicode")
+    if store.read_text(path) != text:
+        store.write_text(path, text)
     _add_scene_dir(info.path)
-    return mi.load_string(scene_xml(info.path, width, height, integrator, sampler,
-                                    sampler_params))
+    return read_scene(path)
 
 
-def load_method_scene(info: SceneInfo, method: Method, width: int, height: int):
-    return load_scene(info, width, height, method_integrator(method, info.max_depth),
-                      method.sampler, method.sampler_params)
+# ------------------------------------------------------------ built-in scenes
+
+_CATEGORIES = {"BSDF": "bsdf", "Shape": "shape", "Emitter": "emitter", "Sensor": "sensor",
+               "Sampler": "sampler", "Film": "film", "ReconstructionFilter": "rfilter",
+               "Integrator": "integrator", "Texture": "texture", "Medium": "medium",
+               "PhaseFunction": "phase"}
+
+
+def _dict_to_xml(parent: ET.Element, name: str | None, value) -> None:
+    """One entry of a Mitsuba scene dict as XML (the subset ``mi.cornell_box()`` uses)."""
+    attrs = {"name": name} if name else {}
+    if isinstance(value, dict):
+        kind = value["type"]
+        if kind == "ref":
+            ET.SubElement(parent, "ref", id=value["id"], **attrs)
+        elif kind == "rgb":
+            ET.SubElement(parent, "rgb", value=", ".join(map(str, value["value"])), **attrs)
+        else:
+            category = mi.PluginManager.instance().plugin_type(kind).name
+            node = ET.SubElement(parent, _CATEGORIES.get(category, category.lower()),
+                                 type=kind)
+            if name and parent.tag == "scene":
+                node.set("id", name)
+            for key, item in value.items():
+                if key != "type":
+                    _dict_to_xml(node, key, item)
+    elif isinstance(value, (mi.ScalarTransform4f, mi.Transform4f)):
+        node = ET.SubElement(parent, "transform", **attrs)
+        matrix = mi.ScalarTransform4f(value).matrix
+        ET.SubElement(node, "matrix", value=" ".join(
+            repr(float(matrix[i][j])) for i in range(4) for j in range(4)))
+    elif isinstance(value, (list, tuple)) and len(value) == 3:
+        ET.SubElement(parent, "vector", x=str(value[0]), y=str(value[1]), z=str(value[2]),
+                      **attrs)
+    else:
+        ET.SubElement(parent, _tag(value), value=_xml_value(value), **attrs)
+
+
+def builtin_scene(name: str, directory: str) -> str:
+    """Write the built-in scene ``name`` (``cornell_box``) as XML into ``directory``."""
+    if name not in BUILTIN_SCENES:
+        raise ValueError(f"unknown built-in scene '{name}': choose {', '.join(BUILTIN_SCENES)}")
+    scene = getattr(mi, name)()
+    root = ET.Element("scene", version="3.0.0")
+    # referenced BSDFs first, then everything else (Mitsuba resolves ids in order)
+    items = sorted((k, v) for k, v in scene.items() if k != "type")
+    items.sort(key=lambda kv: 0 if isinstance(kv[1], dict) and
+               mi.PluginManager.instance().plugin_type(kv[1]["type"]).name == "BSDF" else 1)
+    for key, value in items:
+        _dict_to_xml(root, key, value)
+    ET.indent(root)
+    from . import store
+    path = os.path.join(directory, f"{name}.xml")
+    text = ET.tostring(root, encoding="unicode") + "\n"
+    if store.read_text(path) != text:
+        store.write_text(path, text)
+    return path

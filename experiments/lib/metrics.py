@@ -1,4 +1,4 @@
-"""Error metrics, convergence slopes, Veach efficiency and the bias checks.
+"""Error metrics, convergence slopes, Veach efficiency, bias checks, outliers.
 
 All functions take linear (H, W, 3) images; the reference is the
 high-sample-count image the error is measured against.
@@ -24,10 +24,14 @@ def rmse(image: np.ndarray, reference: np.ndarray) -> float:
     return math.sqrt(mse(image, reference))
 
 
-def relmse(image: np.ndarray, reference: np.ndarray, eps: float = RELMSE_EPS) -> float:
-    """Relative MSE: mean of (x - ref)^2 / (ref^2 + eps)."""
+def relmse(image: np.ndarray, reference: np.ndarray, mask: np.ndarray | None = None,
+           eps: float = RELMSE_EPS) -> float:
+    """Relative MSE: mean of (x - ref)^2 / (ref^2 + eps), over the (H, W) ``mask`` if given."""
     ref = np.asarray(reference, np.float64)
-    return float(np.mean(np.square(np.asarray(image, np.float64) - ref) / (ref * ref + eps)))
+    err = np.square(np.asarray(image, np.float64) - ref) / (ref * ref + eps)
+    if mask is not None:
+        err = err[mask]
+    return float(np.mean(err)) if err.size else float("nan")
 
 
 METRICS = {"mse": mse, "relmse": relmse, "rmse": rmse}
@@ -83,3 +87,82 @@ def bias_check(mean_a, var_a, mean_b, var_b, z: float = Z99) -> dict:
         "pass_fraction_per_channel": passed.reshape(n, -1).mean(axis=0).tolist(),
         "z": z,
     }
+
+
+def deterministic_check(spps, images, reference, ref_var) -> dict:
+    """Does a deterministic estimator (plain Halton) converge to the reference?
+
+    Plain Halton uses the same points in every pixel and every run, so its
+    passes are not independent and the spread of 1-spp passes says nothing
+    about its error: a z-test does not apply. What does apply to a
+    deterministic sequence is convergence: its error against the (random,
+    unbiased) reference must fall as the sample count grows. Returns, at
+    each sample count, MSE and the per-channel image-mean difference, the
+    fitted slope of MSE against spp, and ``converges``: the MSE at the
+    largest count is below the MSE at the smallest and the slope is negative.
+    ``floor`` is the reference's own expected MSE (from ``ref_var``), under
+    which no error can be resolved.
+    """
+    mses = [mse(im, reference) for im in images]
+    diffs = [(np.asarray(im, np.float64) - reference).reshape(-1, 3).mean(axis=0).tolist()
+             for im in images]
+    slope = loglog_slope(spps, mses)
+    return {"spp": list(spps), "mse": mses, "mean_diff": diffs, "slope": slope,
+            "floor": float(np.mean(ref_var)),
+            "converges": bool(mses[-1] < mses[0] and slope < 0)}
+
+
+# ---------------------------------------------------------------- outliers
+
+#: A firefly is a pixel whose error exceeds the median error by this many MADs.
+FIREFLY_MADS = 10.0
+
+
+def luminance(image: np.ndarray) -> np.ndarray:
+    return image[..., 0] * 0.2126 + image[..., 1] * 0.7152 + image[..., 2] * 0.0722
+
+
+def outliers(image: np.ndarray, reference: np.ndarray) -> dict:
+    """Largest pixel value, fireflies and non-finite pixels of one image.
+
+    A firefly is a pixel whose luminance error (image - reference) exceeds the
+    median error by :data:`FIREFLY_MADS` median absolute deviations (a robust
+    threshold that bright but correct features such as highlights do not
+    cross). A non-finite pixel had at least one NaN/Inf sample (one is enough to
+    make the pixel mean non-finite), so 0 means none reached the film.
+    """
+    finite = np.isfinite(image).all(axis=-1)
+    err = luminance(np.where(np.isfinite(image), image, 0.0)) - luminance(reference)
+    med = float(np.median(err[finite])) if finite.any() else 0.0
+    mad = float(np.median(np.abs(err[finite] - med))) if finite.any() else 0.0
+    threshold = med + FIREFLY_MADS * mad
+    return {"max": float(np.max(np.where(np.isfinite(image), image, -np.inf))),
+            "fireflies": int(np.count_nonzero(finite & (err > threshold) & (mad > 0))),
+            "nonfinite": int(np.count_nonzero(~finite)), "threshold": threshold}
+
+
+def neighbour_correlation(image: np.ndarray, reference: np.ndarray) -> float:
+    """Pearson correlation of the luminance errors of horizontally adjacent pixels.
+
+    About 0 for independent per-pixel estimates; near 1 when every pixel uses
+    the same sample points (structured error).
+    """
+    err = luminance(image) - luminance(reference)
+    a, b = err[:, :-1].ravel(), err[:, 1:].ravel()
+    if a.std() == 0 or b.std() == 0:
+        return float("nan")
+    return float(np.corrcoef(a, b)[0, 1])
+
+
+# ------------------------------------------------------------ breakdown points
+
+def first_where(xs, condition) -> object | None:
+    """The first x (in the given order) whose condition holds, or None."""
+    for x, c in zip(xs, condition):
+        if c:
+            return x
+    return None
+
+
+def ratio(a: float, b: float) -> float:
+    return a / b if b > 0 else float("inf")

@@ -1,8 +1,13 @@
-"""Files: atomic writes, EXR/PNG/JSON/CSV/markdown I/O and tone mapping.
+"""Files and the resumable job store: atomic writes, EXR/PNG/JSON/CSV I/O, tone mapping.
 
 Every file is written to a temporary name in its own directory and then moved
 over the final name with :func:`os.replace`, so an interrupted run (Ctrl-C,
 kill) never leaves a half-written file behind.
+
+:class:`JobStore` keeps one entry per finished render job
+(``<root>/<job key>.npz``: the image, the per-pixel sum of squares of its
+passes, the job and the result's metadata). A job whose entry exists is
+finished; :func:`experiments.lib.execute.execute` skips it.
 """
 from __future__ import annotations
 
@@ -36,6 +41,15 @@ def write_bytes(path: str, data: bytes) -> None:
 
 def write_text(path: str, text: str) -> None:
     write_bytes(path, text.encode("utf-8"))
+
+
+def read_text(path: str) -> str | None:
+    """The text in ``path``, or None when it is missing or unreadable."""
+    try:
+        with open(path, encoding="utf-8") as f:
+            return f.read()
+    except (OSError, UnicodeDecodeError):
+        return None
 
 
 def write_json(path: str, obj) -> None:
@@ -119,3 +133,37 @@ def write_image(stem: str, image: np.ndarray) -> tuple[str, str]:
     write_exr(stem + ".exr", image)
     write_png(stem + ".png", image)
     return stem + ".exr", stem + ".png"
+
+
+# --------------------------------------------------------------- job store
+
+class JobStore:
+    """One atomically written ``.npz`` entry per finished job, named by the job's key."""
+
+    def __init__(self, root: str):
+        self.root = root
+
+    def path(self, key: str) -> str:
+        return os.path.join(self.root, key + ".npz")
+
+    def has(self, key: str) -> bool:
+        return os.path.exists(self.path(key))
+
+    def put(self, job, result) -> None:
+        """Store ``result`` (a :class:`~.execute.JobResult`) of ``job`` (a :class:`~.plan.Job`)."""
+        import dataclasses
+        meta = {"job": dataclasses.asdict(job), "result": result.metadata()}
+        arrays = {"image": np.asarray(result.image, np.float32),
+                  "meta": np.array(json.dumps(meta))}
+        if result.sq is not None:
+            arrays["sq"] = np.asarray(result.sq, np.float64)
+        write_npz(self.path(job.key), **arrays)
+
+    def get(self, key: str):
+        """The :class:`~.execute.JobResult` stored under ``key`` (KeyError if there is none)."""
+        from .execute import JobResult
+        data = read_npz(self.path(key))
+        if data is None:
+            raise KeyError(f"no finished job '{key}' in {self.root}")
+        meta = json.loads(str(data["meta"]))["result"]
+        return JobResult(image=data["image"], sq=data.get("sq"), **meta)

@@ -1,0 +1,187 @@
+"""Run a plan: render jobs, store each result as it arrives.
+
+* :func:`run_job` renders one :class:`~.plan.Job` and returns a
+  :class:`JobResult` (plain data: the image as a float32 numpy array, the
+  per-pixel sum of squares of its passes, render seconds, host and CPU). It
+  is a module-level function that works in a fresh process (a cluster
+  worker): it imports the plugins, sets the variant if another one is set,
+  loads the scene (cached per process), renders one untimed warm-up pass
+  (JIT compilation) the first time, then times every pass with ``dr.eval``
+  + ``dr.sync_thread``.
+* :class:`LocalExecutor` runs jobs one after the other in this process;
+  ``map_unordered(jobs)`` yields ``(job, result)`` pairs. Another executor
+  (e.g. Dask workers) only has to provide the same method.
+* :func:`execute` skips jobs whose entry is already in the store, and writes
+  each finished job to the store (atomically) as soon as it arrives, so an
+  interrupted run loses no finished job and a rerun resumes.
+
+``JobResult.spp`` is the number of samples actually rendered: Mitsuba's
+``stratified``, ``multijitter``, ``orthogonal`` and ``ldsampler`` round a
+requested count up to one they support (orthogonal 16 -> 25), and the
+analysis uses what was rendered.
+
+Seeds and sample offsets come from the plan, never from the process that
+runs a job. Passes inside a job: independent samplers get seed
+``derive_seed(job.seed, pass)``; samplers that continue a sequence
+(``halton``) keep ``job.seed`` and start pass ``i`` at ``job.sample_offset``
++ the samples of the passes before it.
+"""
+from __future__ import annotations
+
+import os
+import platform
+import socket
+import time
+from collections import OrderedDict
+from dataclasses import dataclass, field
+from typing import Iterable, Iterator
+
+import numpy as np
+
+from .plan import Job, derive_seed
+
+#: Scenes kept loaded per process (each keeps its compiled kernels warm).
+SCENE_CACHE = 8
+
+
+@dataclass
+class JobResult:
+    """What a job produced: plain data, picklable."""
+    image: np.ndarray            # (H, W, 3) float32, mean of the job's samples
+    sq: np.ndarray | None        # (H, W, 3) sum over passes of k_i * m_i^2 (float64)
+    spp: int
+    passes: int
+    seconds: float               # warm render time, summed over passes
+    pass_seconds: list = field(default_factory=list)
+    host: str = ""
+    cpu: str = ""
+
+    def metadata(self) -> dict:
+        return {"spp": self.spp, "passes": self.passes, "seconds": self.seconds,
+                "pass_seconds": list(self.pass_seconds), "host": self.host, "cpu": self.cpu}
+
+
+_scenes: OrderedDict = OrderedDict()
+
+
+def _cpu_model() -> str:
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def _scene(job: Job, variant: str):
+    """The loaded, warmed-up scene of ``job`` (cached per process)."""
+    from .methods import load_scene
+    key = (variant, job.scene, job.scene_sha256, job.method, job.width, job.height, job.depth)
+    if key in _scenes:
+        _scenes.move_to_end(key)
+        return _scenes[key]
+    scene = load_scene(job.scene, job.width, job.height, job.method_obj(), job.depth)
+    _render(scene, job.method_obj().continues_sequence, 1, 0x5EED, 0)   # warm-up: compile
+    _scenes[key] = scene
+    while len(_scenes) > SCENE_CACHE:
+        _scenes.popitem(last=False)
+    return scene
+
+
+def set_sample_offset(scene, offset: int) -> None:
+    """Make the sensor's Halton sampler start at sample index ``offset`` (no recompilation)."""
+    sampler = scene.sensors()[0].sampler()
+    if hasattr(sampler, "sample_offset"):
+        sampler.sample_offset = offset
+        return
+    import mitsuba as mi
+    params = mi.traverse(scene)
+    key = next(k for k in params.keys() if k.endswith("sampler.sample_offset"))
+    params[key] = mi.UInt32(offset)
+    params.update()
+
+
+def _render(scene, continues: bool, spp: int, seed: int, offset: int):
+    import drjit as dr
+    import mitsuba as mi
+    if continues:
+        set_sample_offset(scene, offset)
+    start = time.perf_counter()
+    image = mi.render(scene, spp=spp, seed=seed)
+    dr.eval(image)
+    dr.sync_thread()
+    seconds = time.perf_counter() - start
+    return np.array(image, dtype=np.float64)[..., :3], seconds
+
+
+def run_job(job: Job, variant: str) -> JobResult:
+    """Render ``job`` in this process with the Mitsuba ``variant``."""
+    import integrators  # noqa: F401  (chooses libLLVM before drjit loads; registers plugins)
+    import mitsuba as mi
+    if mi.variant() != variant:
+        mi.set_variant(variant)
+    scene = _scene(job, variant)
+    continues = job.method_obj().continues_sequence
+    mean = np.zeros((job.height, job.width, 3))
+    sq = np.zeros_like(mean)
+    done, times = 0, []
+    for i, k in enumerate(job.passes()):
+        seed = job.seed if continues else derive_seed(job.seed, i)
+        image, seconds = _render(scene, continues, k, seed, job.sample_offset + done)
+        # Mitsuba's stratified, orthogonal and ldsampler round the count (e.g.
+        # orthogonal: 16 -> 25, a prime squared): count what was rendered
+        k = scene.sensors()[0].sampler().sample_count()
+        mean += image * k
+        sq += k * image * image
+        done += k
+        times.append(seconds)
+    return JobResult(image=(mean / done).astype(np.float32), sq=sq, spp=done,
+                     passes=len(times), seconds=float(sum(times)), pass_seconds=times,
+                     host=socket.gethostname(), cpu=f"{_cpu_model()} ({os.cpu_count()} cores)")
+
+
+class LocalExecutor:
+    """Runs jobs one after another in this process (the default)."""
+
+    def __init__(self, variant: str):
+        self.variant = variant
+
+    def map_unordered(self, jobs: list[Job]) -> Iterator[tuple[Job, JobResult]]:
+        for job in jobs:
+            yield job, run_job(job, self.variant)
+
+
+def pending(jobs: Iterable[Job], store) -> list[Job]:
+    """The jobs (first of each key) that have no entry in ``store`` yet."""
+    seen, todo = set(), []
+    for job in jobs:
+        if job.key not in seen and not store.has(job.key):
+            todo.append(job)
+        seen.add(job.key)
+    return todo
+
+
+def execute(jobs: Iterable[Job], store, executor=None, progress: bool | str = True,
+            variant: str | None = None) -> int:
+    """Run the jobs that ``store`` lacks, storing each result as it arrives; return how many.
+
+    ``executor`` defaults to a :class:`LocalExecutor` for ``variant`` (default:
+    the current Mitsuba variant). ``progress``: a progress bar counting
+    finished jobs (a string is its label).
+    """
+    todo = pending(jobs, store)
+    if not todo:
+        return 0
+    if executor is None:
+        import mitsuba as mi
+        executor = LocalExecutor(variant or mi.variant())
+    from tqdm import tqdm
+    label = progress if isinstance(progress, str) else "render jobs"
+    with tqdm(total=len(todo), desc=label, unit="job", disable=not progress,
+              dynamic_ncols=True, leave=False) as bar:
+        for job, result in executor.map_unordered(todo):
+            store.put(job, result)
+            bar.update(1)
+    return len(todo)

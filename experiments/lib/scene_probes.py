@@ -1,0 +1,106 @@
+"""Measurements taken on a scene's objects directly, without rendering an image.
+
+* :func:`probe_scene`: the scene loaded for probing (``vr_path``, max_depth 1);
+* :func:`phong_mask`: which pixels see a ``phong`` surface first;
+* :func:`phong_bsdf`: the scene's first ``phong`` BSDF and its shape;
+* :func:`direction_sampling_stats`: per-sample statistics of estimating the
+  directional albedo of a BSDF with one strategy at one incidence angle;
+* :func:`first_hit_sampling`: incidence angles of the camera's first hits on
+  the Phong object and which of the BSDF's samples there have zero weight.
+"""
+from __future__ import annotations
+
+import math
+
+import drjit as dr
+import mitsuba as mi
+import numpy as np
+
+from .methods import load_scene, parse_method, Depth
+from .metrics import luminance
+
+
+def probe_scene(path: str, width: int, height: int):
+    """The scene file loaded for probing its surfaces (any integrator would do)."""
+    return load_scene(path, width, height, parse_method("bsdf"), Depth(max_depth=1))
+
+
+def _is_phong(bsdf) -> bool:
+    return bsdf is not None and type(bsdf).__name__ == "PhongBSDF"
+
+
+def phong_bsdf(scene):
+    """(BSDF, shape) of the scene's first ``phong`` surface, or (None, None)."""
+    for shape in scene.shapes():
+        if _is_phong(shape.bsdf()):
+            return shape.bsdf(), shape
+    return None, None
+
+
+def phong_mask(scene) -> np.ndarray:
+    """(H, W) bool: pixels whose centre sees a surface with a ``phong`` BSDF first."""
+    width, height = scene.sensors()[0].film().crop_size()
+    sensor = scene.sensors()[0]
+    idx = dr.arange(mi.UInt32, width * height)
+    pos = mi.Point2f((mi.Float(idx % width) + 0.5) / width,
+                     (mi.Float(idx // width) + 0.5) / height)
+    ray, _ = sensor.sample_ray(0.0, 0.5, pos, mi.Point2f(0.5, 0.5))
+    si = scene.ray_intersect(ray)
+    mask = np.zeros(width * height, bool)
+    for shape in scene.shapes():
+        if _is_phong(shape.bsdf()):
+            mask |= np.array(si.is_valid() & (si.shape == mi.ShapePtr(shape)))
+    return mask.reshape(height, width)
+
+
+def direction_sampling_stats(bsdf, cos_theta_i: float, strategy: str, n: int,
+                             seed: int = 0) -> dict:
+    """Per-sample statistics of estimating the directional albedo at one incidence angle.
+
+    ``strategy`` as in ``vr_path``: ``bsdf`` (the plugin's ``sample``),
+    ``cosine`` or ``uniform`` (hemisphere warps weighted by ``eval / pdf``).
+    Returns the albedo estimate, the fraction of samples with zero weight
+    (wasted: below the horizon or outside the lobe) and the relative variance
+    per sample Var[w] / E[w]^2 (the cost of one unit of relative error).
+    """
+    rng = np.random.default_rng(seed)
+    u = rng.random((3, n))
+    s = math.sqrt(max(0.0, 1.0 - cos_theta_i ** 2))
+    si = dr.zeros(mi.SurfaceInteraction3f, n)
+    si.wi = mi.Vector3f(s, 0.0, cos_theta_i)
+    si.uv = mi.Point2f(0.5, 0.5)
+    ctx = mi.BSDFContext()
+    if strategy == "bsdf":
+        _, weight = bsdf.sample(ctx, si, mi.Float(u[0]), mi.Point2f(u[1], u[2]))
+    else:
+        sample2 = mi.Point2f(u[1], u[2])
+        if strategy == "cosine":
+            wo = mi.warp.square_to_cosine_hemisphere(sample2)
+            pdf = mi.warp.square_to_cosine_hemisphere_pdf(wo)
+        else:
+            wo = mi.warp.square_to_uniform_hemisphere(sample2)
+            pdf = mi.warp.square_to_uniform_hemisphere_pdf(wo)
+        weight = bsdf.eval(ctx, si, wo) / dr.maximum(pdf, 1e-20)
+    w = luminance(np.array(weight).T)
+    mean = float(w.mean())
+    return {"albedo": mean, "wasted": float(np.mean(w == 0)),
+            "relvar": float(w.var() / mean ** 2) if mean > 0 else float("inf"),
+            "nonfinite": int(np.count_nonzero(~np.isfinite(w)))}
+
+
+
+def first_hit_sampling(scene, bsdf, shape, k: int = 16, seed: int = 0):
+    """Cosines of incidence of the camera's first hits on ``shape`` (``k`` rays through each
+    pixel centre), and per hit whether ``bsdf.sample`` there returned zero weight."""
+    sensor = scene.sensors()[0]
+    w, h = sensor.film().crop_size()
+    idx = dr.arange(mi.UInt32, w * h * k) // k
+    pos = mi.Point2f((mi.Float(idx % w) + 0.5) / w, (mi.Float(idx // w) + 0.5) / h)
+    ray, _ = sensor.sample_ray(0.0, 0.5, pos, mi.Point2f(0.5, 0.5))
+    si = scene.ray_intersect(ray)
+    hit = si.is_valid() & (si.shape == mi.ShapePtr(shape))
+    rng = np.random.default_rng(seed)
+    u = rng.random((3, w * h * k))
+    _, weight = bsdf.sample(mi.BSDFContext(), si, mi.Float(u[0]), mi.Point2f(u[1], u[2]), hit)
+    hit_np = np.array(hit)
+    return np.array(si.wi.z)[hit_np], (np.array(weight) == 0).all(axis=0)[hit_np]

@@ -1,0 +1,68 @@
+"""What every experiment script shares: the job store, the executor, the reference image.
+
+A :class:`Study` is built from the parsed arguments. Scripts plan jobs
+(:mod:`.plan`), hand them to :meth:`Study.run` (which executes what the store
+lacks, :func:`.execute.execute`), then read the results back from the store.
+The store lives in ``<out>/store``; jobs that several experiments share (a
+reference at the same settings) are rendered once.
+"""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from . import plan as P
+from .execute import execute
+from .methods import Depth, SceneInfo
+from .store import JobStore
+
+
+class Study:
+    def __init__(self, args, executor=None):
+        self.args = args
+        self.out = args.out
+        self.variant = args.variant
+        self.info: SceneInfo = args.info
+        self.depth: Depth = args.depth
+        self.seed = args.seed
+        self.width, self.height = args.resolution
+        self.store = JobStore(os.path.join(args.out, "store"))
+        self.executor = executor if executor is not None else getattr(args, "executor", None)
+
+    def run(self, jobs: list, label: str = "render jobs") -> int:
+        """Execute the jobs the store lacks; return how many were rendered."""
+        return execute(jobs, self.store, self.executor, progress=label, variant=self.variant)
+
+    def job(self, prefix: str, method: str, spp: int, info: SceneInfo | None = None,
+            depth: Depth | None = None, **options) -> P.Job:
+        """One job at this study's resolution, seed derived from the base seed and prefix."""
+        width, height = options.pop("resolution", (self.width, self.height))
+        return P.make_job(prefix, info or self.info, method, width, height, spp,
+                          P.derive_seed(self.seed, prefix), depth or self.depth, self.variant,
+                          **options)
+
+    def ladder(self, prefix: str, method: str, targets, info: SceneInfo | None = None,
+               depth: Depth | None = None, **options) -> list[P.Job]:
+        width, height = options.pop("resolution", (self.width, self.height))
+        return P.ladder(prefix, info or self.info, method, width, height, targets, self.seed,
+                        depth or self.depth, self.variant, **options)
+
+    def reference_jobs(self, info: SceneInfo | None = None, depth: Depth | None = None,
+                       resolution=None) -> list[P.Job]:
+        width, height = resolution or (self.width, self.height)
+        return P.reference_jobs(info or self.info, width, height, self.args.reference_spp,
+                                self.args.reference_method, depth or self.depth, self.variant,
+                                self.seed)
+
+    def reference(self, jobs: list[P.Job]) -> tuple[np.ndarray, dict]:
+        """The reference image of ``jobs`` and its metadata (render seconds, passes, and the
+        expected MSE of the reference itself, the floor under every measured MSE)."""
+        acc = P.accumulate(self.store, jobs)[-1]
+        return acc.mean, {"seconds": acc.seconds, "passes": acc.passes, "spp": acc.spp,
+                          "method": jobs[0].method,
+                          "mse_floor": float(np.mean(acc.variance_of_mean()))}
+
+    def describe_reference(self, meta: dict) -> str:
+        return (f"{meta['spp']} spp of {meta['method']} (NEE + MIS), {meta['passes']} passes, "
+                f"{meta['seconds']:.1f} s; its own expected MSE about {meta['mse_floor']:.1e}")

@@ -1,0 +1,97 @@
+"""The method grammar: STRATEGY[+nee][+SAMPLER[:RANDOMIZATION]] and path[+SAMPLER[:RANDOMIZATION]].
+
+Every valid form must parse to the right integrator and sampler settings (checked on the
+loaded Mitsuba objects, not only on our dataclass); every invalid form must end a script
+with exit code 2 and one line naming the bad part.
+"""
+import os
+
+import mitsuba as mi
+import pytest
+from conftest import scene_path
+
+from experiments import convergence
+from experiments.lib import methods as M
+
+STRATEGIES = M.strategies()
+RANDOMIZATIONS = M.RANDOMIZATIONS
+
+
+def valid_forms():
+    """(name, strategy or None for path, nee, sampler, randomization) for every form."""
+    forms = [("uniform+halton", "uniform", False, "halton", "none")]     # the writeup's
+    heads = ([(s, s, False) for s in STRATEGIES] + [(s + "+nee", s, True) for s in STRATEGIES]
+             + [("path", None, True)])
+    for stem, strategy, nee in heads:
+        forms.append((stem, strategy, nee, "independent", None))
+        for sampler in M.SAMPLERS:
+            if stem == "uniform" and sampler == "halton":
+                continue                                                 # fixed name above
+            forms.append((f"{stem}+{sampler}", strategy, nee, sampler, None))
+        forms += [(f"{stem}+halton:{r}", strategy, nee, "halton", r) for r in RANDOMIZATIONS]
+    return forms
+
+
+@pytest.mark.parametrize("name, strategy, nee, sampler, randomization", valid_forms(),
+                         ids=[f[0] for f in valid_forms()])
+def test_every_valid_form_parses_to_the_right_settings(name, strategy, nee, sampler,
+                                                       randomization):
+    m = M.parse_method(name)
+    assert (m.strategy, m.nee, m.sampler, m.randomization) == (strategy, nee, sampler,
+                                                               randomization)
+    scene = M.load_scene(scene_path("cbox.xml"), 8, 4, m, M.Depth(3, 2, None))
+    integrator, s = scene.integrator(), scene.sensors()[0].sampler()
+    if strategy is None:
+        assert type(integrator).__name__ == "PathIntegrator" or "PathIntegrator" in str(
+            integrator)
+        assert "max_depth = 3" in str(integrator)
+    else:
+        assert (integrator.strategy, integrator.emitter_sampling, integrator.max_depth,
+                integrator.rr_depth) == (strategy, nee, 3, 2)
+    expected = {"independent": "Independent", "stratified": "Stratified",
+                "multijitter": "MultiJitter", "orthogonal": "Orthogonal",
+                "ldsampler": "LowDiscrepancy", "halton": "Halton"}[sampler]
+    assert expected.lower() in (type(s).__name__ + str(s)).lower()
+    if sampler == "halton":
+        want = randomization or "owen"                     # the sampler's documented default
+        assert s.randomization == want
+
+
+INVALID = [
+    ("phong", "strategy 'phong'"),
+    ("", "strategy ''"),
+    ("bsdf+sobol", "sampler 'sobol'"),
+    ("cosine:owen", "strategy 'cosine:owen'"),
+    ("bsdf+stratified:owen", "only halton takes a randomization"),
+    ("bsdf+halton:bogus", "randomization 'bogus'"),
+    ("bsdf+halton:", "randomization ''"),
+    ("path+nee", "path always uses next-event estimation"),
+    ("bsdf+nee+nee", "sampler 'nee'"),
+    ("bsdf+halton+nee", "too many parts"),
+    ("nee+bsdf", "strategy 'nee'"),
+    ("BSDF", "strategy 'BSDF'"),
+]
+
+
+@pytest.mark.parametrize("name, part", INVALID, ids=[n or "empty" for n, _ in INVALID])
+def test_every_invalid_form_exits_2_with_one_line(name, part, capsys, tmp_path, monkeypatch):
+    with pytest.raises(ValueError, match="unknown method"):
+        M.parse_method(name)
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as exc:
+        convergence.main(["--methods", f"cosine,{name}" if name else "cosine,,+"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    if name:
+        assert f"unknown method '{name}'" in err and part in err, err
+        for strategy in STRATEGIES:                  # the valid parts are listed
+            assert strategy in err
+    assert os.listdir(tmp_path) == []
+
+
+def test_the_strategy_list_is_the_plugins():
+    from integrators import path
+    assert M.strategies() == tuple(path.STRATEGIES)
+    for s in M.strategies():
+        assert mi.load_dict({"type": "vr_path", "strategy": s}).strategy == s
