@@ -67,7 +67,7 @@ def plan(n: int, groups=("a", "b", None), seconds: float = 0.0) -> list[ToyJob]:
 @pytest.fixture(scope="module")
 def local_cluster():
     cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                           dashboard_address=None, silence_logs=logging.CRITICAL)
+                           dashboard_address=":0", silence_logs=logging.CRITICAL)
     yield cluster
     cluster.close()
 
@@ -186,7 +186,7 @@ def _closed_port() -> int:
 
 @pytest.mark.parametrize("address, timeout", [
     (f"tcp://127.0.0.1:{_closed_port()}", 1.0),      # refused (retried until the timeout)
-    ("tcp://192.0.2.1:8786", None),                   # no answer: the default timeout
+    ("tcp://192.0.2.1:8786", 1.0),                    # no answer
     ("not a scheduler::", None)])                     # not an address
 def test_unreachable_scheduler_fails_fast(address, timeout):
     options = {} if timeout is None else {"timeout": timeout}

@@ -156,7 +156,7 @@ class DaskExecutor:
         share this machine's cores (Dr.Jit threads per worker: cores // n_workers)."""
         options.setdefault("threads", max(1, (os.cpu_count() or 1) // n_workers))
         cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=logging.ERROR)
+                               dashboard_address=":0", silence_logs=logging.ERROR)
         try:
             client = Client(cluster, set_as_default=False)
         except BaseException:
