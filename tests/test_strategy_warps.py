@@ -100,3 +100,21 @@ def test_mis_density_is_the_mixture():
     w = vr_path.MIS_COSINE_WEIGHT
     expected = w * wo.z[0] / math.pi + (1 - w) * bsdf.pdf(ctx, si, wo)[0]
     assert vr_path.direction_pdf("mis", bsdf, ctx, si, wo)[0] == pytest.approx(expected, rel=1e-5)
+
+
+@pytest.mark.parametrize("strategy", [s for s in vr_path.STRATEGIES if s != "bsdf"])
+def test_eta_of_a_crossing_direction_is_the_relative_ior(strategy):
+    """As Mitsuba's path tracks bs.eta for sampled refractions: entering glass (int_ior
+    1.5) eta is 1.5, leaving it 1/1.5, reflecting 1, whichever strategy drew wo."""
+    bsdf = mi.load_dict({"type": "roughdielectric", "alpha": 0.3, "int_ior": 1.5})
+    n = 4096
+    u = dr.arange(mi.Float, n) / n
+    for cos_i, eta in [(0.6, 1.5), (-0.6, 1 / 1.5)]:
+        ds = vr_path.sample_direction(strategy, mi.BSDFPtr(bsdf), mi.BSDFContext(),
+                                      interaction(incident(cos_i), n), u,
+                                      mi.Point2f(u * 37.0 - dr.floor(u * 37.0), u * 101.0 - dr.floor(u * 101.0)))
+        crosses = (ds.wo.z * cos_i < 0) & (ds.pdf > 0)
+        got = dr.select(crosses, ds.eta, 1.0)
+        assert dr.all(dr.abs(got - dr.select(crosses, eta, 1.0)) < 1e-3)
+        assert dr.all(dr.select(crosses | (ds.pdf == 0), 1.0, ds.eta) == 1.0)
+        assert dr.any(crosses) and dr.any(~crosses & (ds.pdf > 0))
