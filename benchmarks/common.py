@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import os
 import platform
-import re
 import statistics
 import time
 from typing import Callable
@@ -14,11 +13,18 @@ import mitsuba as mi  # noqa: E402
 
 from experiments.lib.report import cpu_model  # noqa: E402  (one definition, shared)
 
+from experiments.lib import methods as M  # noqa: E402  (strategies, samplers, scene loading)
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCENE = os.path.join(ROOT, "scenes", "cbox.xml")
 VARIANT = "llvm_ad_rgb"
-STRATEGIES = ("uniform", "cosine", "bsdf")
-RANDOMIZATIONS = ("none", "permute_digits", "owen")
+RANDOMIZATIONS = M.RANDOMIZATIONS
+
+
+def __getattr__(name: str):
+    if name == "STRATEGIES":          # vr_path's list; its module needs a variant set first
+        return M.strategies()
+    raise AttributeError(name)
 
 
 def set_variant(variant: str = VARIANT) -> None:
@@ -29,18 +35,11 @@ def set_variant(variant: str = VARIANT) -> None:
 
 def load_scene(width: int, height: int, spp: int, sampler: str = "independent",
                randomization: str | None = None, max_depth: int = 8):
-    """The default scene (``scenes/cbox.xml``) with NEE on and the given sampler.
-
-    ``randomization`` sets the Halton sampler's randomization (the scene file
-    has no parameter for it, so the sampler element is edited).
-    """
-    text = open(SCENE).read()
-    if randomization is not None:
-        text, n = re.subn(r'(<sampler type="\$sampler">)',
-                          rf'\1<string name="randomization" value="{randomization}"/>', text)
-        assert n == 1, "scenes/cbox.xml: sampler element not found"
-    return mi.load_string(text, width=width, height=height, spp=spp, sampler=sampler,
-                          emitter_sampling=True, max_depth=max_depth)
+    """The default scene (``scenes/cbox.xml``) with ``vr_path`` bsdf + NEE and the given
+    sampler, loaded through the experiments' scene route (:func:`experiments.lib.methods.load_scene`)."""
+    name = "bsdf+nee" + ("" if sampler == "independent" else f"+{sampler}") \
+        + (f":{randomization}" if randomization is not None else "")
+    return M.load_scene(SCENE, width, height, M.parse_method(name), M.Depth(max_depth), spp)
 
 
 def plugin_available(plugin: str) -> bool:
@@ -52,15 +51,8 @@ def plugin_available(plugin: str) -> bool:
 
 
 def halton_randomizations() -> list[str]:
-    """Randomizations of the ``halton`` sampler that load (empty without the plugin)."""
-    out = []
-    for r in RANDOMIZATIONS:
-        try:
-            mi.load_dict({"type": "halton", "randomization": r})
-            out.append(r)
-        except Exception:  # noqa: BLE001
-            pass
-    return out
+    """Randomizations of the bundled ``halton`` sampler (kept for callers; all of them)."""
+    return list(RANDOMIZATIONS)
 
 
 def path_integrator(max_depth: int):
@@ -71,8 +63,7 @@ def path_integrator(max_depth: int):
 def vr_path_integrator(strategy: str, max_depth: int, count_segments: bool = False,
                        emitter_sampling: bool = True):
     """``vr_path``, by default with emitter sampling (NEE + MIS), comparable with ``path``."""
-    integrator = mi.load_dict({"type": "vr_path", "strategy": strategy, "max_depth": max_depth,
-                               "emitter_sampling": emitter_sampling})
+    integrator = mi.load_dict(M.vr_path_dict(strategy, emitter_sampling, max_depth))
     integrator.count_segments = count_segments
     return integrator
 

@@ -9,9 +9,9 @@
     whether the cache makes a second process fast.
 
 ``python -m benchmarks.probes rss --width 1024 --height 512 --spp 1000``
-    Renders with the experiment suite's pass renderer
-    (``experiments.lib.render.run_progressive``, the ``bsdf`` method) into a
-    temporary directory and reports this process's peak RSS.
+    Renders one job with the experiment suite's job renderer
+    (``experiments.lib.execute.run_job``, the ``bsdf`` method, in passes of
+    at most ``MAX_LANES`` samples) and reports this process's peak RSS.
 """
 from __future__ import annotations
 
@@ -20,7 +20,6 @@ import json
 import os
 import resource
 import sys
-import tempfile
 import time
 
 from . import common as C
@@ -64,43 +63,20 @@ def probe_compile(args) -> dict:
 # ---------------------------------------------------------------- RSS
 
 def probe_rss(args) -> dict:
+    from experiments.lib import execute as X
+    from experiments.lib import methods as M
+    from experiments.lib import plan as P
     width, height, spp = args.width, args.height, args.spp
-    with tempfile.TemporaryDirectory(prefix="bench-rss-") as tmp:
-        start = time.perf_counter()
-        try:
-            from experiments.lib import methods as M
-            from experiments.lib import render as R
-        except ImportError as e:                            # suite not installed
-            runner = f"minimal pass loop (experiments.lib unavailable: {e})"
-            passes = _minimal_pass_loop(width, height, spp)
-        else:
-            runner = "experiments.lib.render.run_progressive"
-            info = M.read_scene(C.SCENE)
-            method = M.parse_method(args.method)
-            job = R.method_job(tmp, "bench-rss", info, method, width, height,
-                               mi.variant(), 0, save_images=False)
-            acc = R.run_progressive(job, [spp])
-            passes = acc.passes
-        seconds = time.perf_counter() - start
-    return {"width": width, "height": height, "spp": spp, "passes": passes,
-            "seconds": seconds, "runner": runner, "method": args.method,
+    start = time.perf_counter()
+    info = M.read_scene(C.SCENE)
+    job = P.make_job("bench-rss", info, args.method, width, height, spp, 0, info.depth,
+                     mi.variant())
+    result = X.run_job(job, mi.variant())
+    seconds = time.perf_counter() - start
+    return {"width": width, "height": height, "spp": spp, "passes": result.passes,
+            "seconds": seconds, "runner": "experiments.lib.execute.run_job",
+            "method": args.method,
             "maxrss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0}
-
-
-def _minimal_pass_loop(width: int, height: int, spp: int, max_lanes: int = 2**22) -> int:
-    """Fallback: accumulate ``spp`` samples in passes of at most ``max_lanes`` samples."""
-    import numpy as np
-    scene = C.load_scene(width, height, 1)
-    integrator = C.vr_path_integrator("bsdf", 8)
-    cap = max(1, max_lanes // (width * height))
-    acc, done, passes = np.zeros((height, width, 3)), 0, 0
-    while done < spp:
-        k = min(cap, spp - done)
-        img = np.array(C.render(scene, integrator, seed=passes, spp=k), dtype=np.float64)
-        acc += img[..., :3] * k
-        done += k
-        passes += 1
-    return passes
 
 
 def main(argv=None) -> None:

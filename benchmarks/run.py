@@ -1,9 +1,9 @@
 """``make bench``: our plugins against Mitsuba's built-ins and the ray-casting limit.
 
 Prints one table and writes it, with the machine and versions, to
-``<out>/bench.md`` and ``<out>/bench.json`` (and between the markers
-``<!-- bench:start -->`` / ``<!-- bench:end -->`` of ``README.md`` when they
-are there). Every speed figure is a ratio measured in this process after a
+``<out>/bench.md`` and ``<out>/bench.json`` (and, with ``--update-readme``,
+between the markers ``<!-- bench:start -->`` / ``<!-- bench:end -->`` of
+``README.md``). Every speed figure is a ratio measured in this process after a
 warm-up render (compilation excluded): the configurations are interleaved
 (A, B, A, B, ... in alternating order) and each figure is the median of the
 per-round ratios. Ratios are of process CPU time, which other processes on a
@@ -41,6 +41,8 @@ import time
 
 import numpy as np
 
+from experiments.lib import store
+
 from . import common as C
 from .common import dr, mi
 
@@ -72,8 +74,6 @@ def bench_vs_path(args) -> dict:
 
 def bench_halton(args) -> dict:
     randomizations = C.halton_randomizations()
-    if not randomizations:
-        return {"available": False}
     integrator = C.vr_path_integrator("bsdf", args.max_depth)
     scenes = {"independent": C.load_scene(args.width, args.height, args.spp,
                                           max_depth=args.max_depth)}
@@ -95,7 +95,7 @@ def bench_halton(args) -> dict:
         recompiles[n] = sum(not k["cache_hit"] for k in C.jit_kernels(two_passes))
         if hasattr(sampler, "sample_offset"):
             sampler.sample_offset = 0
-    return {"available": True, "ratios": ratios, "recompiles_per_2_passes": recompiles}
+    return {"ratios": ratios, "recompiles_per_2_passes": recompiles}
 
 
 # ------------------------------------------------ 3: segments vs ray casting
@@ -213,14 +213,10 @@ def build_rows(res: dict, args) -> list[list[str]]:
                          "<= 1.00", "yes" if r["cpu"] <= 1.0 else "no"])
     h = res.get("halton")
     if h is not None:
-        if not h.get("available"):
-            rows.append(["2. halton / independent (vr_path bsdf)", "n/a: no halton plugin",
-                         "<= 1.05", "n/a"])
-        else:
-            for n, r in h["ratios"].items():
-                rows.append([f"2. {n.replace(':', ' ')} / independent (vr_path bsdf, NEE)",
-                             fmt_ratio(r["cpu"], r["wall"]), "<= 1.05",
-                             "yes" if r["cpu"] <= 1.05 else "no"])
+        for n, r in h["ratios"].items():
+            rows.append([f"2. {n.replace(':', ' ')} / independent (vr_path bsdf, NEE)",
+                         fmt_ratio(r["cpu"], r["wall"]), "<= 1.05",
+                         "yes" if r["cpu"] <= 1.05 else "no"])
     sg = res.get("segments")
     if sg:
         for n, label in (("nee", "NEE"), ("no_nee", "no NEE, as the experiments")):
@@ -287,19 +283,15 @@ def markdown(rows: list[list[str]], res: dict) -> str:
         notes.append(f"Peak RSS measured at {rss['hi_spp']} and {rss['lo_spp']} spp to keep "
                      f"`make bench` short; `--rss-full` measures 1000 and 100 spp.")
     h = res.get("halton")
-    if h and h.get("available"):
+    if h:
         rc = h["recompiles_per_2_passes"]
         notes.append("Kernels recompiled over two further passes (new seed, new sample offset): "
                      + ", ".join(f"{n} {v}" for n, v in rc.items()) + ".")
     return "\n".join(lines + notes) + "\n"
 
 
-def write_atomic(path: str, text: str) -> None:
-    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    tmp = f"{path}.tmp{os.getpid()}"
-    with open(tmp, "w") as f:
-        f.write(text)
-    os.replace(tmp, path)
+#: Every file is written atomically (temporary name, then rename).
+write_atomic = store.write_text
 
 
 def update_readme(md: str) -> bool:
@@ -310,7 +302,7 @@ def update_readme(md: str) -> bool:
     i, j = text.find(MARK_START), text.find(MARK_END)
     if i < 0 or j < i:
         return False
-    write_atomic(README, text[:i + len(MARK_START)] + "\n" + md + text[j:])
+    store.write_text(README, text[:i + len(MARK_START)] + "\n" + md + text[j:])
     return True
 
 
@@ -333,7 +325,9 @@ def parse_args(argv=None):
     p.add_argument("--skip", default="", help="comma-separated parts to skip: "
                    "vs_path,halton,segments,rss,compile")
     p.add_argument("--out", default=os.path.join(C.ROOT, "results"))
-    p.add_argument("--no-readme", action="store_true", help="leave README.md alone")
+    p.add_argument("--update-readme", action="store_true",
+                   help="also put the table between the bench markers of README.md "
+                        "(by default the tracked README is left alone)")
     args = p.parse_args(argv)
     args.skip = {s.strip() for s in args.skip.split(",") if s.strip()}
     return args
@@ -370,7 +364,7 @@ def main(argv=None) -> None:
     out_md, out_json = os.path.join(args.out, "bench.md"), os.path.join(args.out, "bench.json")
     write_atomic(out_md, "# Benchmarks\n\n" + md)
     write_atomic(out_json, json.dumps(res, indent=1, default=str) + "\n")
-    readme = False if args.no_readme else update_readme(md)
+    readme = update_readme(md) if args.update_readme else False
     print()
     print(md)
     print(f"wrote {out_md}, {out_json}" + (", README.md" if readme else "")

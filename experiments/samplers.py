@@ -66,8 +66,8 @@ def add_arguments(p: cli.Parser) -> None:
 
 def build_parser() -> cli.Parser:
     p = cli.common_parser("python -m experiments.samplers", __doc__.split("\n")[0], spp=256,
-                          default_resolution="128x64", methods=("bsdf+nee",))
-    p.set_defaults(reference_spp=8192, reference_method="path+ldsampler")
+                          default_resolution="64x32", methods=("bsdf+nee",))
+    p.set_defaults(reference_spp=4096, reference_method="path+ldsampler")
     add_arguments(p)
     return p
 

@@ -24,7 +24,7 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-from experiments.lib.methods import strategies
+from experiments.lib.methods import strategies, vr_path_dict
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PYTHON = sys.executable
@@ -45,8 +45,7 @@ def grid_scene(view: str, strategy: str, nee: bool, spp: int = 8):
         origin, target = [0, 1e-3, 4], [0, 1e-3, -4]
     scene = {
         "type": "scene",
-        "integrator": {"type": "vr_path", "strategy": strategy, "emitter_sampling": nee,
-                       "max_depth": 6, "rr_depth": 3},
+        "integrator": vr_path_dict(strategy, nee, max_depth=6, rr_depth=3),
         "sensor": {"type": "perspective", "fov": 60,
                    "to_world": mi.ScalarTransform4f().look_at(origin=origin, target=target,
                                                               up=[0, 1, 0]),

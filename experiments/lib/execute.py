@@ -20,6 +20,17 @@
 requested count up to one they support (orthogonal 16 -> 25), and the
 analysis uses what was rendered.
 
+Interface for other executors (a cluster): ``run_job(job, variant)`` is
+importable as ``experiments.lib.execute.run_job`` and needs nothing but its
+arguments; an executor is any object with ``map_unordered(jobs: list[Job])
+-> Iterator[tuple[Job, JobResult]]``; pass it as ``execute(jobs, store,
+executor)`` (scripts: :class:`~.study.Study` takes ``executor``, or reads
+``args.executor``). Jobs of one ``timing_group`` are those whose times one
+comparison divides. Beyond the planned interface: :class:`~.plan.Job` also
+has ``pass_spp`` (passes inside a job, for per-pixel variances) and
+``hide_emitters``, resolution is ``width``/``height``, and :func:`execute`
+takes ``variant`` for the default executor.
+
 Seeds and sample offsets come from the plan, never from the process that
 runs a job. Passes inside a job: independent samplers get seed
 ``derive_seed(job.seed, pass)``; samplers that continue a sequence
