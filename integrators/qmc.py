@@ -131,40 +131,52 @@ def division_magic(b: int) -> tuple[int, int]:
 def permutations_per_base(b: int) -> int:
     """How many digit permutations :data:`PERMUTATIONS` holds for base ``b``.
 
-    Every permutation with ``0 -> 0`` for ``b <= 7`` ((b-1)! of them, so the
-    choice is exactly uniform), 64 random ones below 128, 4 below 1024 and
-    one above (dimensions >= 172), which bounds the table at about 4 M entries.
+    For ``b <= 7``, every permutation with ``0 -> 0``, each repeated
+    ``720 / (b-1)!`` times (so the choice is exactly uniform); 64 random ones
+    below 128, 4 below 1024 and one above (dimensions >= 172), which bounds
+    the table at about 4 M entries. (:func:`_permutation_count` computes the
+    same in Dr.Jit.)
     """
-    if b <= 7:
-        return math.factorial(b - 1)
-    return 64 if b < 128 else 4 if b < 1024 else 1
+    return 720 if b <= 7 else 64 if b < 128 else 4 if b < 1024 else 1
+
+
+#: Alignment of each base's run in the permutation table (the packed entry
+#: stores the offset in units of it).
+PERM_ALIGN = 128
 
 
 def _build_tables():
     primes = [int(p) for p in PRIMES]
     magic = [division_magic(p) for p in primes]
-    # One 64-bit entry per base: magic multiplier (bits 32..63), shift (bits
-    # 16..23) and base (bits 0..15), so that a call needs a single gather.
-    packed = [(m << 32) | (s << 16) | p for p, (m, s) in zip(primes, magic)]
     # Digit permutations T with T(0) = 0, base after base, each a run of b
-    # entries; info = offset of the base's first entry (bits 0..21) and the
-    # number of its permutations minus one (bits 22..31).
+    # entries, each base's runs starting at a multiple of PERM_ALIGN.
     rng = np.random.default_rng(0x6A09E667)
-    runs, info, offset = [], [], 0
+    runs, offsets, offset = [], [], 0
     for b in primes:
-        count = permutations_per_base(b) if b > 2 else 1
+        count = permutations_per_base(b) if b > 2 else 0
         if b <= 7:
             perms = np.array([(0,) + t for t in itertools.permutations(range(1, b))])
+            perms = np.tile(perms, (count // len(perms), 1))
         else:
             perms = np.array([np.concatenate([[0], 1 + rng.permutation(b - 1)])
-                              for _ in range(count)])
-        runs.append(perms.astype(np.uint32).ravel())
-        info.append(offset | ((count - 1) << 22))
-        offset += count * b
-    assert offset < 1 << 22
-    return {"packed": np.array(packed, dtype=np.uint64),
-            "perm_info": np.array(info, dtype=np.uint32),
-            "perms": np.concatenate(runs)}
+                              for _ in range(count)]).reshape(count, b)
+        run = perms.astype(np.uint32).ravel()
+        pad = -len(run) % PERM_ALIGN
+        runs += [run, np.zeros(pad, dtype=np.uint32)]
+        offsets.append(offset // PERM_ALIGN)
+        offset += len(run) + pad
+    assert offset // PERM_ALIGN < 1 << 15 and max(primes) < 1 << 13
+    # One 64-bit entry per base, so that a call needs a single gather:
+    # magic multiplier (bits 32..63), permutation offset / PERM_ALIGN (bits
+    # 17..31), shift (bits 13..16) and base (bits 0..12).
+    packed = [(m << 32) | (o << 17) | (s << 13) | p
+              for p, (m, s), o in zip(primes, magic, offsets)]
+    return {"packed": np.array(packed, dtype=np.uint64), "perms": np.concatenate(runs)}
+
+
+def _permutation_count(b):
+    """:func:`permutations_per_base` for a ``mi.UInt32`` array of odd primes."""
+    return dr.select(b <= 7, 720, dr.select(b < 128, 64, dr.select(b < 1024, 4, mi.UInt32(1))))
 
 
 _NP_TABLES = _build_tables()
@@ -271,13 +283,13 @@ def _radical_inverse_odd(base_index, a, seed, randomization):
     UInt64 = dr.uint64_array_t(mi.UInt32)
     packed = dr.gather(UInt64, _tables()["packed"], base_index)
     m = mi.UInt32(packed >> 32)
-    s = mi.UInt32(packed >> 16) & 0xFF
-    b = mi.UInt32(packed) & 0xFFFF
+    low = mi.UInt32(packed)
+    s = (low >> 13) & 0xF
+    b = low & 0x1FFF
     inv_b = 1.0 / _to_float(b)
     if randomization != "none":
-        info = dr.gather(mi.UInt32, _tables()["perm_info"], base_index)
-        perm_offset = info & 0x3FFFFF
-        perm_count = (info >> 22) + 1
+        perm_offset = (low >> 17) * PERM_ALIGN
+        perm_count = _permutation_count(b)
 
     def cond(a, v, w, z):
         return a > 0
