@@ -96,7 +96,8 @@ DETERMINISTIC_TEXT = (
     "run, so its 1-spp passes are not independent samples and a z-test from their spread "
     "does not apply. It is checked the way a deterministic sequence can be: its error "
     "against the reference must fall as the sequence continues (MSE at 1/4, 1/2 and all of "
-    "the samples, fitted slope against spp, and the image-mean difference per channel).")
+    "the samples; 'converges' when the last is below the first and the fitted slope of MSE "
+    "against spp is -0.5 or steeper; with the image-mean difference per channel).")
 
 
 def _deterministic_rows(name, images, ref, ref_var):

@@ -54,6 +54,21 @@ def test_bias_check_against_hand_computed_values():
     assert check["ci_contains_zero"] == [True, True, True]
 
 
+def test_deterministic_check_passes_a_converging_sequence_and_fails_a_stuck_one():
+    rng = np.random.default_rng(2)
+    ref = rng.random((8, 16, 3))
+    noise = rng.normal(0, 1, ref.shape)
+    spps = [4, 8, 16]
+    converging = [ref + noise / n for n in spps]              # error ~ 1/n: QMC-like
+    check = metrics.deterministic_check(spps, converging, ref, np.zeros_like(ref))
+    assert check["converges"] and check["slope"] == pytest.approx(-2.0)
+    # negative control: a biased sequence whose error stays (plain Halton with a bug)
+    stuck = [ref + 0.1 + noise / 1000 / n for n in spps]
+    check = metrics.deterministic_check(spps, stuck, ref, np.zeros_like(ref))
+    assert not check["converges"]
+    assert check["mean_diff"][-1] == pytest.approx([0.1] * 3, abs=1e-3)
+
+
 # ------------------------------------------------------------- accumulation
 
 def test_accumulator_is_the_weighted_average_of_pass_images():
