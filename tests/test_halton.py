@@ -226,6 +226,50 @@ def test_declared_layout_does_not_outlive_its_seed():
     np.testing.assert_array_equal(draw(fork, 3), draw(fresh, 3))
 
 
+class RecordingHalton(HaltonSampler):
+    """Records the calls Mitsuba makes on a Python sampler."""
+
+    def __init__(self, props):
+        super().__init__(props)
+        self.calls = []
+
+    def set_sample_count(self, spp):
+        self.calls.append(("set_sample_count", spp))
+        super().set_sample_count(spp)
+
+    def set_samples_per_wavefront(self, spw):
+        self.calls.append(("set_samples_per_wavefront", spw))
+        super().set_samples_per_wavefront(spw)
+
+    def seed(self, seed, wavefront_size=0xFFFFFFFF):
+        self.calls.append(("seed", wavefront_size))
+        super().seed(seed, wavefront_size)
+
+    def advance(self):
+        self.calls.append(("advance", None))
+        super().advance()
+
+
+def test_what_a_multipass_render_tells_a_python_sampler():
+    """Instrumented: Mitsuba's samples_per_pass render calls set_sample_count(spp),
+    seed(seed, width * height * samples_per_pass) and advance(), but never the
+    Python set_samples_per_wavefront, so the sampler cannot know the pass size
+    (a one-pass render of width * height * k pixels looks the same). If this
+    ever changes, halton can follow multi-pass renders exactly."""
+    mi.register_sampler("recording_halton", lambda props: RecordingHalton(props))
+    scene_dict = mi.cornell_box()
+    scene_dict["sensor"]["film"]["width"] = scene_dict["sensor"]["film"]["height"] = 8
+    scene_dict["sensor"]["sampler"] = {"type": "recording_halton", "sample_count": 16}
+    scene = mi.load_dict(scene_dict)
+    sampler = scene.sensors()[0].sampler()
+    with pytest.raises(RuntimeError):
+        mi.render(scene, spp=16, integrator=mi.load_dict({"type": "path", "samples_per_pass": 4}))
+    names = {name for name, _ in sampler.calls}
+    assert ("set_sample_count", 16) in sampler.calls
+    assert {size for name, size in sampler.calls if name == "seed"} == {8 * 8 * 4}
+    assert "advance" in names and "set_samples_per_wavefront" not in names, sampler.calls
+
+
 def _causes(exc):
     while exc is not None:
         yield str(exc)
