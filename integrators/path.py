@@ -117,7 +117,7 @@ def _vertex(bsdf, strategy, ctx, si, sample1, sample2, wo_em, active):
     if wo_em is None:
         return out
     em_value, em_bsdf_pdf = bsdf.eval_pdf(ctx, si, wo_em, active)
-    em_pdf = _hemisphere_pdf(strategy if strategy != "mis" else "cosine", si.wi, wo_em, transmits)
+    em_pdf = _hemisphere_pdf(strategy, si.wi, wo_em, transmits)     # mis: its cosine part
     if strategy == "mis":
         em_pdf = warps.mixture_pdf(MIS_COSINE_WEIGHT, em_pdf, em_bsdf_pdf)
     return out + (em_value, em_pdf)
@@ -137,7 +137,8 @@ def _bsdf_vertex(bsdf, ctx, si, sample1, sample2, wo_em, active):
     else:
         em_value, em_pdf, bs, weight = bsdf.eval_pdf_sample(ctx, si, wo_em, sample1, sample2,
                                                             active)
-    out = (bs.wo, dr.select(_drawn(weight), bs.pdf, 0.0), weight, mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta), bs.eta,
+    out = (bs.wo, dr.select(_drawn(weight), bs.pdf, 0.0), weight,
+           mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta), bs.eta,
            mi.has_flag(bs.sampled_type, mi.BSDFFlags.Null))
     return out if wo_em is None else out + (em_value, em_pdf)
 

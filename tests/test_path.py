@@ -227,7 +227,8 @@ def test_participating_medium_is_refused_with_its_name():
     while e is not None:
         chain.append(str(e))
         e = e.__cause__ or e.__context__
-    assert any(re.search(r"medium \('thick_fog', HomogeneousMedium.*'fog'.*volpath", m) for m in chain), chain
+    expected = r"medium \('thick_fog', HomogeneousMedium.*'fog'.*volpath"
+    assert any(re.search(expected, m) for m in chain), chain
 
 
 def test_delta_emitter_without_nee_warns():

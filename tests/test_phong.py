@@ -239,7 +239,8 @@ def _value_at(bsdf, uv):
 
 @pytest.mark.parametrize("texture", [
     _checker(0.2, 0.6),
-    {"type": "bitmap", "bitmap": mi.Bitmap(np.linspace(0, 0.5, 48, dtype=np.float32).reshape(4, 4, 3))},
+    {"type": "bitmap",
+     "bitmap": mi.Bitmap(np.linspace(0, 0.5, 48, dtype=np.float32).reshape(4, 4, 3))},
     {"type": "mesh_attribute", "name": "vertex_color"},
 ], ids=["checkerboard", "bitmap", "mesh_attribute"])
 def test_any_texture_loads_for_both_reflectances(texture):
@@ -275,11 +276,14 @@ def test_sum_exactly_one_does_not_warn(kd, ks):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         make_phong(kd, ks, 10)
-        make_phong({"type": "rgb", "value": [kd, 0.5, kd]}, {"type": "rgb", "value": [ks, 0.5, ks]}, 10)
+        make_phong({"type": "rgb", "value": [kd, 0.5, kd]},
+                   {"type": "rgb", "value": [ks, 0.5, ks]}, 10)
 
 
 def test_textured_phong_renders_with_path_and_vr_path():
-    scene = {"type": "scene", "sensor": {"type": "perspective", "film": {"type": "hdrfilm", "width": 8, "height": 8}},
+    scene = {"type": "scene",
+             "sensor": {"type": "perspective",
+                        "film": {"type": "hdrfilm", "width": 8, "height": 8}},
              "light": {"type": "constant"},
              "ball": {"type": "sphere", "to_world": mi.ScalarTransform4f().translate([0, 0, 4]),
                       "bsdf": {"type": "phong", "diffuse_reflectance": _checker(0.1, 0.5)}}}

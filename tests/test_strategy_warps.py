@@ -114,7 +114,8 @@ def test_eta_of_a_crossing_direction_is_the_relative_ior(strategy):
     for cos_i, eta in [(0.6, 1.5), (-0.6, 1 / 1.5)]:
         ds = vr_path.sample_direction(strategy, mi.BSDFPtr(bsdf), mi.BSDFContext(),
                                       interaction(incident(cos_i), n), u,
-                                      mi.Point2f(u * 37.0 - dr.floor(u * 37.0), u * 101.0 - dr.floor(u * 101.0)))
+                                      mi.Point2f(u * 37.0 - dr.floor(u * 37.0),
+                                                 u * 101.0 - dr.floor(u * 101.0)))
         crosses = (ds.wo.z * cos_i < 0) & (ds.pdf > 0)
         got = dr.select(crosses, ds.eta, 1.0)
         assert dr.all(dr.abs(got - dr.select(crosses, eta, 1.0)) < 1e-3)

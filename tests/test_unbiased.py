@@ -68,8 +68,10 @@ def open_scene(objects, emitters, max_depth=4, size=32, floor=True):
                     "to_world": T().look_at(origin=[0, 1.2, 4], target=[0, 0.2, 0], up=[0, 1, 0]),
                     "film": {"type": "hdrfilm", "width": size, "height": size,
                              "rfilter": {"type": "box"}}},
-         "floor": {"type": "rectangle", "to_world": T().translate([0, -0.5, 0]).rotate([1, 0, 0], -90).scale(3),
-                   "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.5, 0.45, 0.4]}}}}
+         "floor": {"type": "rectangle",
+                   "to_world": T().translate([0, -0.5, 0]).rotate([1, 0, 0], -90).scale(3),
+                   "bsdf": {"type": "diffuse",
+                            "reflectance": {"type": "rgb", "value": [0.5, 0.45, 0.4]}}}}
     if not floor:
         del d["floor"]
     d.update(objects)
