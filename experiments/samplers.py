@@ -103,6 +103,14 @@ def ordered(refs: dict, ladders: dict) -> list[P.Job]:
     return jobs
 
 
+def timing(st: Study, result) -> float:
+    """Render time compared: process CPU time on the CPU (LLVM) backend, where other
+    processes sharing the machine perturb wall-clock time, else wall-clock time."""
+    if st.variant.startswith("llvm") and result.cpu_seconds > 0:
+        return result.cpu_seconds
+    return result.seconds
+
+
 def analyse(st: Study, refs: dict, ladders: dict) -> tuple[list[SS.Row], dict, dict]:
     points, floors = {}, {}
     for d, by_sampler in ladders.items():
@@ -114,7 +122,7 @@ def analyse(st: Study, refs: dict, ladders: dict) -> tuple[list[SS.Row], dict, d
             for j in jobs:
                 r = st.store.get(j.key)
                 image = r.image.astype(float)
-                pts.append(SS.Point(r.spp, r.seconds, metrics.mse(image, ref),
+                pts.append(SS.Point(r.spp, timing(st, r), metrics.mse(image, ref),
                                     metrics.relmse(image, ref)))
             points[d][s] = pts
     return SS.table(points, st.width * st.height), points, floors
@@ -139,14 +147,15 @@ def run(args) -> None:
         f"{', '.join(map(str, P.doubling_targets(args.spp, args.ladder_factor)))} spp is its "
         f"own render (samplers that round the count up are shown at the count they rendered). "
         f"Efficiency is Veach's 1/(MSE x render time) at the largest count, relative to "
-        f"independent: above 1, a sampler reaches a given error sooner.")]
+        f"independent: above 1, a sampler reaches a given error sooner. Render time is "
+        f"{'the CPU time of the rendering process (all its threads), which load from other processes perturbs far less than wall-clock time' if st.variant.startswith('llvm') else 'wall-clock time'}.")]
     for d in points:
         figures.error_plots(os.path.join(args.out, NAME, f"error_depth{d}.png"),
                             {s: ([p.spp for p in pts], [p.seconds for p in pts],
                                  [p.mse for p in pts]) for s, pts in points[d].items()}, "MSE")
         blocks.append(report.image(
             f"{NAME}/error_depth{d}.png", f"max_depth {d}: MSE against spp and against render "
-            f"time per sampler (log-log, fitted slopes in the legend); reference: "
+            f"(CPU) time per sampler (log-log, fitted slopes in the legend); reference: "
             f"{st.describe_reference(floors[d])}."))
     table_rows = [[r.depth, r.sampler, r.spp, g(r.mse), g(r.relmse), f"{r.us_per_sample:.3f}",
                    f"{r.relative_mse:.2f}", f"{r.relative_efficiency:.2f}", f"{r.slope:.2f}"]

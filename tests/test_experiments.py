@@ -119,6 +119,7 @@ def test_ladder_images_are_the_average_of_their_passes(tmp_path, count_jobs):
     X.execute(jobs, st, progress=False)
     assert [j.passes() for j in jobs] == [[1], [1], [2], [2, 2]]
     assert [r.passes for _, r in count_jobs] == [1, 1, 1, 2]
+    assert all(r.cpu_seconds > 0 and r.seconds > 0 for _, r in count_jobs)
     accs = P.accumulate(st, jobs)
     assert [a.spp for a in accs] == [1, 2, 4, 8] and accs[-1].passes == 5
     expected = sum(r.spp * r.image.astype(float) for _, r in count_jobs) / 8

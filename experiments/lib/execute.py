@@ -7,7 +7,9 @@
   worker): it imports the plugins, sets the variant if another one is set,
   loads the scene (cached per process), renders one untimed warm-up pass
   (JIT compilation) the first time, then times every pass with ``dr.eval``
-  + ``dr.sync_thread``.
+  + ``dr.sync_thread``: wall-clock seconds, and the CPU seconds of the
+  process (all threads), which other processes on a shared machine perturb
+  far less (the sampler study compares samplers by CPU time on LLVM variants).
 * :class:`LocalExecutor` runs jobs one after the other in this process;
   ``map_unordered(jobs)`` yields ``(job, result)`` pairs. Another executor
   (e.g. Dask workers) only has to provide the same method.
@@ -62,14 +64,16 @@ class JobResult:
     sq: np.ndarray | None        # (H, W, 3) sum over passes of k_i * m_i^2 (float64)
     spp: int
     passes: int
-    seconds: float               # warm render time, summed over passes
+    seconds: float               # warm render time (wall clock), summed over passes
     pass_seconds: list = field(default_factory=list)
+    cpu_seconds: float = 0.0     # CPU time of this process (all threads) over the passes
     host: str = ""
     cpu: str = ""
 
     def metadata(self) -> dict:
         return {"spp": self.spp, "passes": self.passes, "seconds": self.seconds,
-                "pass_seconds": list(self.pass_seconds), "host": self.host, "cpu": self.cpu}
+                "pass_seconds": list(self.pass_seconds), "cpu_seconds": self.cpu_seconds,
+                "host": self.host, "cpu": self.cpu}
 
 
 _scenes: OrderedDict = OrderedDict()
@@ -119,12 +123,12 @@ def _render(scene, continues: bool, spp: int, seed: int, offset: int):
     import mitsuba as mi
     if continues:
         set_sample_offset(scene, offset)
-    start = time.perf_counter()
+    cpu, start = time.process_time(), time.perf_counter()
     image = mi.render(scene, spp=spp, seed=seed)
     dr.eval(image)
     dr.sync_thread()
-    seconds = time.perf_counter() - start
-    return np.array(image, dtype=np.float64)[..., :3], seconds
+    seconds, cpu = time.perf_counter() - start, time.process_time() - cpu
+    return np.array(image, dtype=np.float64)[..., :3], seconds, cpu
 
 
 def run_job(job: Job, variant: str) -> JobResult:
@@ -137,10 +141,11 @@ def run_job(job: Job, variant: str) -> JobResult:
     continues = job.method_obj().continues_sequence
     mean = np.zeros((job.height, job.width, 3))
     sq = np.zeros_like(mean)
-    done, times = 0, []
+    done, times, cpu = 0, [], 0.0
     for i, k in enumerate(job.passes()):
         seed = job.seed if continues else derive_seed(job.seed, i)
-        image, seconds = _render(scene, continues, k, seed, job.sample_offset + done)
+        image, seconds, cpu_seconds = _render(scene, continues, k, seed,
+                                              job.sample_offset + done)
         # Mitsuba's stratified, orthogonal and ldsampler round the count (e.g.
         # orthogonal: 16 -> 25, a prime squared): count what was rendered
         k = scene.sensors()[0].sampler().sample_count()
@@ -148,8 +153,10 @@ def run_job(job: Job, variant: str) -> JobResult:
         sq += k * image * image
         done += k
         times.append(seconds)
+        cpu += cpu_seconds
     return JobResult(image=(mean / done).astype(np.float32), sq=sq, spp=done,
                      passes=len(times), seconds=float(sum(times)), pass_seconds=times,
+                     cpu_seconds=cpu,
                      host=socket.gethostname(), cpu=f"{_cpu_model()} ({os.cpu_count()} cores)")
 
 
