@@ -62,7 +62,8 @@ def report(tmp_path_factory):
         exr[name] = store.read_exr(os.path.join(out, name + ".exr")).astype(np.float32)
     first = viewer.comparison(out, "first", [("noisy", exr["noisy"]), ("checker", exr["checker"])],
                               reference=exr["reference"], viewer_id="first")
-    second = viewer.comparison(out, TRICKY_TITLE, [("checker", exr["checker"]), ("noisy", exr["noisy"])],
+    second = viewer.comparison(out, TRICKY_TITLE,
+                               [("checker", exr["checker"]), ("noisy", exr["noisy"])],
                                viewer_id="second")
     far = viewer.comparison(out, "far", [("dim", exr["reference"] * np.float32(0.5))],
                             viewer_id="far")
@@ -215,13 +216,15 @@ def test_missing_data_is_reported(browser, report, tmp_path):
 def test_shows_the_exr_pixels_and_key_2_switches_the_image(page, report):
     exr = report[1]
     before = shot(canvases(page).first)
-    assert np.abs(shown_colours(page, SAMPLE) - tonemap([exr["noisy"][y, x] for x, y in SAMPLE])).max() <= 1
+    expected = tonemap([exr["noisy"][y, x] for x, y in SAMPLE])
+    assert np.abs(shown_colours(page, SAMPLE) - expected).max() <= 1
     hover(page, 10, 10)
     page.keyboard.press("2")
     wait_attr(page, "data-drawn", "image:1")
     after = shot(canvases(page).first)
     assert np.mean(np.any(before != after, axis=-1)) > 0.5  # most displayed pixels changed
-    assert np.abs(shown_colours(page, SAMPLE) - tonemap([exr["checker"][y, x] for x, y in SAMPLE])).max() <= 1
+    expected = tonemap([exr["checker"][y, x] for x, y in SAMPLE])
+    assert np.abs(shown_colours(page, SAMPLE) - expected).max() <= 1
     # labels are clickable; Space flips between the last two picked
     viewer_el(page).locator('.vrv-label[data-index="2"]').click()
     wait_attr(page, "data-drawn", "image:2")
@@ -384,7 +387,8 @@ def test_flip_matches_flip_evaluator():
 def test_relmse_map_averages_to_metrics_relmse():
     images = synthetic_images(seed=5)
     rel = viewer.relmse_map(images["noisy"], images["reference"])
-    assert rel.mean() == pytest.approx(metrics.relmse(images["noisy"], images["reference"]), rel=1e-12)
+    expected = metrics.relmse(images["noisy"], images["reference"])
+    assert rel.mean() == pytest.approx(expected, rel=1e-12)
 
 
 def test_data_files_round_trip_and_are_shared(tmp_path):
@@ -397,7 +401,8 @@ def test_data_files_round_trip_and_are_shared(tmp_path):
     assert c["id"] != a["id"]
     half = viewer.write_blob(str(tmp_path), image * 1e5, "f16")  # clipped to the f16 range
     back = viewer.read_blob(str(tmp_path), half, image.shape)
-    assert np.array_equal(back, np.minimum(image * 1e5, 65504).astype(np.float16).astype(np.float32))
+    expected = np.minimum(image * 1e5, 65504).astype(np.float16).astype(np.float32)
+    assert np.array_equal(back, expected)
     with pytest.raises(ValueError, match=r"unknown data type 'f64'.*\['f16', 'f32'\]"):
         viewer.write_blob(str(tmp_path), image, "f64")
 

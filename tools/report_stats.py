@@ -73,9 +73,8 @@ def main() -> None:
             ready = pg.evaluate("performance.now()")
             nav = pg.evaluate("(() => { const n = performance.getEntriesByType('navigation')[0];"
                               " return [n.domContentLoadedEventEnd, n.loadEventEnd]; })()")
-            loaded = pg.evaluate("Array.from(document.scripts)"
-                                 ".filter(s => (s.getAttribute('src') || '').includes('viewer-data'))"
-                                 ".length")
+            loaded = pg.evaluate("Array.from(document.scripts).filter(s => "
+                                 "(s.getAttribute('src') || '').includes('viewer-data')).length")
             viewers = pg.evaluate("document.querySelectorAll('[data-viewer]').length")
             rows.append((nav[0], nav[1], ready, loaded, viewers, len(errors)))
             context.close()

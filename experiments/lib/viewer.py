@@ -111,7 +111,7 @@ def _check_shapes(image, reference) -> None:
 # -------------------------------------------------------------------- data
 
 def write_blob(out: str, array: np.ndarray, dtype: str = "f32") -> dict:
-    """Write ``array`` as ``dtype`` (f32, or f16 clipped to +-65504) to ``<out>/viewer-data/<id>.js``.
+    """Write ``array`` as ``dtype`` to ``<out>/viewer-data/<id>.js`` (f16: clipped to +-65504).
 
     The id is a hash of the values, type and shape, so equal arrays share one
     file and an existing file is never rewritten. Returns ``{"id", "src",
