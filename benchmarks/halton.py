@@ -170,7 +170,7 @@ def build_rows(res: dict) -> list[list[str]]:
         ratio = halton[best_h]["efficiency"] / native[best_n]["efficiency"]
         short = "" if ratio >= EFFICIENCY_TARGET else f", {1 - ratio:.0%} short"
         rows.append([f"H2. efficiency {best_h.replace(':', ' ')} / {best_n} (best native), "
-                     f"vr_path bsdf NEE, {case}, 64 spp",
+                     f"vr_path bsdf NEE, {case}, 64 spp requested",
                      f"{ratio:.2f}{short}", f">= {EFFICIENCY_TARGET:.1f}",
                      _holds(ratio >= EFFICIENCY_TARGET)])
     return rows

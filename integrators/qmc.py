@@ -25,7 +25,13 @@ megakernel, so every instruction counts): the per-base constants (base,
 reciprocal, shift) are packed into one 64-bit table entry, read with a
 single gather (AVX2 gathers are slow); ``1/b`` is one float division;
 small unsigned integers go to float through a signed conversion (a single
-instruction; unsigned ones are emulated on x86).
+instruction; unsigned ones are emulated on x86). Measured in renders
+(``mi.cornell_box()``, 256x256, 32 spp, ``python -m benchmarks.halton``):
+``none`` costs 0.99-1.00x ``independent`` per sample, the randomized
+variants 1.11-1.16x, of which the digit-permutation table gather (and the
+hash that picks the permutation) is about 0.12-0.16; a rotation alone
+(``T`` = identity) measured 0.97x, pbrt's cycle-walking
+``PermutationElement`` 1.31x.
 
 Randomizations (pbrt-v4's ``RandomizeStrategy``):
 
