@@ -85,6 +85,13 @@ class HaltonSampler(mi.Sampler):
     ``mi.render`` call instead, and continue the sequence over calls with
     ``sample_offset`` (below).
 
+    Sample counts: powers of two stratify dimension 0 fully, powers of three
+    dimension 1; counts with both factors (72 = 2^3 3^2) stratify the pair
+    into 2^a x 3^b boxes. Measured (``python -m benchmarks.halton``,
+    ``vr_path`` bsdf + NEE), ``owen`` at 81 spp had 1.2-1.7x the efficiency
+    1/(MSE x time) of ``owen`` at 64 spp on ``mi.cornell_box()``, and about
+    the same on ``scenes/cbox.xml``.
+
     Progressive rendering: to render ``N`` samples in passes of ``k_1, k_2,
     ...`` samples, keep the seed fixed and set ``sample_offset`` to the
     number of samples already taken before each pass::
