@@ -36,7 +36,8 @@ def set_variant(variant: str = VARIANT) -> None:
 def load_scene(width: int, height: int, spp: int, sampler: str = "independent",
                randomization: str | None = None, max_depth: int = 8):
     """The default scene (``scenes/cbox.xml``) with ``vr_path`` bsdf + NEE and the given
-    sampler, loaded through the experiments' scene route (:func:`experiments.lib.methods.load_scene`)."""
+    sampler, loaded through the experiments' scene route
+    (:func:`experiments.lib.methods.load_scene`)."""
     name = "bsdf+nee" + ("" if sampler == "independent" else f"+{sampler}") \
         + (f":{randomization}" if randomization is not None else "")
     return M.load_scene(SCENE, width, height, M.parse_method(name), M.Depth(max_depth), spp)

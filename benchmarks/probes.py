@@ -23,7 +23,7 @@ import sys
 import time
 
 from . import common as C
-from .common import dr, mi
+from .common import mi
 
 
 # ------------------------------------------------------------ compile

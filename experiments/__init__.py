@@ -8,7 +8,8 @@ Scripts (each ``python -m experiments.<name> --help``), thin layers over :mod:`e
 * ``writeup``      the writeup's figures with numbers (``--full``: 1024x512, 1000-spp bias checks);
 * ``samplers``     halton (each randomization) against Mitsuba's five samplers, by efficiency;
 * ``stability``    where each method breaks down (Phong exponent, light size, grazing, Halton);
-* ``run_all``      all of them, then ``<out>/index.html`` (``make run``; ``make full`` adds ``--full``).
+* ``run_all``      all of them, then ``<out>/index.html`` (``make run``; ``make full``
+  adds ``--full``).
 
 Each script plans its render jobs (:mod:`.lib.plan`), executes the ones the store lacks
 (:mod:`.lib.execute`, results in ``<out>/store``), then analyses and presents them: a

@@ -22,12 +22,14 @@ import time
 from experiments.lib import cli, figures, metrics, report
 from experiments.lib import plan as P
 from experiments.lib import sampler_study as SS
-from experiments.lib.methods import NATIVE_SAMPLERS, RANDOMIZATIONS, Depth, parse_method
+from experiments.lib.methods import NATIVE_SAMPLERS, RANDOMIZATIONS, Depth
 from experiments.lib.study import Study
 
 NAME = "samplers"
 ORDER = 30
 DEPTHS = (2, 8)
+CPU_TIME = ("the CPU time of the rendering process (all its threads), which load from other "
+            "processes perturbs far less than wall-clock time")
 
 
 def samplers() -> list[str]:
@@ -148,7 +150,7 @@ def run(args) -> None:
         f"own render (samplers that round the count up are shown at the count they rendered). "
         f"Efficiency is Veach's 1/(MSE x render time) at the largest count, relative to "
         f"independent: above 1, a sampler reaches a given error sooner. Render time is "
-        f"{'the CPU time of the rendering process (all its threads), which load from other processes perturbs far less than wall-clock time' if st.variant.startswith('llvm') else 'wall-clock time'}.")]
+        f"{CPU_TIME if st.variant.startswith('llvm') else 'wall-clock time'}.")]
     for d in points:
         figures.error_plots(os.path.join(args.out, NAME, f"error_depth{d}.png"),
                             {s: ([p.spp for p in pts], [p.seconds for p in pts],

@@ -85,8 +85,8 @@ def conclude(rows: list[Row]) -> list[str]:
             n = max(native, key=lambda r: r.efficiency)
             text += (f" Halton's best randomization, {h.sampler}, reaches "
                      f"{h.relative_efficiency:.2f}x {BASELINE}'s efficiency "
-                     f"(MSE {h.relative_mse:.2f}x, {h.us_per_sample / _base(at).us_per_sample:.2f}x "
-                     f"its time per sample): {h.efficiency / n.efficiency:.2f}x the best "
+                     f"(MSE {h.relative_mse:.2f}x, "
+                     f"{h.us_per_sample / _base(at).us_per_sample:.2f}x its time per sample): {h.efficiency / n.efficiency:.2f}x the best "
                      f"native sampler's ({n.sampler}), so it "
                      + ("wins." if h.efficiency > n.efficiency else "does not win."))
         sentences.append(text)
