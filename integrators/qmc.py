@@ -135,7 +135,7 @@ def division_magic(b: int) -> tuple[int, int]:
 
 
 def permutations_per_base(b: int) -> int:
-    """How many digit permutations :data:`PERMUTATIONS` holds for base ``b``.
+    """How many digit permutations the table (``_NP_TABLES["perms"]``) holds for base ``b``.
 
     For ``b <= 7``, every permutation with ``0 -> 0``, each repeated
     ``720 / (b-1)!`` times (so the choice is exactly uniform); 64 random ones

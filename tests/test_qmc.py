@@ -4,6 +4,8 @@ Statistical checks use a significance level of 1e-3 (chi-square p-values; a
 z of 3.29 for two-sided normal bounds), with fixed seeds so they are
 deterministic.
 """
+import math
+
 import drjit as dr
 import mitsuba as mi
 import numpy as np
@@ -45,6 +47,25 @@ def test_division_magic_is_exact():
         m, s = qmc.division_magic(b)
         assert 0 < m < 2**32
         np.testing.assert_array_equal((a * np.uint64(m)) >> np.uint64(32 + s), a // np.uint64(b))
+
+
+def test_permutation_table():
+    """Each odd base's run in the table: permutations_per_base(b) permutations of
+    {0..b-1} with T(0) = 0 (every one of them, equally often, for b <= 7), found
+    at the offset the packed entry names; the Dr.Jit count agrees."""
+    tables = qmc._NP_TABLES
+    primes = qmc.PRIMES.astype(np.int64)
+    counts = np.array(qmc._permutation_count(mi.UInt32(primes[1:])))
+    for i, b in enumerate(primes[1:], start=1):
+        count = qmc.permutations_per_base(int(b))
+        assert counts[i - 1] == count
+        offset = int((int(tables["packed"][i]) >> 17) & 0x7FFF) * qmc.PERM_ALIGN
+        perms = tables["perms"][offset:offset + count * b].reshape(count, b).astype(np.int64)
+        assert np.all(perms[:, 0] == 0)
+        assert np.all(np.sort(perms, axis=1) == np.arange(b))
+        if b <= 7:
+            _, freq = np.unique(perms, axis=0, return_counts=True)
+            assert len(freq) == math.factorial(b - 1) and np.all(freq == freq[0])
 
 
 def test_base2_is_bit_reversal():
