@@ -176,7 +176,9 @@ def run(args) -> None:
                 "methods": ", ".join(args.methods), "variant": args.variant,
                 "seed": args.seed, "time budget (s)": args.time_budget,
                 "path settings": args.depth.describe(),
-                "reference": st.describe_reference(ref_meta), "max lanes per pass": P.MAX_LANES}
+                "reference": st.describe_reference(ref_meta), "max lanes per pass": P.MAX_LANES,
+                "render times measured on": st.timed_on(
+                    [j for jobs in ladders.values() for j in jobs] + list(equal_jobs.values()))}
     report.write_section(args.out, NAME, "Convergence, error against time, efficiency", 10,
                          settings, blocks, args.variant, time.perf_counter() - start)
 

@@ -66,11 +66,14 @@ def main(argv=None) -> None:
     writeup.run(args)
     if args.samplers != "off":
         quick = SAMPLERS_QUICK if args.samplers == "quick" else []
-        samplers.run(cli.parse_args(samplers.build_parser(), quick + sub_argv(args)))
+        sub = cli.parse_args(samplers.build_parser(), quick + sub_argv(args))
+        sub.executor = args.executor                  # the same cluster, if any
+        samplers.run(sub)
     if args.stability != "off":
-        stability.run(stability.parse(
-            sub_argv(args, (("methods", "--methods"),))
-            + (["--quick"] if args.stability == "quick" else [])))
+        sub = stability.parse(sub_argv(args, (("methods", "--methods"),))
+                              + (["--quick"] if args.stability == "quick" else []))
+        sub.executor = args.executor
+        stability.run(sub)
     seconds = time.perf_counter() - start
     report.write_section(args.out, "run_all", "This run", 90, {
         "command": "python -m experiments.run_all " + " ".join(sys.argv[1:] if argv is None

@@ -172,7 +172,8 @@ def run(args) -> None:
                 "base method": args.base, "max_depth": ", ".join(map(str, depths(args))),
                 "path settings": args.depth.describe(), "variant": args.variant,
                 "seed": args.seed, "reference": f"{args.reference_spp} spp of "
-                f"{args.reference_method}"}
+                f"{args.reference_method}",
+                "render times measured on": st.timed_on(ordered(refs, ladders))}
     report.write_section(args.out, NAME, "Samplers: halton against Mitsuba's own", ORDER,
                          settings, blocks, args.variant, time.perf_counter() - start)
     from experiments.lib import store

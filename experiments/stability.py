@@ -58,7 +58,8 @@ def parse(argv=None):
 def run(args) -> None:
     start = time.perf_counter()
     sw = Sweeps(args, args.config)
-    sw.st.run(sw.plan(args.sweeps), f"{NAME}: sweeps")
+    jobs = sw.plan(args.sweeps)
+    sw.st.run(jobs, f"{NAME}: sweeps")
     blocks = [report.text(
         f"Where each sampling method breaks down, on {os.path.basename(args.scene)} at "
         f"{sw.width}x{sw.height} ({args.depth.describe()}). Each sweep point is the scene with "
@@ -83,7 +84,8 @@ def run(args) -> None:
                 "halton sweep max_depth": ", ".join(map(str, sw.halton_depths)),
                 "variant": args.variant, "seed": args.seed,
                 "reference": f"{args.reference_spp} spp, {args.reference_method}",
-                "breakdown factor": BREAK_FACTOR, "firefly threshold (MADs)": FIREFLY_MADS}
+                "breakdown factor": BREAK_FACTOR, "firefly threshold (MADs)": FIREFLY_MADS,
+                "render times measured on": sw.st.timed_on(jobs)}
     report.write_section(args.out, NAME, "Stability: where each method breaks down", ORDER,
                          settings, blocks, args.variant, time.perf_counter() - start)
     # machine-readable results (breakdown sentences, outliers) for tests and other tools

@@ -1,4 +1,4 @@
-"""The Dask executor (experiments/lib/cluster.py) against a toy job function.
+"""The Dask executor (experiments/lib/cluster.py): with a toy job, then with the experiment scripts.
 
 One LocalCluster of two worker processes (one thread each) serves the whole
 module. The toy job is plain picklable data like a render job: its result
@@ -8,10 +8,14 @@ is killed mid-run.
 """
 from __future__ import annotations
 
+import csv
+import glob
 import logging
 import os
 import signal
 import socket
+import subprocess
+import sys
 import threading
 import time
 from dataclasses import dataclass
@@ -23,6 +27,7 @@ from distributed import Client, LocalCluster
 from experiments.lib import cluster as C
 
 VARIANT = "toy_variant"
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 @dataclass(frozen=True)
@@ -196,3 +201,164 @@ def test_unreachable_scheduler_fails_fast(address, timeout):
     assert time.monotonic() - start < 10
     message = str(err.value)
     assert address in message and "\n" not in message
+
+
+# ------------------------------------------------- end to end: the experiment scripts
+#
+# A tiny convergence study (3 methods, ladders to 4 spp, a 16-spp reference in
+# jobs, equal-time jobs) run locally once; then on two local workers, on the
+# shared cluster with a worker killed mid-run, and interrupted and resumed.
+# A time budget far below one sample's time makes every equal-time job 1 spp,
+# so the job list does not depend on measured times.
+
+STUDY = ["--resolution", "16x8", "--spp", "4", "--reference-spp", "16",
+         "--methods", "bsdf,bsdf+halton,path", "--time-budget", "1e-9"]
+
+
+def run_study(out, *extra: str) -> dict:
+    """Run the study; return the executor's ``timed_on`` (empty for the local loop)."""
+    from experiments import convergence
+    from experiments.lib import cli
+    timed_on = {}
+    try:
+        convergence.main(STUDY + ["--out", str(out), *extra])
+    finally:
+        for ex in cli._EXECUTORS:
+            timed_on.update(ex.timed_on)
+        cli.close_executors()
+    return timed_on
+
+
+def read_store(out) -> dict:
+    """Every finished job of the study: store key -> JobResult."""
+    from experiments.lib.store import JobStore
+    root = os.path.join(str(out), "store")
+    st = JobStore(root)
+    keys = [os.path.relpath(p, root)[:-len(".npz")]
+            for p in glob.glob(os.path.join(root, "**", "*.npz"), recursive=True)]
+    return {key: st.get(key) for key in keys}
+
+
+def error_table(out) -> dict:
+    """(method, spp) -> (MSE, relMSE) from the study's table of errors."""
+    with open(os.path.join(str(out), "convergence", "errors.csv"), newline="") as f:
+        return {(r["method"], r["spp"]): (float(r["MSE"]), float(r["relMSE"]))
+                for r in csv.DictReader(f)}
+
+
+def assert_same_study(a, b) -> float:
+    """Same jobs, images equal up to float summation order, same metrics; returns the
+    largest absolute difference between two images of the same job."""
+    ra, rb = read_store(a), read_store(b)
+    assert len(ra) >= 20 and sorted(ra) == sorted(rb)
+    largest = 0.0
+    for key in ra:
+        assert rb[key].spp == ra[key].spp, key
+        np.testing.assert_allclose(rb[key].image, ra[key].image, rtol=1e-5, atol=1e-6,
+                                   err_msg=key)
+        largest = max(largest, float(np.abs(rb[key].image - ra[key].image).max()))
+    ea, eb = error_table(a), error_table(b)
+    assert len(ea) == 3 * 3 and sorted(ea) == sorted(eb)
+    for row in ea:
+        np.testing.assert_allclose(eb[row], ea[row], rtol=1e-5, err_msg=str(row))
+    return largest
+
+
+@pytest.fixture(scope="module")
+def local_study(tmp_path_factory):
+    out = tmp_path_factory.mktemp("local")
+    run_study(out)
+    return out
+
+
+def test_study_on_two_workers_equals_local(local_study, tmp_path):
+    timed_on = run_study(tmp_path, "--workers", "2")
+    largest = assert_same_study(local_study, tmp_path)
+    print(f"largest image difference between --workers 2 and the local loop: {largest:.3g}")
+    # the jobs whose times the study compares were all timed by one worker
+    group = [k for k in timed_on if k.startswith(("convergence/", "equal_time/"))]
+    assert len(group) == 3 * 3 + 3
+    assert len({timed_on[k].address for k in group}) == 1
+    # negative control: another seed changes the images (the comparison can fail)
+    other = tmp_path / "seed1"
+    run_study(other, "--seed", "1")
+    with pytest.raises(AssertionError):
+        assert_same_study(local_study, other)
+
+
+def test_study_survives_a_killed_worker(local_study, local_cluster, tmp_path, monkeypatch):
+    """Kill the worker the compared jobs are pinned to after the second finished job."""
+    from experiments.lib import cli
+    from experiments.lib.store import JobStore
+    put, killed = JobStore.put, []
+
+    def put_then_kill(self, job, result):
+        put(self, job, result)
+        if len(killed) == 0 and job.key.startswith("convergence/"):
+            ex = cli._EXECUTORS[-1]
+            victim = ex._pins["convergence"]
+            pid = ex.client.run(os.getpid)[victim]
+            os.kill(pid, signal.SIGKILL)
+            killed.append(pid)
+    monkeypatch.setattr(JobStore, "put", put_then_kill)
+    timed_on = run_study(tmp_path, "--scheduler", local_cluster.scheduler_address)
+    assert killed
+    assert_same_study(local_study, tmp_path)
+    pids = Client(local_cluster, set_as_default=False).run(os.getpid).values()
+    assert killed[0] not in pids                  # it really died (and was replaced)
+    assert any(info.pid != killed[0] for info in timed_on.values())
+
+
+def test_interrupted_study_resumes_without_rendering_again(local_study, local_cluster,
+                                                          tmp_path, monkeypatch):
+    from experiments.lib import cli
+    from experiments.lib.cluster import DaskExecutor
+    from experiments.lib.store import JobStore
+    put = JobStore.put
+    finished = []
+
+    def put_then_interrupt(self, job, result):
+        put(self, job, result)
+        finished.append(job.key)
+        if len(finished) == 5:
+            raise KeyboardInterrupt
+    monkeypatch.setattr(JobStore, "put", put_then_interrupt)
+    with pytest.raises(KeyboardInterrupt):
+        run_study(tmp_path, "--scheduler", local_cluster.scheduler_address)
+    assert sorted(read_store(tmp_path)) == sorted(finished)
+    stamps = {k: os.stat(JobStore(str(tmp_path / "store")).path(k)).st_mtime_ns
+              for k in finished}
+
+    monkeypatch.setattr(JobStore, "put", put)
+    submitted = []
+    map_unordered = DaskExecutor.map_unordered
+
+    def spy(self, jobs):
+        jobs = list(jobs)
+        submitted.extend(j.key for j in jobs)
+        return map_unordered(self, jobs)
+    monkeypatch.setattr(DaskExecutor, "map_unordered", spy)
+    run_study(tmp_path, "--scheduler", local_cluster.scheduler_address)
+    assert not set(submitted) & set(finished), "finished jobs were rendered again"
+    assert sorted(submitted + finished) == sorted(read_store(local_study))
+    for k, stamp in stamps.items():
+        assert os.stat(JobStore(str(tmp_path / "store")).path(k)).st_mtime_ns == stamp
+    assert_same_study(local_study, tmp_path)
+
+
+@pytest.mark.parametrize("options, says", [
+    (["--scheduler", f"tcp://127.0.0.1:{_closed_port()}"], "cannot reach the Dask scheduler"),
+    (["--scheduler", "not a scheduler::"], "invalid Dask scheduler address"),
+    (["--workers", "2", "--scheduler", "tcp://127.0.0.1:8786"], "not allowed with"),
+    (["--workers", "0"], "--workers"),
+])
+def test_bad_cluster_options_exit_2_with_one_line(tmp_path, options, says):
+    out = tmp_path / "results"
+    start = time.monotonic()
+    proc = subprocess.run([sys.executable, "-m", "experiments.convergence", "--out", str(out),
+                           *options], cwd=ROOT, capture_output=True, text=True, timeout=60)
+    assert time.monotonic() - start < 10
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and says in lines[0], proc.stderr
+    assert not out.exists()

@@ -6,6 +6,7 @@ Bad arguments end the program with exit code 2 and one line on stderr
 from __future__ import annotations
 
 import argparse
+import atexit
 import os
 import re
 import signal
@@ -106,6 +107,13 @@ def common_parser(prog: str, description: str, spp: int | None = None,
                    help="Mitsuba variant: llvm_* or cuda_* (e.g. cuda_ad_rgb on a GPU)")
     p.add_argument("--seed", type=nonnegative_int, default=0, help="base random seed")
     p.add_argument("--out", default=DEFAULT_OUT, help="output directory (report: OUT/index.html)")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=positive_int, metavar="N",
+                       help="render on a local Dask cluster of N worker processes (one thread "
+                            "each) instead of in this process")
+    where.add_argument("--scheduler", metavar="ADDRESS",
+                       help="render on the Dask cluster whose scheduler is at ADDRESS (e.g. "
+                            "tcp://head:8786); its workers set up --variant themselves")
     if time_budget is not None:
         p.add_argument("--time-budget", type=positive_float, default=time_budget, metavar="SECONDS",
                        help="render time per method in the equal-time comparison")
@@ -176,8 +184,9 @@ def parse_args(parser: Parser, argv=None) -> argparse.Namespace:
     """Parse and validate; set the Mitsuba variant.
 
     Adds ``args.info`` (the scene), ``args.depth`` (its integrator settings
-    with --max-depth/--rr-depth applied), ``args.method_objs`` and
-    ``args.explicit`` (the options given on the command line).
+    with --max-depth/--rr-depth applied), ``args.method_objs``,
+    ``args.explicit`` (the options given on the command line) and
+    ``args.executor`` (the Dask cluster of --workers/--scheduler, else None).
     """
     args = parser.parse_args(argv)
     args.explicit = explicit_options(parser, argv)
@@ -190,6 +199,7 @@ def parse_args(parser: Parser, argv=None) -> argparse.Namespace:
         parser.error(problem)
     _set_variant(parser, args.variant)
     mi.set_log_level(mi.LogLevel.Error)   # not the samplers' "rounding to N" per render
+    args.executor = open_executor(parser, args)     # before anything is written
     if builtin:
         args.scene = M.builtin_scene(args.scene, os.path.join(args.out, "cache", "scenes"))
     try:
@@ -206,6 +216,40 @@ def parse_args(parser: Parser, argv=None) -> argparse.Namespace:
     return args
 
 
+#: Dask executors opened by :func:`open_executor`, closed by :func:`close_executors`.
+_EXECUTORS: list = []
+
+
+def open_executor(parser: Parser, args: argparse.Namespace):
+    """The executor that ``--workers`` / ``--scheduler`` ask for; None (the local loop)
+    without them. An unusable cluster is a one-line error (exit 2) within 10 s."""
+    if args.workers is None and args.scheduler is None:
+        return None
+    try:
+        from . import cluster
+    except ImportError as e:
+        parser.error(f"--workers and --scheduler need dask.distributed ({e}); install it "
+                     f"with: pip install '.[cluster]'")
+    try:
+        if args.workers is not None:
+            executor = cluster.DaskExecutor.local(args.workers, args.variant)
+        else:
+            executor = cluster.DaskExecutor.connect(args.scheduler, args.variant)
+    except cluster.ClusterError as e:
+        parser.error(str(e))
+    if not _EXECUTORS:
+        atexit.register(close_executors)
+    _EXECUTORS.append(executor)
+    print(f"rendering on {executor.describe()}", file=sys.stderr)
+    return executor
+
+
+def close_executors() -> None:
+    """Close every executor :func:`open_executor` opened (and the clusters it started)."""
+    while _EXECUTORS:
+        _EXECUTORS.pop().close()
+
+
 def main_wrapper(main):
     """Run ``main()``; Ctrl-C or kill ends it with one line (finished files are kept)."""
     def handler(signum, frame):
@@ -217,3 +261,5 @@ def main_wrapper(main):
         print("\ninterrupted: finished files are kept; run the same command again to resume",
               file=sys.stderr)
         sys.exit(130)
+    finally:
+        close_executors()

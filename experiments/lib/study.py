@@ -63,6 +63,21 @@ class Study:
                           "method": jobs[0].method,
                           "mse_floor": float(np.mean(acc.variance_of_mean()))}
 
+    def timed_on(self, jobs: list[P.Job]) -> str:
+        """Which machine (host, CPU) measured the render times that each comparison of
+        ``jobs`` divides (their ``timing_group``), read from the store."""
+        groups: dict[str, set] = {}
+        for j in jobs:
+            if j.timing_group is not None:
+                r = self.store.get(j.key)
+                groups.setdefault(j.timing_group, set()).add(f"{r.host}, {r.cpu}")
+        machines = set().union(*groups.values())
+        if not machines:
+            return "(no timed comparison)"
+        if len(machines) == 1:
+            return machines.pop()
+        return "; ".join(f"{g}: {' + '.join(sorted(m))}" for g, m in sorted(groups.items()))
+
     def describe_reference(self, meta: dict) -> str:
         return (f"{meta['spp']} spp of {meta['method']} (NEE + MIS), {meta['passes']} passes, "
                 f"{meta['seconds']:.1f} s; its own expected MSE about {meta['mse_floor']:.1e}")
