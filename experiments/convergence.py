@@ -52,39 +52,51 @@ def sequences(st: Study, ladders, ref) -> tuple[dict, list[dict]]:
     """Errors of every ladder image; returns ({metric: {method: (spp, seconds, errors)}},
     report blocks)."""
     out = st.out
-    table, series, grid, captions = [], {"MSE": {}, "relMSE": {}}, [], []
+    table, series, grid, captions = [], {"MSE": {}, "relMSE": {}, "FLIP": {}}, [], []
+    viewers, notes = [], []
     for m, jobs in ladders.items():
         points = []
-        grid.append([]), captions.append([])
+        grid.append([]), captions.append([]), notes.append([])
         for acc in P.accumulate(st.store, jobs):
             stem = os.path.join(out, NAME, m, f"spp{acc.spp:05d}")
             store.write_image(stem, acc.mean)
             err = metrics.errors(acc.mean, ref)
-            points.append((acc.spp, acc.seconds, err["mse"], err["relmse"]))
+            points.append((acc.spp, acc.seconds, err["mse"], err["relmse"], err["flip"]))
             table.append([m, acc.spp, round(acc.seconds, 4), fmt(err["mse"]),
-                          fmt(err["relmse"]), fmt(err["rmse"]),
+                          fmt(err["relmse"]), fmt(err["flip"]), fmt(err["rmse"]),
                           f"{NAME}/{m}/spp{acc.spp:05d}.exr"])
             grid[-1].append(acc.mean)
             captions[-1].append(f"MSE {err['mse']:.2e}\nrelMSE {err['relmse']:.2e}\n"
                                 f"{acc.seconds:.2f} s")
-        spp, secs, mse, rel = (list(v) for v in zip(*points))
+            notes[-1].append(f"{acc.seconds:.2f} s · relMSE {err['relmse']:.3g} · "
+                             f"FLIP {err['flip']:.3f}")
+        spp, secs, mse, rel, flip = (list(v) for v in zip(*points))
         series["MSE"][m] = (spp, secs, mse)
         series["relMSE"][m] = (spp, secs, rel)
+        series["FLIP"][m] = (spp, secs, flip)
+        viewers.append(report.viewer(
+            out, f"{m}: 1 to {spp[-1]} spp", [(f"{n} spp", im) for n, im in zip(spp, grid[-1])],
+            ref, f"The convergence sequence of {m} against the reference.", notes[-1]))
+    viewers.insert(0, report.viewer(
+        out, f"Every method at {st.args.spp} spp", [(m, g[-1]) for m, g in zip(ladders, grid)],
+        ref, "The last image of each sequence.", [n[-1] for n in notes]))
     targets = P.doubling_targets(st.args.spp)
     figures.image_grid(os.path.join(out, NAME, "sequences.png"), grid, list(ladders),
                        [f"{t} spp" for t in targets], captions)
     for metric in series:
         figures.error_plots(os.path.join(out, NAME, f"error_{metric.lower()}.png"),
                             series[metric], metric)
-    return series, [
+    return series, viewers + [
         report.image(f"{NAME}/sequences.png", "Convergence sequences: rows = methods, columns = "
                      "spp; MSE, relMSE and cumulative render time under each tile."),
         report.image(f"{NAME}/error_mse.png", "MSE against spp and against render time "
                      "(log-log); fitted slopes in the legend (-1 is the Monte Carlo rate)."),
         report.image(f"{NAME}/error_relmse.png", f"relMSE = mean((x - ref)^2 / (ref^2 + "
                      f"{metrics.RELMSE_EPS})) against spp and time."),
+        report.image(f"{NAME}/error_flip.png", "Mean FLIP (NVIDIA's perceptual error, "
+                     "flip-evaluator, HDR) against spp and time."),
         report.write_table(out, f"{NAME}/errors", ["method", "spp", "seconds", "MSE", "relMSE",
-                                                   "RMSE", "image"], table,
+                                                   "FLIP", "RMSE", "image"], table,
                            "Every intermediate image with its error and cumulative time",
                            collapsed=True),
         report.write_table(out, f"{NAME}/slopes", ["method", "MSE vs spp", "MSE vs time",
@@ -108,7 +120,7 @@ def slope_rows(series: dict) -> list[list]:
 
 def equal_time(st: Study, jobs: dict[str, P.Job], ref) -> tuple[dict, list[dict]]:
     """The equal-time panel; returns ({method: (spp, seconds, MSE)}, report blocks)."""
-    images, captions, result = [], [], {}
+    images, captions, result, notes = [], [], {}, []
     for m, job in jobs.items():
         r = st.store.get(job.key)
         image = r.image.astype(float)
@@ -117,12 +129,15 @@ def equal_time(st: Study, jobs: dict[str, P.Job], ref) -> tuple[dict, list[dict]
         result[m] = (r.spp, r.seconds, mse)
         images.append(image)
         captions.append(f"{r.spp} spp, {r.seconds:.2f} s\nMSE {mse:.2e}")
+        notes.append(f"{r.spp} spp, {r.seconds:.2f} s · relMSE {metrics.relmse(image, ref):.3g}"
+                     f" · FLIP {metrics.flip_mean(image, ref):.3f}")
     figures.image_grid(os.path.join(st.out, NAME, "equal_time.png"), [images], ["equal time"],
                        list(jobs), [captions])
-    return result, [report.image(
-        f"{NAME}/equal_time.png", f"Equal time: each method renders the samples that fit in "
-        f"{st.args.time_budget:g} s at the speed measured on its convergence sequence "
-        f"(actual render time under each image).")]
+    return result, [report.viewer(
+        st.out, f"Equal time ({st.args.time_budget:g} s)", list(zip(jobs, images)), ref,
+        f"Equal time: each method renders the samples that fit in {st.args.time_budget:g} s "
+        f"at the speed measured on its convergence sequence (spp and actual render time "
+        f"on each label).", notes, figure=f"{NAME}/equal_time.png")]
 
 
 def efficiency(st: Study, series: dict, equal: dict) -> list[dict]:

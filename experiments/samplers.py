@@ -130,6 +130,16 @@ def analyse(st: Study, refs: dict, ladders: dict) -> tuple[list[SS.Row], dict, d
     return SS.table(points, st.width * st.height), points, floors
 
 
+def comparison(st: Study, refs: dict, ladders: dict, d: int) -> dict:
+    """Viewer block: every sampler's image at the largest count of the ladder, at max_depth d."""
+    ref, _ = st.reference(refs[d])
+    images = [(s, st.store.get(jobs[-1].key).image.astype(float))
+              for s, jobs in ladders[d].items()]
+    return report.viewer(st.out, f"Samplers at max_depth {d}, {st.args.spp} spp", images, ref,
+                         f"{st.args.base} with each sampler at max_depth {d} after the largest "
+                         f"sample count, against the reference.")
+
+
 def g(x: float) -> str:
     return f"{x:.3g}"
 
@@ -159,6 +169,7 @@ def run(args) -> None:
             f"{NAME}/error_depth{d}.png", f"max_depth {d}: MSE against spp and against render "
             f"(CPU) time per sampler (log-log, fitted slopes in the legend); reference: "
             f"{st.describe_reference(floors[d])}."))
+        blocks.append(comparison(st, refs, ladders, d))
     table_rows = [[r.depth, r.sampler, r.spp, g(r.mse), g(r.relmse), f"{r.us_per_sample:.3f}",
                    f"{r.relative_mse:.2f}", f"{r.relative_efficiency:.2f}", f"{r.slope:.2f}"]
                   for r in rows]

@@ -133,10 +133,11 @@ def short_figures(st: Study, ref, ref_var) -> list[dict]:
                            [f"{spp} spp"], [b, a, "reference"],
                            [[f"RMSE {rmse_b:.4f}", f"RMSE {rmse_a:.4f}",
                              f"{args.reference_spp} spp"]])
-        blocks.append(report.image(f"{NAME}/{stem}.png",
-                                   f"{a} vs {b} at {width}x{height} after {spp} spp: RMSE "
-                                   f"{rmse_a:.4f} vs {rmse_b:.4f}, ratio {b}/{a} = "
-                                   f"{rmse_b / rmse_a:.2f}"))
+        blocks.append(report.viewer(args.out, f"{a} vs {b}, {spp} spp",
+                                    [(b, img_b), (a, img_a)], ref,
+                                    f"{a} vs {b} at {width}x{height} after {spp} spp: RMSE "
+                                    f"{rmse_a:.4f} vs {rmse_b:.4f}, ratio {b}/{a} = "
+                                    f"{rmse_b / rmse_a:.2f}", figure=f"{NAME}/{stem}.png"))
         rows.append([f"{a} vs {b}", spp, f"{rmse_b:.4f}", f"{rmse_a:.4f}",
                      f"{rmse_b / rmse_a:.2f}", f"{(rmse_b / rmse_a) ** 2:.2f}"])
         if parse_method(a).deterministic:
@@ -183,8 +184,10 @@ def full_checks(st: Study) -> list[dict]:
         figures.image_grid(os.path.join(args.out, NAME, stem + ".png"), [[img_b, img_a]],
                            [f"{args.full_spp} spp"], [b, a],
                            [[f"{acc_b.seconds:.1f} s", f"{acc_a.seconds:.1f} s"]])
-        blocks.append(report.image(f"{NAME}/{stem}.png", f"{b} and {a} at {width}x{height} "
-                                   f"after {args.full_spp} spp"))
+        blocks.append(report.viewer(args.out, f"{b} and {a}, {args.full_spp} spp",
+                                    [(b, img_b), (a, img_a)], ref.mean,
+                                    f"{b} and {a} at {width}x{height} after {args.full_spp} spp",
+                                    figure=f"{NAME}/{stem}.png"))
         if parse_method(a).deterministic:
             det_rows += _deterministic_rows(a, renders[a], ref.mean, ref.variance_of_mean())[0]
             continue

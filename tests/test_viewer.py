@@ -20,6 +20,7 @@ import pytest
 from PIL import Image
 
 from experiments.lib import metrics, store, viewer
+from experiments.lib import report as report_lib
 from tools.ensure_browser import browser_path
 
 W, H = 48, 24
@@ -332,7 +333,7 @@ def test_e_shows_the_relmse_map_and_m_the_flip_map(page, report):
     exr = report[1]
     manifest = json.loads(viewer_el(page).locator("script.vrv-manifest").text_content())
     lo, hi = manifest["ranges"]["relmse"]
-    rel = viewer.relmse_map(exr["noisy"], exr["reference"])
+    rel = metrics.relmse_map(exr["noisy"], exr["reference"])
     hover(page, 17, 11)
     page.keyboard.press("e")
     wait_attr(page, "data-drawn", "error:relmse:0")
@@ -361,32 +362,72 @@ def test_e_shows_the_relmse_map_and_m_the_flip_map(page, report):
     assert page.problems == []
 
 
+def test_report_of_a_small_run_opens_with_working_viewers(browser, tmp_path):
+    """A real (tiny) convergence run: its report's viewers load from file://, and the
+    FLIP column of the error table is the mean of the FLIP map the viewer shows."""
+    from experiments import convergence
+    out = tmp_path / "r"
+    convergence.main(["--resolution", "16x8", "--reference-spp", "8", "--spp", "4",
+                      "--time-budget", "0.02", "--methods", "uniform,bsdf", "--out", str(out)])
+    page_html = (out / "index.html").read_text()
+    assert 'href="viewer.css"' in page_html and 'src="viewer.js"' in page_html
+    assert "viewer-data/" not in "".join(report_lib.produced_files(str(out)))
+    header = (out / "convergence" / "errors.csv").read_text().splitlines()[0].split(",")
+    assert header[3:6] == ["MSE", "relMSE", "FLIP"]
+    pg = browser.new_page(viewport={"width": 1000, "height": 700})
+    problems = []
+    pg.on("console", lambda m: problems.append(m.text) if m.type in ("error", "warning") else None)
+    pg.on("pageerror", lambda e: problems.append(str(e)))
+    pg.goto("file://" + str(out / "index.html"))
+    roots = pg.locator("[data-viewer]")
+    assert roots.count() == 4  # every method at 4 spp, one sequence per method, equal time
+    for i in range(roots.count()):
+        roots.nth(i).scroll_into_view_if_needed()
+        pg.wait_for_function("el => el.dataset.state === 'ready'",
+                             arg=roots.nth(i).element_handle())
+    manifest = json.loads(roots.nth(1).locator("script.vrv-manifest").text_content())
+    assert [im["label"] for im in manifest["images"]] == ["1 spp", "2 spp", "4 spp", "reference"]
+    image = store.read_exr(str(out / "convergence" / "uniform" / "spp00004.exr"))
+    ref = viewer.read_blob(str(out), manifest["images"][-1]["data"], image.shape)
+    flip_map = viewer.read_blob(str(out), manifest["images"][2]["errors"]["flip"], image.shape[:2])
+    row = next(r.split(",") for r in (out / "convergence" / "errors.csv").read_text().splitlines()
+               if r.startswith("uniform,4,"))
+    assert float(row[5]) == pytest.approx(metrics.flip_mean(image, ref), rel=2e-3)  # 3 digits
+    assert flip_map.mean() == pytest.approx(metrics.flip_mean(image, ref), rel=1e-3)  # f16 map
+    assert problems == []
+    pg.close()
+
+
 # ------------------------------------------------------ FLIP, data files
 
 def test_flip_of_an_image_against_itself_is_zero():
     image = synthetic_images()["noisy"]
-    error, mean = viewer.flip(image, image)
+    error, mean = metrics.flip(image, image)
     assert mean == 0.0 and error.shape == (H, W) and not error.any()
 
 
 def test_flip_matches_flip_evaluator():
     import flip_evaluator
     images = synthetic_images(seed=3)
-    error, mean = viewer.flip(images["noisy"], images["reference"])
+    error, mean = metrics.flip(images["noisy"], images["reference"])
     direct, direct_mean, _ = flip_evaluator.evaluate(images["reference"], images["noisy"], "HDR",
                                                      applyMagma=False)
     assert np.array_equal(error, direct[..., 0])
     assert mean == pytest.approx(direct_mean, rel=1e-12) and mean > 0.05
+    error[:] = 1  # the caller's copy: a second call (served from the cache) is unchanged
+    again, mean_again = metrics.flip(images["noisy"], images["reference"])
+    assert np.array_equal(again, direct[..., 0]) and mean_again == mean
+    assert metrics.errors(images["noisy"], images["reference"])["flip"] == mean
     # more noise, more FLIP
-    _, worse = viewer.flip(images["checker"], images["reference"])
+    _, worse = metrics.flip(images["checker"], images["reference"])
     assert worse > mean
     with pytest.raises(ValueError, match=r"\(24, 48, 3\).*\(24, 47, 3\)"):
-        viewer.flip(images["noisy"], images["reference"][:, :47])
+        metrics.flip(images["noisy"], images["reference"][:, :47])
 
 
 def test_relmse_map_averages_to_metrics_relmse():
     images = synthetic_images(seed=5)
-    rel = viewer.relmse_map(images["noisy"], images["reference"])
+    rel = metrics.relmse_map(images["noisy"], images["reference"])
     expected = metrics.relmse(images["noisy"], images["reference"])
     assert rel.mean() == pytest.approx(expected, rel=1e-12)
 

@@ -1,10 +1,11 @@
-"""Error metrics, convergence slopes, Veach efficiency, bias checks, outliers.
+"""Error metrics (MSE, relMSE, FLIP), convergence slopes, Veach efficiency, bias checks, outliers.
 
 All functions take linear (H, W, 3) images; the reference is the
 high-sample-count image the error is measured against.
 """
 from __future__ import annotations
 
+import hashlib
 import math
 
 import numpy as np
@@ -34,7 +35,58 @@ def relmse(image: np.ndarray, reference: np.ndarray, mask: np.ndarray | None = N
     return float(np.mean(err)) if err.size else float("nan")
 
 
-METRICS = {"mse": mse, "relmse": relmse, "rmse": rmse}
+def relmse_map(image: np.ndarray, reference: np.ndarray, eps: float = RELMSE_EPS) -> np.ndarray:
+    """relMSE per pixel, (H, W): the mean over channels of (x - ref)^2 / (ref^2 + eps)."""
+    check_shapes(image, reference)
+    ref = np.asarray(reference, np.float64)
+    return (np.square(np.asarray(image, np.float64) - ref) / (ref * ref + eps)).mean(axis=-1)
+
+
+#: Recent FLIP results, keyed by a hash of both images (a report shows an image's FLIP
+#: in a table and its FLIP map in the viewer: computed once).
+_FLIP_CACHE: dict[bytes, tuple[np.ndarray, float]] = {}
+_FLIP_CACHE_SIZE = 32
+
+
+def flip(image: np.ndarray, reference: np.ndarray) -> tuple[np.ndarray, float]:
+    """HDR-FLIP of ``image`` against ``reference``: the (H, W) error map and its mean.
+
+    Computed by NVIDIA's ``flip-evaluator`` (default viewing conditions, 67
+    pixels per degree; exposure range chosen from the reference). FLIP needs
+    finite non-negative radiance: NaN, infinite and negative values count as 0.
+    """
+    import flip_evaluator
+    check_shapes(image, reference)
+    test, ref = _finite_nonnegative(image), _finite_nonnegative(reference)
+    key = hashlib.sha1(repr(test.shape).encode() + test.tobytes() + ref.tobytes()).digest()
+    if key not in _FLIP_CACHE:
+        error, mean, _ = flip_evaluator.evaluate(ref, test, "HDR", applyMagma=False)
+        if len(_FLIP_CACHE) >= _FLIP_CACHE_SIZE:
+            _FLIP_CACHE.pop(next(iter(_FLIP_CACHE)))
+        _FLIP_CACHE[key] = (np.asarray(error, np.float32).reshape(test.shape[:2]), float(mean))
+    error, mean = _FLIP_CACHE[key]
+    return error.copy(), mean
+
+
+def flip_mean(image: np.ndarray, reference: np.ndarray) -> float:
+    """Mean HDR-FLIP (see :func:`flip`)."""
+    return flip(image, reference)[1]
+
+
+def _finite_nonnegative(image) -> np.ndarray:
+    """float32 copy with NaN, infinities and negative values set to 0 (FLIP's HDR input)."""
+    x = np.asarray(image, np.float32)
+    return np.ascontiguousarray(np.where(np.isfinite(x) & (x > 0), x, np.float32(0)))
+
+
+def check_shapes(image, reference) -> None:
+    """Raise ValueError naming both shapes when ``image`` and ``reference`` differ."""
+    if np.shape(image) != np.shape(reference):
+        raise ValueError(f"image shape {np.shape(image)} differs from the reference's "
+                         f"{np.shape(reference)}")
+
+
+METRICS = {"mse": mse, "relmse": relmse, "rmse": rmse, "flip": flip_mean}
 
 
 def errors(image: np.ndarray, reference: np.ndarray) -> dict[str, float]:

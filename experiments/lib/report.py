@@ -2,7 +2,8 @@
 
 Each experiment writes ``<out>/<name>/section.json`` (and a markdown
 ``summary.md`` of it) with :func:`write_section`: a title, an order, its
-settings, versions, timings and a list of blocks (text, image, table).
+settings, versions, timings and a list of blocks (text, image, table, and
+viewer: an interactive image comparison, see :mod:`.viewer`).
 :func:`build_report` collects every section found under ``<out>`` into one
 self-contained page with relative links, plus a list of every file produced,
 so a new experiment only has to write its own section.
@@ -16,6 +17,7 @@ import platform
 import resource
 
 from . import store
+from . import viewer as viewers
 
 SECTION = "section.json"
 
@@ -64,6 +66,21 @@ def image(src: str, caption: str = "") -> dict:
     return {"kind": "image", "src": src, "caption": caption}
 
 
+def viewer(out: str, title: str, images: list[tuple[str, object]], reference=None,
+           caption: str = "", notes: list[str] | None = None, figure: str = "",
+           reference_label: str = "reference") -> dict:
+    """An interactive comparison of ``images`` ((label, linear (H, W, 3) array) pairs).
+
+    Writes the viewer's pixel data under ``<out>/viewer-data/`` (``out`` is the
+    report directory); with a ``reference`` the viewer also shows relMSE and
+    FLIP maps. ``figure``: a static PNG of the same comparison (path relative
+    to ``out``), linked under the viewer and shown in the markdown summary.
+    See :func:`.viewer.manifest`.
+    """
+    return {"kind": "viewer", "caption": caption, "figure": figure,
+            "manifest": viewers.manifest(out, title, images, reference, reference_label, notes)}
+
+
 def table(header: list[str], rows: list[list], caption: str = "", files=(),
           collapsed: bool = False) -> dict:
     """A table block; ``collapsed`` shows it folded (for long tables)."""
@@ -99,6 +116,12 @@ def section_markdown(section: dict) -> str:
             lines += [block["text"], ""]
         elif block["kind"] == "image":
             lines += [f"![{block['caption']}](../{block['src']})", ""]
+        elif block["kind"] == "viewer":
+            labels = ", ".join(im["label"] for im in block["manifest"]["images"])
+            lines += [f"*Viewer in index.html: {block['manifest']['title']} ({labels}).* "
+                      f"{block['caption']}", ""]
+            if block["figure"]:
+                lines += [f"![{block['manifest']['title']}](../{block['figure']})", ""]
         elif block["kind"] == "table":
             if block["caption"]:
                 lines += [f"**{block['caption']}**", ""]
@@ -116,14 +139,20 @@ def read_sections(out: str) -> list[dict]:
     return sorted(sections, key=lambda s: (s["order"], s["name"]))
 
 
+#: The page and its viewer's files, not listed among the results.
+PAGE_FILES = ("index.html",) + viewers.ASSETS
+
+
 def produced_files(out: str) -> list[str]:
-    """Every file under ``out`` (relative paths), except the report itself and temporaries."""
+    """Every result file under ``out`` (relative paths): not the page, its viewer's
+    scripts and data (``viewer-data/``), nor temporaries."""
     files = []
     for root, dirs, names in os.walk(out):
-        dirs[:] = sorted(d for d in dirs if not d.startswith("."))
+        dirs[:] = sorted(d for d in dirs if not d.startswith(".") and
+                         os.path.relpath(os.path.join(root, d), out) != viewers.DATA_DIR)
         for name in sorted(names):
             rel = os.path.relpath(os.path.join(root, name), out)
-            if rel != "index.html" and not name.startswith(".tmp-"):
+            if rel not in PAGE_FILES and not name.startswith(".tmp-"):
                 files.append(rel.replace(os.sep, "/"))
     return files
 
@@ -139,6 +168,7 @@ h1 { margin-top: 0; } h3 { margin-bottom: .3em; }
 h2 { border-bottom: 2px solid #ddd; padding-bottom: .2em; margin-top: 2em; }
 nav ul { columns: 2; } figure { margin: 1em 0; } figcaption { color: #555; font-size: .92em; }
 img { max-width: 100%; height: auto; border: 1px solid #ddd; image-rendering: auto; }
+figure.vrv img { border: 0; }
 table { border-collapse: collapse; margin: .6em 0 1.2em; font-size: .92em; }
 th, td { border: 1px solid #ccc; padding: .25em .6em; text-align: right; }
 th { background: #f0f0f0; } td:first-child, th:first-child { text-align: left; }
@@ -163,8 +193,13 @@ def _block_html(block: dict) -> str:
         return "".join(f"<p>{_esc(p)}</p>" for p in block["text"].split("\n\n"))
     if block["kind"] == "image":
         src = _esc(block["src"])
-        return (f'<figure><a href="{src}"><img src="{src}" alt="{_esc(block["caption"])}"></a>'
+        return (f'<figure><a href="{src}"><img src="{src}" alt="{_esc(block["caption"])}" '
+                f'loading="lazy" decoding="async"></a>'
                 f'<figcaption>{_esc(block["caption"])}</figcaption></figure>')
+    if block["kind"] == "viewer":
+        figure = (f'<p class="note">Static figure: <a href="{_esc(block["figure"])}">'
+                  f'{_esc(block["figure"])}</a></p>' if block["figure"] else "")
+        return viewers.element(block["manifest"], block["caption"]) + figure
     head = "".join(f"<th>{_esc(h)}</th>" for h in block["header"])
     body = "".join("<tr>" + "".join(f"<td>{_esc(c)}</td>" for c in row) + "</tr>"
                    for row in block["rows"])
@@ -213,11 +248,15 @@ def build_report(out: str, variant: str) -> str:
 <html lang="en"><head><meta charset="utf-8">
 <meta name="viewport" content="width=device-width, initial-scale=1">
 <title>Variance reduction in path tracing: experiments</title>
-<style>{CSS}</style></head>
+<style>{CSS}</style>
+{viewers.HEAD}</head>
 <body><main>
 <h1>Variance reduction in path tracing: experiments</h1>
 <p class="note">Report generated {_esc(datetime.datetime.now().isoformat(timespec="seconds"))}.
-Click an image to open it at full size.</p>
+Comparisons open in viewers: keys 1-9 or a click on a label pick the image, Space flips
+between the last two, the wheel zooms and a drag pans (all images of a comparison together),
++/- change the exposure, e shows the error map (m: relMSE or FLIP), g shows them side by side;
+keys act on the viewer under the mouse. Click a chart to open it at full size.</p>
 <nav><ul>{toc}<li><a href="#versions">Versions</a></li>
 <li><a href="#files">All files</a></li></ul></nav>
 {body}
@@ -225,6 +264,7 @@ Click an image to open it at full size.</p>
 <section id="files"><h2>All files ({len(files)})</h2>{_files_html(files)}</section>
 </main></body></html>
 """
+    viewers.install_assets(out)
     path = os.path.join(out, "index.html")
     store.write_text(path, page)
     return path

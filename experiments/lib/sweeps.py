@@ -415,11 +415,11 @@ class Sweeps:
         h, w = self.height, self.width
         side = max(4, h // 2)
         y0, x0 = (h - side) // 2, min(w - side, w // 2 + side // 4)
-        crops, crop_caps, rows, text = [], [], [], []
+        crops, crop_caps, rows, text, viewers = [], [], [], [], []
         for point in self.plans["halton"]:
             d = point["depth"]
             ref = self.reference(point["ref"])
-            series, final = {}, {}
+            series, final, images = {}, {}, []
             crops.append([])
             crop_caps.append([])
             for m, jobs in point["jobs"].items():
@@ -434,8 +434,14 @@ class Sweeps:
                 final[m] = (err[-1], corr, metrics.loglog_slope(spp, err))
                 rows.append([d, m, spp[-1], g(err[-1]), g(final[m][2]), f"{corr:.3f}"])
                 crops[-1].append(image[y0:y0 + side, x0:x0 + side])
+                images.append((m, image))
                 crop_caps[-1].append(f"relMSE {err[-1]:.2e}\ncorr {corr:.2f}")
             figures.error_plots(self.path(f"halton_depth{d}.png"), series, "relMSE")
+            viewers.append(report.viewer(
+                self.out, f"Halton at max_depth {d}, {targets[-1]} spp", images, ref,
+                f"Every method of the Halton sweep at max_depth {d} after the last spp: zoom "
+                f"in to see plain Halton's structured artifacts.",
+                figure=f"{NAME}/halton_crops.png"))
             plain = f"{strategy}+halton:none"
             rand = [n for n in final if n != plain and "halton" in n]
             indep = final[strategy]
@@ -469,9 +475,7 @@ class Sweeps:
         blocks += [report.image(f"{NAME}/halton_depth{d}.png",
                                 f"relMSE against spp and time at max_depth {d}.")
                    for d in depths]
-        blocks += [report.image(f"{NAME}/halton_crops.png", "Image crops after the last spp: "
-                                "structured artifacts of plain Halton."),
-                   report.text("\n\n".join(text)),
+        blocks += viewers + [report.text("\n\n".join(text)),
                    report.write_table(self.out, f"{NAME}/halton",
                                       ["max_depth", "method", "spp", "relMSE", "slope vs spp",
                                        "neighbour corr."], rows, "Halton sweep")]

@@ -17,9 +17,8 @@ Identical arrays (a reference shown in several comparisons) are written once,
 existing files are not rewritten, and viewers load their scripts only when
 they come near the viewport, so the page opens fast however many there are.
 
-Error maps: relMSE per pixel (:func:`relmse_map`, mean over RGB of
-(x - ref)^2 / (ref^2 + 0.01)) and NVIDIA's FLIP from the ``flip-evaluator``
-package (:func:`flip`).
+Error maps: relMSE per pixel and NVIDIA's FLIP (``flip-evaluator``), both from
+:mod:`.metrics` (:func:`~.metrics.relmse_map`, :func:`~.metrics.flip`).
 """
 from __future__ import annotations
 
@@ -35,6 +34,7 @@ import zlib
 import numpy as np
 
 from . import store
+from .metrics import check_shapes, flip, relmse_map
 
 ASSETS_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "viewer_assets")
 ASSETS = ("viewer.js", "viewer.css")
@@ -44,8 +44,6 @@ DTYPES = {"f32": "<f4", "f16": "<f2"}
 F16_MAX = 65504.0
 #: The ``<head>`` lines a page with viewers needs (paths relative to the page).
 HEAD = '<link rel="stylesheet" href="viewer.css">\n<script src="viewer.js"></script>'
-#: Denominator offset of relMSE (as experiments/lib/metrics.py).
-RELMSE_EPS = 0.01
 #: Decades of relMSE the colour bar spans below its top.
 RELMSE_DECADES = 4
 
@@ -69,43 +67,6 @@ def _read_bytes(path: str) -> bytes | None:
             return f.read()
     except OSError:
         return None
-
-
-# ----------------------------------------------------------------- metrics
-
-def _finite_nonnegative(image) -> np.ndarray:
-    """float32 copy with NaN, infinities and negative values set to 0 (FLIP's HDR input)."""
-    x = np.asarray(image, np.float32)
-    return np.where(np.isfinite(x) & (x > 0), x, np.float32(0))
-
-
-def flip(image: np.ndarray, reference: np.ndarray) -> tuple[np.ndarray, float]:
-    """HDR-FLIP of ``image`` against ``reference``: (H, W) error map and its mean.
-
-    Computed by NVIDIA's ``flip-evaluator`` (default viewing conditions, 67
-    pixels per degree; exposure range chosen from the reference). FLIP needs
-    finite non-negative radiance: NaN, infinite and negative values count as 0.
-    """
-    import flip_evaluator
-    _check_shapes(image, reference)
-    error, mean, _ = flip_evaluator.evaluate(_finite_nonnegative(reference),
-                                             _finite_nonnegative(image), "HDR",
-                                             applyMagma=False)
-    return np.asarray(error, np.float32).reshape(np.shape(image)[:2]), float(mean)
-
-
-def relmse_map(image: np.ndarray, reference: np.ndarray, eps: float = RELMSE_EPS) -> np.ndarray:
-    """Relative squared error per pixel, mean over channels: (x - ref)^2 / (ref^2 + eps)."""
-    _check_shapes(image, reference)
-    ref = np.asarray(reference, np.float64)
-    err = np.square(np.asarray(image, np.float64) - ref) / (ref * ref + eps)
-    return err.mean(axis=-1)
-
-
-def _check_shapes(image, reference) -> None:
-    if np.shape(image) != np.shape(reference):
-        raise ValueError(f"image shape {np.shape(image)} differs from the reference's "
-                         f"{np.shape(reference)}")
 
 
 # -------------------------------------------------------------------- data
@@ -177,7 +138,7 @@ def manifest(out: str, title: str, images: list[tuple[str, np.ndarray]],
             raise ValueError(f"comparison {title!r}: image {label!r} has shape "
                              f"{np.shape(image)}, the first has {shape}")
     if reference is not None:
-        _check_shapes(reference, images[0][1])
+        check_shapes(reference, images[0][1])
 
     entries, relmse_maps = [], []
     for k, (label, image) in enumerate(images):
