@@ -93,8 +93,9 @@ def sequences(st: Study, ladders, ref) -> tuple[dict, list[dict]]:
                      "(log-log); fitted slopes in the legend (-1 is the Monte Carlo rate)."),
         report.image(f"{NAME}/error_relmse.png", f"relMSE = mean((x - ref)^2 / (ref^2 + "
                      f"{metrics.RELMSE_EPS})) against spp and time."),
-        report.image(f"{NAME}/error_flip.png", "Mean FLIP (NVIDIA's perceptual error, "
-                     "flip-evaluator, HDR) against spp and time."),
+        report.image(f"{NAME}/error_flip.png", "Mean FLIP (NVIDIA's perceptual error in "
+                     "[0, 1], flip-evaluator, HDR) against spp and time; not a squared error, "
+                     "so its slope is not the Monte Carlo -1."),
         report.write_table(out, f"{NAME}/errors", ["method", "spp", "seconds", "MSE", "relMSE",
                                                    "FLIP", "RMSE", "image"], table,
                            "Every intermediate image with its error and cumulative time",
