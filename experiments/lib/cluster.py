@@ -35,6 +35,7 @@ import logging
 import os
 import platform
 import socket
+import sys
 import time
 import uuid
 from dataclasses import dataclass
@@ -259,7 +260,7 @@ class DaskExecutor:
         workers = self._workers()
         if not workers:
             print(f"waiting for a Dask worker to join {self.client.scheduler.address} ...",
-                  flush=True)
+                  file=sys.stderr, flush=True)
             self.client.wait_for_workers(1)
             workers = self._workers()
         return workers
