@@ -56,8 +56,11 @@ def main() -> None:
     total, files = tree_size(args.out)
     data, data_files = tree_size(os.path.join(args.out, "viewer-data"))
     page = os.path.getsize(page_path)
+    store_size, _ = tree_size(os.path.join(args.out, "store"))
     print(f"directory {args.out}: {mib(total)} in {files} files; index.html {page / 1024:.0f} KiB; "
-          f"viewer data {mib(data)} in {data_files} files; other files {mib(total - data - page)}")
+          f"viewer data {mib(data)} in {data_files} files; render store (store/, resume cache) "
+          f"{mib(store_size)}; other files (EXR, PNG, CSV, ...) "
+          f"{mib(total - data - page - store_size)}")
 
     from playwright.sync_api import sync_playwright
     rows = []
@@ -73,16 +76,18 @@ def main() -> None:
             ready = pg.evaluate("performance.now()")
             nav = pg.evaluate("(() => { const n = performance.getEntriesByType('navigation')[0];"
                               " return [n.domContentLoadedEventEnd, n.loadEventEnd]; })()")
-            loaded = pg.evaluate("Array.from(document.scripts).filter(s => "
-                                 "(s.getAttribute('src') || '').includes('viewer-data')).length")
+            srcs = pg.evaluate("Array.from(document.scripts, s => s.getAttribute('src'))"
+                               ".filter(s => s && s.includes('viewer-data'))")
+            loaded = sum(os.path.getsize(os.path.join(args.out, s)) for s in srcs)
             viewers = pg.evaluate("document.querySelectorAll('[data-viewer]').length")
-            rows.append((nav[0], nav[1], ready, loaded, viewers, len(errors)))
+            rows.append((nav[0], nav[1], ready, (len(srcs), loaded), viewers, len(errors)))
             context.close()
         browser.close()
     med = [statistics.median(r[k] for r in rows) for k in range(3)]
     print(f"Chromium, file://, 1280x900, median of {args.runs}: DOMContentLoaded {med[0]:.0f} ms, "
           f"load {med[1]:.0f} ms, first-screen viewers drawn {med[2]:.0f} ms; "
-          f"{rows[0][3]} of the data files loaded for the first screen; {rows[0][4]} viewers; "
+          f"first screen loaded {rows[0][3][0]} data files ({mib(rows[0][3][1])}) besides the "
+          f"page; {rows[0][4]} viewers; "
           f"console errors: {max(r[5] for r in rows)}")
 
 
