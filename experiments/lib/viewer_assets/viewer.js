@@ -204,8 +204,10 @@
       controls.appendChild(this.modeBtn);
       controls.appendChild(this.metricBtn);
     }
-    if (this.n > 1) controls.appendChild(button("side by side", "toggle side by side (g)",
-      function () { self.toggleGrid(); }));
+    if (this.n > 1) {
+      this.gridBtn = button("side by side", "toggle side by side (g)", function () { self.toggleGrid(); });
+      controls.appendChild(this.gridBtn);
+    }
     controls.appendChild(button("reset", "fit the image, exposure 0 (r)", function () { self.reset(); }));
     this.zoomEl = el("span", "vrv-zoom");
     controls.appendChild(this.zoomEl);
@@ -451,6 +453,7 @@
     });
     this.evEl.textContent = "EV " + (this.stops > 0 ? "+" : this.stops < 0 ? "−" : "±") + Math.abs(this.stops);
     this.zoomEl.textContent = this.view ? "zoom " + fmt(this.view.s) + "×" : "";
+    if (this.gridBtn) this.gridBtn.classList.toggle("vrv-active", this.grid);
     if (this.modeBtn) {
       this.modeBtn.classList.toggle("vrv-active", this.mode === "error");
       this.metricBtn.textContent = METRICS[this.metric];
