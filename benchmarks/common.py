@@ -19,12 +19,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCENE = os.path.join(ROOT, "scenes", "cbox.xml")
 VARIANT = "llvm_ad_rgb"
 RANDOMIZATIONS = M.RANDOMIZATIONS
-
-
-def __getattr__(name: str):
-    if name == "STRATEGIES":          # vr_path's list; its module needs a variant set first
-        return M.strategies()
-    raise AttributeError(name)
+STRATEGIES = M.strategies()
 
 
 def set_variant(variant: str = VARIANT) -> None:

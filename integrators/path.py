@@ -8,9 +8,7 @@ import drjit as dr
 import mitsuba as mi
 
 from . import warps
-
-#: Valid values of the ``strategy`` parameter (the one definition of the list).
-STRATEGIES = ("uniform", "cosine", "bsdf", "mis")
+from .choices import STRATEGIES  # noqa: F401  (the strategy list, defined once)
 
 #: Probability with which the ``mis`` strategy draws from the cosine strategy
 #: (else from the BSDF's own sampling). See :class:`VRPathIntegrator`.

@@ -34,20 +34,12 @@ import mitsuba as mi
 
 from integrators.qmc import RANDOMIZATIONS
 
-#: Variant set when a strategy list is needed before the scripts set theirs.
-DEFAULT_VARIANT = "llvm_ad_rgb"
-
 
 def strategies() -> tuple[str, ...]:
-    """The ``vr_path`` strategies: ``integrators.path.STRATEGIES``, the one definition.
-
-    That module defines a Mitsuba plugin class, so it needs a variant; if none
-    is set yet, :data:`DEFAULT_VARIANT` is set (a script sets its own later).
-    """
-    if mi.variant() is None:
-        mi.set_variant(DEFAULT_VARIANT)
-    from integrators import path
-    return tuple(path.STRATEGIES)
+    """The ``vr_path`` strategies: ``integrators.choices.STRATEGIES``, the one definition
+    (importable before a variant is set)."""
+    from integrators.choices import STRATEGIES
+    return tuple(STRATEGIES)
 
 
 #: Samplers a method may use: Mitsuba's own and the bundled ``halton``.
