@@ -440,8 +440,7 @@ class Sweeps:
             viewers.append(report.viewer(
                 self.out, f"Halton at max_depth {d}, {targets[-1]} spp", images, ref,
                 f"Every method of the Halton sweep at max_depth {d} after the last spp: zoom "
-                f"in to see plain Halton's structured artifacts.",
-                figure=f"{NAME}/halton_crops.png"))
+                f"in to see plain Halton's structured artifacts."))
             plain = f"{strategy}+halton:none"
             rand = [n for n in final if n != plain and "halton" in n]
             indep = final[strategy]
@@ -475,10 +474,13 @@ class Sweeps:
         blocks += [report.image(f"{NAME}/halton_depth{d}.png",
                                 f"relMSE against spp and time at max_depth {d}.")
                    for d in depths]
-        blocks += viewers + [report.text("\n\n".join(text)),
-                   report.write_table(self.out, f"{NAME}/halton",
-                                      ["max_depth", "method", "spp", "relMSE", "slope vs spp",
-                                       "neighbour corr."], rows, "Halton sweep")]
+        blocks += viewers + [report.image(f"{NAME}/halton_crops.png", "Image crops after the "
+                                          "last spp: structured artifacts of plain Halton."),
+                             report.text("\n\n".join(text)),
+                             report.write_table(self.out, f"{NAME}/halton",
+                                                ["max_depth", "method", "spp", "relMSE",
+                                                 "slope vs spp", "neighbour corr."], rows,
+                                                "Halton sweep")]
         return blocks
 
     # ----------------------------------------------------------- 5: outliers
