@@ -9,11 +9,11 @@
     split into jobs of at most ``MAX_LANES`` samples, rendered by the local
     loop and by a ``LocalCluster`` of 1 and 2 workers, each warm (every
     process has loaded and compiled the scene first); wall time of the whole
-    set of jobs, median over repeats. This machine's cores are shared by the
+    set of jobs, rounds local, 1, 2, 2, 1, local, medians of per-round ratios. This machine's cores are shared by the
     workers (Dr.Jit threads per worker = cores // workers), so the gain here
     is bounded by the cores, not by Dask.
 
-    python -m benchmarks.cluster [--repeats N] [--quick]
+    python -m benchmarks.cluster [--repeats N] [--quick] [--parts overhead,speedup]
 """
 from __future__ import annotations
 
@@ -80,44 +80,55 @@ def _timed(executor, jobs) -> float:
 
 
 def speedup(repeats: int, spp: int, width: int, height: int) -> dict:
-    """Local loop, Dask 1 worker, Dask 2 workers on the reference jobs (warm)."""
+    """Local loop, Dask 1 worker, Dask 2 workers on the reference jobs (warm).
+
+    Each round runs local, dask1, dask2, dask2, dask1, local (drift cancels);
+    the ratios are medians of the per-round ratios."""
     jobs, warm = _reference_jobs(spp, width, height)
     mi.set_variant(VARIANT)
     local = execute.LocalExecutor(VARIANT)
     _timed(local, warm[:1])
-    times = {"local": [], "dask1": [], "dask2": []}
     start = time.perf_counter()
     with cluster.DaskExecutor.local(1, VARIANT) as d1, cluster.DaskExecutor.local(2, VARIANT) as d2:
         startup = (time.perf_counter() - start) / 2
         _timed(d1, warm[:1])
         _timed(d2, warm)                          # one warm-up job pinned to each worker
+        rounds = []
         for _ in range(repeats):
-            times["local"].append(_timed(local, jobs))
-            times["dask1"].append(_timed(d1, jobs))
-            times["dask2"].append(_timed(d2, jobs))
-    med = {k: statistics.median(v) for k, v in times.items()}
-    return {**med, "jobs": len(jobs), "startup_s": startup,
-            "speedup2": med["local"] / med["dask2"], "ratio1": med["dask1"] / med["local"]}
+            t = {}
+            for name, ex in (("local", local), ("dask1", d1), ("dask2", d2),
+                             ("dask2", d2), ("dask1", d1), ("local", local)):
+                t[name] = t.get(name, 0.0) + _timed(ex, jobs) / 2
+            rounds.append(t)
+    med = {k: statistics.median(r[k] for r in rounds) for k in rounds[0]}
+    return {**med, "jobs": len(jobs), "startup_s": startup, "rounds": len(rounds),
+            "speedup2": statistics.median(r["local"] / r["dask2"] for r in rounds),
+            "ratio1": statistics.median(r["dask1"] / r["local"] for r in rounds)}
 
 
-def rows(repeats: int = 1, quick: bool = False) -> list[list[str]]:
+def rows(repeats: int = 1, quick: bool = False, parts=("overhead", "speedup")) -> list[list[str]]:
     """The benchmark rows: [measure, value, target, holds?]."""
-    argv = ["--resolution", "64x32", "--spp", "16", "--reference-spp", "64"] if quick else []
-    o = overhead(repeats, argv)
-    spp, (w, h) = (256, (64, 32)) if quick else (1024, (256, 128))
-    s = speedup(max(2, repeats), spp, w, h)
-    study = "convergence study" + (" (quick sizes)" if quick else ", default")
-    return [
-        [f"6a. Dask 1 worker / local loop, wall time of the {study}",
-         f"{o['ratio']:.3f} ({o['dask_s']:.1f} s / {o['local_s']:.1f} s, {o['runs']} pairs)",
-         f"<= {OVERHEAD_TARGET:.2f}", "yes" if o["ratio"] <= OVERHEAD_TARGET else "no"],
-        [f"6b. reference {spp} spp {w}x{h} as {s['jobs']} jobs: local loop / Dask 2 workers "
-         f"(speed-up, {os.cpu_count()} cores)",
-         f"{s['speedup2']:.2f}x ({s['local']:.2f} s / {s['dask2']:.2f} s)", "(info)", ""],
-        ["6b. same, Dask 1 worker / local loop",
-         f"{s['ratio1']:.3f} ({s['dask1']:.2f} s / {s['local']:.2f} s); cluster start "
-         f"{s['startup_s']:.1f} s", "(info)", ""],
-    ]
+    out = []
+    if "overhead" in parts:
+        argv = ["--resolution", "64x32", "--spp", "16", "--reference-spp", "64"] if quick else []
+        o = overhead(repeats, argv)
+        study = "convergence study" + (" (quick sizes)" if quick else ", default")
+        out.append([f"6a. Dask 1 worker / local loop, wall time of the {study}",
+                    f"{o['ratio']:.3f} ({o['dask_s']:.1f} s / {o['local_s']:.1f} s, "
+                    f"{o['runs']} pairs)", f"<= {OVERHEAD_TARGET:.2f}",
+                    "yes" if o["ratio"] <= OVERHEAD_TARGET else "no"])
+    if "speedup" in parts:
+        spp, (w, h) = (256, (64, 32)) if quick else (1024, (256, 128))
+        s = speedup(max(2, repeats), spp, w, h)
+        out += [
+            [f"6b. reference {spp} spp {w}x{h} as {s['jobs']} jobs: local loop / Dask 2 "
+             f"workers (speed-up, {os.cpu_count()} cores)",
+             f"{s['speedup2']:.2f}x ({s['local']:.2f} s / {s['dask2']:.2f} s, "
+             f"{s['rounds']} rounds)", "(info)", ""],
+            ["6b. same, Dask 1 worker / local loop",
+             f"{s['ratio1']:.3f} ({s['dask1']:.2f} s / {s['local']:.2f} s); cluster start "
+             f"{s['startup_s']:.1f} s", "(info)", ""]]
+    return out
 
 
 def main(argv=None) -> None:
@@ -125,8 +136,10 @@ def main(argv=None) -> None:
     p.add_argument("--repeats", type=int, default=1,
                    help="alternating local/dask pairs per overhead measurement")
     p.add_argument("--quick", action="store_true", help="tiny sizes (checks the script runs)")
+    p.add_argument("--parts", default="overhead,speedup",
+                   help="comma-separated: overhead (6a), speedup (6b)")
     args = p.parse_args(argv)
-    table = rows(args.repeats, args.quick)
+    table = rows(args.repeats, args.quick, args.parts.split(","))
     print("| measure | value | target | holds? |\n|---|---|---|---|")
     for row in table:
         print("| " + " | ".join(row) + " |")
