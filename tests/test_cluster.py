@@ -4,7 +4,9 @@ One LocalCluster of two worker processes (one thread each) serves the whole
 module. The toy job is plain picklable data like a render job: its result
 depends only on its seed (fixed by the plan), never on the worker, so a
 cluster run must give exactly the numbers of a local loop, also when a worker
-is killed mid-run.
+is killed mid-run. The end-to-end tests run a tiny convergence study through
+the scripts' command line (``--workers 2``, and ``--scheduler`` pointing at the
+shared cluster) and compare it with the same study on the local loop.
 """
 from __future__ import annotations
 
