@@ -193,6 +193,18 @@ def test_changed_settings_make_another_job():
     assert a.key == _ladder(targets=(2,))[0].key          # stable
 
 
+def test_a_job_refuses_a_scene_file_other_than_the_planned_one(tmp_path):
+    """A worker that sees another file (or none) at the planned path stops with a clear
+    error instead of rendering another scene; the planned file itself renders."""
+    import dataclasses
+    job = _ladder(targets=(1,))[0]
+    assert X.run_job(job, "llvm_ad_rgb").spp == 1                      # the planned file
+    with pytest.raises(ValueError, match=r"differs from the one the jobs were planned"):
+        X.run_job(dataclasses.replace(job, scene_sha256="0" * 64), "llvm_ad_rgb")
+    with pytest.raises(FileNotFoundError, match=r"not found on host"):
+        X.run_job(dataclasses.replace(job, scene=str(tmp_path / "gone.xml")), "llvm_ad_rgb")
+
+
 def test_jobs_are_plain_picklable_data():
     import pickle
     job = _ladder("bsdf+halton:owen", (1, 4))[1]

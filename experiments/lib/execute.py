@@ -90,6 +90,24 @@ def _cpu_model() -> str:
     return platform.processor() or platform.machine()
 
 
+def _check_scene_file(job: Job) -> None:
+    """The scene file this process reads must be the one the plan was made from (a
+    cluster worker may see another file, or none, at the same path)."""
+    from .methods import file_hash
+    if not os.path.isfile(job.scene):
+        raise FileNotFoundError(
+            f"scene file '{job.scene}' not found on host {socket.gethostname()}: workers "
+            f"read scenes at the client's paths; put the scenes and --out on a file system "
+            f"every worker sees at the same path")
+    sha = file_hash(job.scene)
+    if sha != job.scene_sha256:
+        raise ValueError(
+            f"scene file '{job.scene}' on host {socket.gethostname()} differs from the one "
+            f"the jobs were planned with (sha256 {sha[:12]} instead of "
+            f"{job.scene_sha256[:12]}): the scene changed during the run, or workers see "
+            f"another file at that path")
+
+
 def _scene(job: Job, variant: str):
     """The loaded, warmed-up scene of ``job`` (cached per process)."""
     from .methods import load_scene
@@ -97,6 +115,7 @@ def _scene(job: Job, variant: str):
     if key in _scenes:
         _scenes.move_to_end(key)
         return _scenes[key]
+    _check_scene_file(job)
     scene = load_scene(job.scene, job.width, job.height, job.method_obj(), job.depth)
     _render(scene, job.method_obj().continues_sequence, 1, 0x5EED, 0)   # warm-up: compile
     _scenes[key] = scene
