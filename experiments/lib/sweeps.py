@@ -39,6 +39,14 @@ BREAK_FACTOR = 10.0
 g = "{:.3g}".format
 
 
+def _onset(quantity: str, value, fmt) -> str:
+    """'from <quantity> <value>' for the first sweep point where a condition holds, or
+    'nowhere in the sweep' when it never does."""
+    if value is None:
+        return "nowhere in the sweep"
+    return " ".join(p for p in ("from", quantity, fmt(value)) if p)
+
+
 @dataclass(frozen=True)
 class Config:
     exponents: tuple
@@ -230,14 +238,14 @@ class Sweeps:
                                                 for r, b in zip(res[other], bs)])
                 sentence = (
                     f"Exponent sweep, bsdf (lobe) vs {other}: lobe sampling pays off "
-                    f"(efficiency 1/(relMSE x time) at least 2x {other}'s) from exponent "
-                    f"{g(pays) if pays is not None else '(never in the sweep)'}"
+                    f"(efficiency 1/(relMSE x time) at least 2x {other}'s) "
+                    + _onset("exponent", pays, g)
                     + (f"; it does not pay off (less efficient than {other}) at exponent "
                        f"{', '.join(g(x) for x in worse)}" if worse else
                        f"; it is never less efficient than {other}")
                     + f". {other} sampling explodes (relMSE > {BREAK_FACTOR:g}x lobe "
-                      f"sampling's) from exponent "
-                    + (f"{g(boom)}" if boom is not None else "(never in the sweep)")
+                      f"sampling's) "
+                    + _onset("exponent", boom, g)
                     + f"; at exponent {g(xs[-1])} its relMSE is "
                       f"{g(metrics.ratio(res[other][-1]['relmse_mask'], bs[-1]['relmse_mask']))}x "
                       f"lobe sampling's, and its Phong pixels average "
@@ -304,8 +312,8 @@ class Sweeps:
                                            for r, b in zip(v, base)])
             text.append(
                 f"Light sweep, {m} without NEE: relMSE exceeds {BREAK_FACTOR:g}x "
-                f"{label(nee)}'s from light size "
-                + (g(brk) if brk is not None else "(never in the sweep)")
+                f"{label(nee)}'s "
+                + _onset("light size", brk, g)
                 + f"; it grows {g(metrics.ratio(v[-1]['relmse'], v[0]['relmse']))}x from size "
                   f"{g(xs[0])} to {g(xs[-1])} (at {g(xs[-1])}: "
                   f"{g(metrics.ratio(v[-1]['relmse'], base[-1]['relmse']))}x {label(nee)}).")
@@ -363,10 +371,10 @@ class Sweeps:
                     text.append(
                         f"Grazing, lobe sampling at exponent {g(n)}: "
                         f"{stats[-1]['wasted']:.0%} of the samples are wasted (zero weight, "
-                        f"below the horizon) at {cfg.angles[-1]} degrees; half are wasted from "
-                        + (f"{half} degrees" if half is not None else "(never in the sweep)")
-                        + "; efficiency falls below half of normal incidence's from "
-                        + (f"{loss} degrees" if loss is not None else "(never in the sweep)")
+                        f"below the horizon) at {cfg.angles[-1]} degrees; half are wasted "
+                        + _onset("", half, lambda a: f"{a} degrees")
+                        + "; efficiency falls below half of normal incidence's "
+                        + _onset("", loss, lambda a: f"{a} degrees")
                         + f" (at {cfg.angles[-1]} degrees: "
                           f"{g(metrics.ratio(base, stats[-1]['relvar']))}x).")
         # the scene itself: first hits of the camera on the Phong surface
@@ -452,8 +460,8 @@ class Sweeps:
                 + ", ".join(f"{n.split(':')[-1]} {g(final[n][0])} (slope "
                             f"{g(final[n][2])})" for n in rand)
                 + f", independent {g(indep[0])}; 'none' is worse than independent "
-                  f"sampling from "
-                + (f"{worse} spp" if worse is not None else "(never in the sweep)")
+                  f"sampling "
+                + _onset("", worse, lambda n: f"{n} spp")
                 + f". Neighbour-pixel error correlation: none {final[plain][1]:.2f}, "
                 + ", ".join(f"{n.split(':')[-1]} {final[n][1]:.2f}" for n in rand)
                 + f", independent {indep[1]:.2f}.")
