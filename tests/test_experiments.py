@@ -394,6 +394,10 @@ def test_run_all_report_lists_every_produced_file_and_reruns_resume(tmp_path, co
     assert files and set(files) <= links
     for f in links:
         assert (out / f).exists(), f
+    # the job store is summarised in one line, not listed file by file
+    stored = len(list((out / store.STORE_DIR).rglob("*.npz")))
+    assert stored and not any(f.startswith(store.STORE_DIR + "/") for f in links)
+    assert f"holds the {stored} finished render jobs" in page
     sections = [s["name"] for s in report.read_sections(str(out))]
     assert sections == ["convergence", "writeup", "samplers", "stability", "run_all"]
     eff = (out / "convergence" / "efficiency.md").read_text()

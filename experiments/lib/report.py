@@ -145,16 +145,32 @@ PAGE_FILES = ("index.html",) + viewers.ASSETS
 
 def produced_files(out: str) -> list[str]:
     """Every result file under ``out`` (relative paths): not the page, its viewer's
-    scripts and data (``viewer-data/``), nor temporaries."""
+    scripts and data (``viewer-data/``), the job store (``store/``, summarised by
+    :func:`store_summary`), nor temporaries."""
     files = []
+    skip = {viewers.DATA_DIR, store.STORE_DIR}
     for root, dirs, names in os.walk(out):
         dirs[:] = sorted(d for d in dirs if not d.startswith(".") and
-                         os.path.relpath(os.path.join(root, d), out) != viewers.DATA_DIR)
+                         os.path.relpath(os.path.join(root, d), out) not in skip)
         for name in sorted(names):
             rel = os.path.relpath(os.path.join(root, name), out)
             if rel not in PAGE_FILES and not name.startswith(".tmp-"):
                 files.append(rel.replace(os.sep, "/"))
     return files
+
+
+def store_summary(out: str) -> str:
+    """One line on the job store: how many finished jobs it holds and their size."""
+    root = os.path.join(out, store.STORE_DIR)
+    count = size = 0
+    for directory, _, names in os.walk(root):
+        for name in names:
+            if name.endswith(".npz"):
+                count += 1
+                size += os.path.getsize(os.path.join(directory, name))
+    return (f"{store.STORE_DIR}/ holds the {count} finished render jobs "
+            f"({size / 2**20:.1f} MiB) that let a rerun of the same command resume; "
+            f"delete it to render everything again.")
 
 
 # ------------------------------------------------------------------ HTML
@@ -261,7 +277,8 @@ keys act on the viewer under the mouse. Click a chart to open it at full size.</
 <li><a href="#files">All files</a></li></ul></nav>
 {body}
 <section id="versions"><h2>Versions</h2>{_kv_table(versions(variant))}</section>
-<section id="files"><h2>All files ({len(files)})</h2>{_files_html(files)}</section>
+<section id="files"><h2>All files ({len(files)})</h2>{_files_html(files)}
+<p class="note">{_esc(store_summary(out))}</p></section>
 </main></body></html>
 """
     viewers.install_assets(out)

@@ -137,6 +137,10 @@ def write_image(stem: str, image: np.ndarray) -> tuple[str, str]:
 
 # --------------------------------------------------------------- job store
 
+#: Directory of the job store under an experiment's ``--out``.
+STORE_DIR = "store"
+
+
 class JobStore:
     """One atomically written ``.npz`` entry per finished job, named by the job's key."""
 

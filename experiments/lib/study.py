@@ -15,7 +15,7 @@ import numpy as np
 from . import plan as P
 from .execute import execute
 from .methods import Depth, SceneInfo
-from .store import JobStore
+from .store import STORE_DIR, JobStore
 
 
 class Study:
@@ -27,7 +27,7 @@ class Study:
         self.depth: Depth = args.depth
         self.seed = args.seed
         self.width, self.height = args.resolution
-        self.store = JobStore(os.path.join(args.out, "store"))
+        self.store = JobStore(os.path.join(args.out, STORE_DIR))
         self.executor = executor if executor is not None else getattr(args, "executor", None)
 
     def run(self, jobs: list, label: str = "render jobs") -> int:
