@@ -76,7 +76,7 @@ class WorkerInfo:
 
 def this_worker() -> WorkerInfo:
     """The :class:`WorkerInfo` of the worker process calling it."""
-    from .report import cpu_model
+    from .execute import cpu_model
     try:
         address = get_worker().address
     except ValueError:                     # not on a worker: the local process

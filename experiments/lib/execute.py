@@ -79,7 +79,8 @@ class JobResult:
 _scenes: OrderedDict = OrderedDict()
 
 
-def _cpu_model() -> str:
+def cpu_model() -> str:
+    """The CPU's model name (``/proc/cpuinfo``), or what ``platform`` knows of it."""
     try:
         with open("/proc/cpuinfo") as f:
             for line in f:
@@ -176,7 +177,7 @@ def run_job(job: Job, variant: str) -> JobResult:
     return JobResult(image=(mean / done).astype(np.float32), sq=sq, spp=done,
                      passes=len(times), seconds=float(sum(times)), pass_seconds=times,
                      cpu_seconds=cpu,
-                     host=socket.gethostname(), cpu=f"{_cpu_model()} ({os.cpu_count()} cores)")
+                     host=socket.gethostname(), cpu=f"{cpu_model()} ({os.cpu_count()} cores)")
 
 
 class LocalExecutor:

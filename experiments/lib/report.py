@@ -18,6 +18,7 @@ import resource
 
 from . import store
 from . import viewer as viewers
+from .execute import cpu_model  # noqa: F401  (one definition; benchmarks import it from here)
 
 SECTION = "section.json"
 
@@ -25,17 +26,6 @@ SECTION = "section.json"
 def peak_rss_mb() -> float:
     """Peak resident set size of this process so far, in MiB (Linux reports KiB)."""
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-
-
-def cpu_model() -> str:
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
 
 
 def versions(variant: str) -> dict:
