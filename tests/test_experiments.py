@@ -38,6 +38,7 @@ def test_metrics_against_hand_computed_values():
     assert metrics.efficiency(0.5, 4.0) == pytest.approx(0.5)
     assert metrics.loglog_slope([1, 2, 4, 8], [3.0, 1.5, 0.75, 0.375]) == pytest.approx(-1.0)
     assert metrics.loglog_slope([1, 10, 100], [1, 100, 10000]) == pytest.approx(2.0)
+    assert math.isnan(metrics.loglog_slope([4, 4, 4], [1.0, 0.5, 0.2]))   # one abscissa
 
 
 def test_bias_check_against_hand_computed_values():

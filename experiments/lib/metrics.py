@@ -102,7 +102,7 @@ def loglog_slope(x, y) -> float:
     """
     x, y = np.asarray(x, np.float64), np.asarray(y, np.float64)
     keep = (x > 0) & (y > 0) & np.isfinite(x) & np.isfinite(y)
-    if keep.sum() < 2:
+    if np.unique(x[keep]).size < 2:          # no slope through one abscissa
         return float("nan")
     return float(np.polyfit(np.log(x[keep]), np.log(y[keep]), 1)[0])
 
