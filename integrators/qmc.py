@@ -28,10 +28,21 @@ small unsigned integers go to float through a signed conversion (a single
 instruction; unsigned ones are emulated on x86). Measured in renders
 (``mi.cornell_box()``, 256x256, 32 spp, ``python -m benchmarks.halton``):
 ``none`` costs 0.99-1.00x ``independent`` per sample, the randomized
-variants 1.11-1.16x, of which the digit-permutation table gather (and the
-hash that picks the permutation) is about 0.12-0.16; a rotation alone
-(``T`` = identity) measured 0.97x, pbrt's cycle-walking
-``PermutationElement`` 1.31x.
+variants 1.11-1.18x. Most of that gap is not the scramble's arithmetic but
+SIMD coherence: a packet's lanes are consecutive samples of one pixel, and
+the plain (or merely rotated) radical inverse gives them neighbouring values
+in every base above the sample count, so their rays and Russian-roulette
+decisions stay together, while random permutations scatter them as
+independent samples do. Probes that add this module's arithmetic (times
+1e-30) to hash-based random values in the odd bases separate the two
+(``path`` and ``vr_path``, 5 interleaved rounds each): the hash alone
+1.01x, plus the plain radical inverse 1.05x, plus the rotation and Owen
+child hash 1.06-1.08x, plus the permutation table lookup 1.11-1.13x. So
+any randomized radical inverse costs about 1.06x or more, however cheap
+its permutation; a gather-free permutation (two swap-or-not rounds) cost
+as much as the table lookup (1.111x against 1.110x), a rotation alone
+(``T`` = identity, a shifted lattice) 0.98x only through coherence, and
+pbrt's cycle-walking ``PermutationElement`` 1.31x.
 
 Randomizations (pbrt-v4's ``RandomizeStrategy``):
 
