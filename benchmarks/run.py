@@ -24,6 +24,14 @@ given next to it. On the default scene (``scenes/cbox.xml``, NEE on):
 5. JIT compile time of each configuration (first render minus warm render) in
    a fresh process with an empty kernel cache, and the same in a second
    process that finds the kernels in Dr.Jit's cache (``~/.drjit``).
+2b. (:mod:`benchmarks.halton`) halton's cost per sample over ``independent``
+   on ``mi.cornell_box()`` 256x256, 32 spp, under ``path`` and ``vr_path``
+   (target <= 1.05), and its efficiency 1/(MSE x time) over the best of
+   Mitsuba's samplers at max_depth 2 and 8 on both scenes (target >= 1.0), with
+   the table of every sampler's efficiency over ``independent``.
+6. (:mod:`benchmarks.cluster`) Dask with one worker over the local loop on the
+   default convergence study (target <= 1.10 wall time), and the speed-up of
+   two workers on a reference split into jobs.
 
 Usage: ``python -m benchmarks.run [--reps 11] [--spp 8] [--rss-full] ...``
 """
@@ -43,7 +51,9 @@ import numpy as np
 
 from experiments.lib import store
 
+from . import cluster as CL
 from . import common as C
+from . import halton as H
 from .common import dr, mi
 
 README = os.path.join(C.ROOT, "README.md")
@@ -238,6 +248,12 @@ def build_rows(res: dict, args) -> list[list[str]]:
         flat = hi["maxrss_mb"] / lo["maxrss_mb"]
         rows.append([f"4. peak RSS {rss['hi_spp']} spp / {rss['lo_spp']} spp", f"{flat:.3f}",
                      f"flat (<= {RSS_FLAT:.2f})", "yes" if flat <= RSS_FLAT else "no"])
+    hn = res.get("halton_native")
+    if hn:
+        rows += [[f"2b. {r[0].split('. ', 1)[-1]}"] + r[1:] for r in H.build_rows(hn)]
+    cl = res.get("cluster")
+    if cl:
+        rows += cl["rows"]
     cp = res.get("compile")
     if cp:
         for n, c in cp["cold"].items():
@@ -282,6 +298,11 @@ def markdown(rows: list[list[str]], res: dict) -> str:
     if rss and not rss["full"]:
         notes.append(f"Peak RSS measured at {rss['hi_spp']} and {rss['lo_spp']} spp to keep "
                      f"`make bench` short; `--rss-full` measures 1000 and 100 spp.")
+    hn = res.get("halton_native")
+    if hn:
+        notes += ["", "Efficiency 1/(MSE x time) of every sampler over independent "
+                  "(rows 2b; MSE and time ratios in brackets):", "",
+                  H.markdown(H.sampler_table(hn))]
     h = res.get("halton")
     if h:
         rc = h["recompiles_per_2_passes"]
@@ -323,7 +344,10 @@ def parse_args(argv=None):
     p.add_argument("--rss-full", action="store_true",
                    help="peak RSS at 1000 and 100 spp (about 15 minutes on 2 cores)")
     p.add_argument("--skip", default="", help="comma-separated parts to skip: "
-                   "vs_path,halton,segments,rss,compile")
+                   "vs_path,halton,halton_native,segments,rss,cluster,compile")
+    p.add_argument("--quick", action="store_true",
+                   help="smaller images and fewer rounds for the halton_native and cluster "
+                        "parts (checks that they run; not figures to quote)")
     p.add_argument("--out", default=os.path.join(C.ROOT, "results"))
     p.add_argument("--update-readme", action="store_true",
                    help="also put the table between the bench markers of README.md "
@@ -340,8 +364,9 @@ def main(argv=None) -> None:
     res = {"date": datetime.datetime.now().isoformat(timespec="seconds"),
            "machine": C.machine_info(),
            "settings": {k: (sorted(v) if isinstance(v, set) else v) for k, v in vars(args).items()}}
-    parts = [("vs_path", bench_vs_path), ("halton", bench_halton), ("segments", bench_segments),
-             ("rss", bench_rss)]
+    parts = [("vs_path", bench_vs_path), ("halton", bench_halton),
+             ("halton_native", lambda a: H.measure(a.quick)), ("segments", bench_segments),
+             ("rss", bench_rss), ("cluster", lambda a: {"rows": CL.rows(quick=a.quick)})]
     for name, fn in parts:
         if name in args.skip:
             continue
