@@ -1,6 +1,6 @@
 """Halton benchmarks (issue 11): cost per sample and efficiency against Mitsuba's samplers.
 
-``python -m benchmarks.halton [--quick]`` prints two tables measured in this
+``python -m benchmarks.halton [--quick] [--floor]`` prints two tables measured in this
 process; :func:`rows` returns the first in ``benchmarks.run``'s row format
 (``[measure, value, target, holds?]``), :func:`measure` everything.
 
@@ -15,6 +15,16 @@ process; :func:`rows` returns the first in ``benchmarks.run``'s row format
    and 8, on the bundled scene (``scenes/cbox.xml``) and ``mi.cornell_box()``.
    Target >= 1.0. The second table gives every sampler's efficiency over
    ``independent``.
+
+3. ``--floor``: why the randomized variants cannot reach the cost target.
+   Probes replace the odd bases' values by a hash of (dimension, index,
+   seed) (random values, as ``independent`` draws) and add this module's
+   radical inverse to it times 1e-30, so that its arithmetic runs but the
+   rays are those of random samples: ``hash`` alone, ``+none`` (the plain
+   radical inverse), ``+owen`` and ``+permute_digits`` (the randomized
+   ones; base 2 stays ``owen``'s). The plain ones render faster than their arithmetic costs because
+   a SIMD packet holds consecutive samples of one pixel, which a
+   (rotated) lattice keeps together; randomized points scatter them.
 
 Method: every sampler here is unbiased and randomized by the seed, so the MSE
 of a render is its variance, estimated per pixel from ``seeds`` renders with
@@ -87,6 +97,49 @@ def measure_cost(reps: int, width: int = 256, spp: int = 32) -> dict:
         runs = {n: (lambda rep, s=s: C.render(s, integrator, seed=rep + 1))
                 for n, s in scenes.items()}
         out[name] = C.interleaved(runs, "independent", reps)
+    return out
+
+
+def _probe(kind: str):
+    """An odd-base radical inverse for the cost floor (see the module docs)."""
+    import drjit as dr
+    from integrators import qmc
+    inner = qmc._radical_inverse_odd
+
+    def odd(base_index, a, seed, randomization):
+        x = qmc.mix32(qmc.mix32(seed ^ (base_index * 0x68E31DA4)) + a * 0x9E3779B9)
+        r = qmc._to_unit_fast(x)
+        if kind == "hash":
+            return r
+        return dr.minimum(r + inner(base_index, a, seed, kind) * 1e-30, qmc.ONE_MINUS_EPSILON)
+    return odd
+
+
+def measure_cost_floor(reps: int, width: int = 256, spp: int = 32) -> dict:
+    """{integrator: {probe: {cpu, wall}}}: the cost probes over independent."""
+    from integrators import qmc
+    original = qmc._radical_inverse_odd
+    probes = ["hash", "none"] + [r for r in halton_randomizations() if r != "none"]
+    configs = {"independent": None} | {f"halton:{r}": None for r in halton_randomizations()} \
+        | {f"probe:hash" if p == "hash" else f"probe:hash+{p}": p for p in probes}
+    scenes = {n: cornell_box(width, width, spp, "independent" if n == "independent" else "halton",
+                             8, None if n == "independent" else
+                             (n.split(":")[1] if p is None else "owen"))
+              for n, p in configs.items()}
+    probe_fns = {p: _probe(p) for p in probes}
+    out = {}
+    integrators = {"path": C.path_integrator(8), "vr_path": C.vr_path_integrator("bsdf", 8)}
+    try:
+        for name, integrator in integrators.items():
+            def run(n, integrator=integrator):
+                def fn(rep):
+                    p = configs[n]
+                    qmc._radical_inverse_odd = original if p is None else probe_fns[p]
+                    C.render(scenes[n], integrator, seed=rep + 1)
+                return fn
+            out[name] = C.interleaved({n: run(n) for n in configs}, "independent", reps)
+    finally:
+        qmc._radical_inverse_odd = original
     return out
 
 
@@ -206,7 +259,24 @@ def markdown(table: list[list[str]]) -> str:
 def main(argv=None) -> None:
     p = argparse.ArgumentParser(prog="python -m benchmarks.halton", description=__doc__.split("\n")[0])
     p.add_argument("--quick", action="store_true", help="smaller images, fewer rounds")
+    p.add_argument("--floor", action="store_true",
+                   help="only the cost probes (why the randomized variants cost more)")
     args = p.parse_args(argv)
+    if args.floor:
+        C.set_variant()
+        t0 = time.perf_counter()
+        floor = measure_cost_floor(reps=3 if args.quick else 7, width=128 if args.quick else 256)
+        table = [["sampler / probe", "path", "vr_path bsdf NEE"]]
+        for n in next(iter(floor.values())):
+            table.append([n] + [f"{floor[i][n]['cpu']:.3f}" for i in floor])
+        print("CPU time per sample over independent (mi.cornell_box(), 32 spp, max_depth 8):")
+        print()
+        print(markdown(table))
+        print()
+        print(f"load average {[round(x, 2) for x in os.getloadavg()]}; "
+              f"{time.perf_counter() - t0:.0f} s.")
+        sys.stdout.flush()
+        os._exit(0)
     res = measure(args.quick)
     m = res["machine"]
     print(markdown([["measure", "value", "target", "holds?"]] + build_rows(res)))
