@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pytest
-from distributed import Client, LocalCluster
+from distributed import Client
 
 from experiments.lib import cluster as C
 
@@ -73,8 +73,7 @@ def plan(n: int, groups=("a", "b", None), seconds: float = 0.0) -> list[ToyJob]:
 
 @pytest.fixture(scope="module")
 def local_cluster():
-    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                           dashboard_address=":0", silence_logs=logging.CRITICAL)
+    cluster = C.local_cluster(2, silence_logs=logging.CRITICAL)
     yield cluster
     cluster.close()
 
@@ -89,6 +88,39 @@ def executor(local_cluster):
 
 def worker_pids(ex: C.DaskExecutor) -> dict[str, int]:
     return ex.client.run(os.getpid)
+
+
+def _thread_limits() -> dict:
+    return {k: v for k, v in os.environ.items() if k.endswith("_NUM_THREADS")}
+
+
+def test_local_cluster_leaves_the_client_thread_limits_alone():
+    """Dask's nannies live in the client and used to write OMP_NUM_THREADS=1 (and MKL,
+    OpenBLAS) into its environment at each worker (re)start, making the client's
+    OpenMP (FLIP) single-threaded. The worker keeps the limit; the client does not
+    get it, also after a killed worker was restarted."""
+    before = _thread_limits()
+    cluster = C.local_cluster(1, silence_logs=logging.CRITICAL)
+    try:
+        assert _thread_limits() == before
+        with Client(cluster, set_as_default=False) as client:
+            (worker_omp,) = client.run(lambda: os.environ.get("OMP_NUM_THREADS")).values()
+            assert worker_omp == "1"
+            (pid,) = client.run(os.getpid).values()
+            os.kill(pid, signal.SIGKILL)
+            deadline, pids = time.monotonic() + 30, []
+            while time.monotonic() < deadline:
+                time.sleep(0.2)
+                try:                                  # the dead worker may still be listed
+                    pids = list(client.run(os.getpid).values())
+                except OSError:                       # CommClosedError: it was
+                    continue
+                if pids and pids != [pid]:
+                    break
+            assert pids and pids != [pid], "the nanny did not restart the worker"
+            assert _thread_limits() == before
+    finally:
+        cluster.close()
 
 
 def test_same_results_as_local_loop(executor):

@@ -41,6 +41,7 @@ import uuid
 from dataclasses import dataclass
 from typing import Callable, Iterable, Iterator
 
+import dask
 from distributed import Client, LocalCluster, as_completed, get_worker
 from distributed.diagnostics.plugin import WorkerPlugin
 
@@ -120,6 +121,30 @@ def _run_on_worker(run: Callable, job, variant: str):
     return run(job, variant), this_worker()
 
 
+def local_cluster(n_workers: int, silence_logs: int = logging.ERROR) -> LocalCluster:
+    """A ``LocalCluster`` of ``n_workers`` processes with one thread each that leaves this
+    process's thread limits alone.
+
+    The nannies live in this process and write their workers' environment
+    (``distributed.nanny.pre-spawn-environ``: ``OMP_NUM_THREADS=1``, ...) into
+    ``os.environ`` at every (re)start of a worker; there it made this
+    process's OpenMP (FLIP in the analysis) single-threaded, 1.14x the local
+    loop's wall time. The thread limits go to the workers alone (``env``, set
+    inside the worker process), and what the nannies write at start-up is undone.
+    """
+    spawn = dict(dask.config.get("distributed.nanny.pre-spawn-environ", {}))
+    worker_env = {k: str(spawn.pop(k)) for k in list(spawn) if k.endswith("_NUM_THREADS")}
+    environ = dict(os.environ)
+    try:
+        with dask.config.set({"distributed.nanny.pre-spawn-environ": spawn}):
+            return LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
+                                dashboard_address=":0", silence_logs=silence_logs,
+                                env=worker_env)
+    finally:
+        os.environ.clear()
+        os.environ.update(environ)
+
+
 class DaskExecutor:
     """Runs jobs on ``dask.distributed`` workers; same contract as the local executor.
 
@@ -156,8 +181,7 @@ class DaskExecutor:
         """Start a ``LocalCluster`` of ``n_workers`` processes with one thread each; they
         share this machine's cores (Dr.Jit threads per worker: cores // n_workers)."""
         options.setdefault("threads", max(1, (os.cpu_count() or 1) // n_workers))
-        cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                               dashboard_address=":0", silence_logs=logging.ERROR)
+        cluster = local_cluster(n_workers)
         try:
             client = Client(cluster, set_as_default=False)
         except BaseException:
