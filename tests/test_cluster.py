@@ -345,7 +345,6 @@ def test_study_survives_a_killed_worker(local_study, local_cluster, tmp_path, mo
 
 def test_interrupted_study_resumes_without_rendering_again(local_study, local_cluster,
                                                           tmp_path, monkeypatch):
-    from experiments.lib import cli
     from experiments.lib.cluster import DaskExecutor
     from experiments.lib.store import JobStore
     put = JobStore.put
