@@ -7,7 +7,7 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-from _chi2 import CapDomain, cap_cos_min, run_chi2
+from _chi2 import CapDomain, cap_cos_min, incident, interaction, run_chi2
 
 EXPONENTS = [1, 10, 100, 1000, 10000]
 COS_THETA_I = [1.0, 0.5, 0.05]          # normal, 60 degrees, grazing
@@ -19,17 +19,6 @@ GRID = ([("diffuse", (0.5, 0.0), 30, c) for c in COS_THETA_I]
 def make_phong(kd, ks, exponent):
     return mi.load_dict({"type": "phong", "diffuse_reflectance": kd,
                          "specular_reflectance": ks, "exponent": exponent})
-
-
-def incident(cos_theta):
-    return mi.Vector3f(math.sqrt(max(0.0, 1 - cos_theta ** 2)), 0.0, cos_theta)
-
-
-def interaction(wi, n):
-    si = dr.zeros(mi.SurfaceInteraction3f, n)
-    si.wi = wi
-    si.uv = mi.Point2f(0.5, 0.5)
-    return si
 
 
 @pytest.mark.parametrize("name,refl,exponent,cos_i", GRID,

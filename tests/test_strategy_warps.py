@@ -24,7 +24,7 @@ import mitsuba as mi
 import pytest
 
 import integrators.path as vr_path
-from _chi2 import CapDomain, run_chi2
+from _chi2 import CapDomain, incident, interaction, run_chi2
 
 BSDFS = {
     "diffuse": {"type": "diffuse"},
@@ -38,19 +38,6 @@ COS_THETA_I = {"diffuse": [1.0, 0.6, 0.1, -0.6], "phong": [1.0, 0.6, 0.1, -0.6],
                "roughconductor": [1.0, 0.6, 0.1, -0.6],
                "roughdielectric": [1.0, 0.6, 0.1, -0.6, -0.9, -0.1]}
 GRID = [(s, b, c) for s in vr_path.STRATEGIES for b in BSDFS for c in COS_THETA_I[b]]
-
-
-def incident(cos_theta):
-    return mi.Vector3f(math.sqrt(max(0.0, 1 - cos_theta ** 2)), 0.0, cos_theta)
-
-
-def interaction(wi, n):
-    si = dr.zeros(mi.SurfaceInteraction3f, n)
-    si.wi = wi
-    si.uv = mi.Point2f(0.5, 0.5)
-    si.sh_frame = mi.Frame3f(mi.Vector3f(0, 0, 1))
-    si.n = mi.Normal3f(0, 0, 1)
-    return si
 
 
 def strategy_chi2(strategy, bsdf, cos_i, monkeypatch, tmp_path, test_count, seed=0):
