@@ -223,18 +223,112 @@ def _closed_port() -> int:
         return s.getsockname()[1]
 
 
-@pytest.mark.parametrize("address, timeout", [
-    (f"tcp://127.0.0.1:{_closed_port()}", 1.0),      # refused (retried until the timeout)
-    ("tcp://192.0.2.1:8786", 1.0),                    # no answer
-    ("not a scheduler::", None)])                     # not an address
-def test_unreachable_scheduler_fails_fast(address, timeout):
+class Peer:
+    """A TCP peer on loopback that is not a Dask scheduler, behaving as ``mode`` says:
+
+    * ``silent``: accepts connections and never speaks;
+    * ``backlog``: listens and never accepts (the kernel completes the handshake);
+    * ``slow``: accepts, then answers with junk only after ``delay`` seconds;
+    * ``close``: accepts and closes at once;
+    * ``http``: answers at once in another protocol (an HTTP error page).
+    """
+
+    def __init__(self, mode: str, delay: float = 5.0):
+        self.mode, self.delay = mode, delay
+        self.sock = socket.socket()
+        self.sock.bind(("127.0.0.1", 0))
+        self.sock.listen(16)
+        self.sock.settimeout(0.2)
+        self.address = f"tcp://127.0.0.1:{self.sock.getsockname()[1]}"
+        self.held: list[socket.socket] = []
+        self.stop = threading.Event()
+        self.thread = threading.Thread(target=self._serve, daemon=True)
+        if mode != "backlog":
+            self.thread.start()
+
+    def _serve(self) -> None:
+        while not self.stop.is_set():
+            try:
+                conn, _ = self.sock.accept()
+            except OSError:
+                continue
+            if self.mode == "close":
+                conn.close()
+            elif self.mode == "http":
+                conn.sendall(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n")
+                conn.close()
+            else:
+                self.held.append(conn)
+                if self.mode == "slow":
+                    threading.Timer(self.delay, self._junk, (conn,)).start()
+
+    def _junk(self, conn) -> None:
+        try:
+            conn.sendall(b"\x00" * 64)
+        except OSError:
+            pass
+
+    def close(self) -> None:
+        self.stop.set()
+        if self.thread.is_alive():
+            self.thread.join(2)
+        for conn in self.held:
+            conn.close()
+        self.sock.close()
+
+
+#: What each peer must be told, and the measured times (printed with -s, for the record).
+PEER_MODES = {"silent": "cannot reach", "backlog": "cannot reach", "slow": "cannot reach",
+              "close": "cannot reach", "http": "does not answer as a Dask scheduler"}
+TIMEOUT = 1.0
+
+
+@pytest.mark.parametrize("mode", sorted(PEER_MODES))
+def test_unanswering_peer_fails_within_the_deadline(mode):
+    """However a loopback peer behaves, connect gives up within timeout + margin, with one
+    line naming the address (the hang seen before: a silent peer held Client() forever)."""
+    peer = Peer(mode)
+    try:
+        start = time.monotonic()
+        with pytest.raises(C.ClusterError) as err:
+            C.DaskExecutor.connect(peer.address, VARIANT, timeout=TIMEOUT, run=toy_run,
+                                   prepare=toy_prepare)
+        elapsed = time.monotonic() - start
+    finally:
+        peer.close()
+    print(f"connect to a {mode} peer: ClusterError after {elapsed:.2f} s")
+    assert elapsed < TIMEOUT + C.CONNECT_MARGIN + 0.5, elapsed
+    message = str(err.value)
+    assert peer.address in message and PEER_MODES[mode] in message and "\n" not in message
+
+
+@pytest.mark.parametrize("address, timeout, bound", [
+    (f"tcp://127.0.0.1:{_closed_port()}", 1.0, 1.0 + C.CONNECT_MARGIN + 0.5),   # refused
+    ("not a scheduler::", None, 2.0)])                                         # not an address
+def test_unreachable_scheduler_fails_fast(address, timeout, bound):
     options = {} if timeout is None else {"timeout": timeout}
     start = time.monotonic()
     with pytest.raises(C.ClusterError) as err:
         C.DaskExecutor.connect(address, VARIANT, run=toy_run, prepare=toy_prepare, **options)
-    assert time.monotonic() - start < 10
+    elapsed = time.monotonic() - start
+    print(f"connect to {address!r}: ClusterError after {elapsed:.2f} s")
+    assert elapsed < bound, elapsed
     message = str(err.value)
     assert address in message and "\n" not in message
+
+
+def test_probe_knows_a_real_scheduler(local_cluster):
+    """The deadline probe accepts a real scheduler (the shared local cluster) quickly."""
+    start = time.monotonic()
+    identity = C.probe_scheduler(local_cluster.scheduler_address, TIMEOUT)
+    assert identity["type"] == "Scheduler" and time.monotonic() - start < TIMEOUT
+
+
+def test_local_cluster_listens_on_loopback_only(local_cluster):
+    host = local_cluster.scheduler_address.rsplit("://", 1)[-1].rsplit(":", 1)[0]
+    assert host == "127.0.0.1"
+    for address in local_cluster.scheduler_info["workers"]:
+        assert address.startswith("tcp://127.0.0.1:"), address
 
 
 # ------------------------------------------------- end to end: the experiment scripts

@@ -6,10 +6,13 @@ moves jobs to ``dask.distributed`` workers and results back, through Dask's
 own machinery:
 
 - :meth:`DaskExecutor.local` starts a ``LocalCluster`` of N worker processes
-  (one thread each); :meth:`DaskExecutor.connect` joins a running scheduler
-  (``dask scheduler`` + ``dask worker`` on several machines, or ``dask-jobqueue``
-  on SLURM/PBS/SGE) and gives up with :class:`ClusterError` after a short
-  connect timeout instead of hanging.
+  (one thread each) listening on loopback only; :meth:`DaskExecutor.connect`
+  joins a running scheduler (``dask scheduler`` + ``dask worker`` on several
+  machines, or ``dask-jobqueue`` on SLURM/PBS/SGE). It first asks the address
+  for its identity under a hard deadline (:func:`probe_scheduler`), so a peer
+  that is silent, slow or not a scheduler gives :class:`ClusterError` within
+  the timeout plus a small margin instead of hanging: Dask's own ``timeout``
+  bounds the TCP connect, not the handshake that follows.
 - A ``WorkerPlugin`` (:class:`WorkerSetup`) runs on every worker, including
   those that join or restart later: it imports the plugins and sets the
   variant (e.g. ``cuda_ad_rgb`` on GPU workers). A worker where that fails
@@ -31,12 +34,14 @@ finished job. Closing the generator early cancels the jobs still queued.
 """
 from __future__ import annotations
 
+import asyncio
 import logging
 import os
 import platform
 import socket
 import sys
 import time
+import threading
 import uuid
 from dataclasses import dataclass
 from typing import Callable, Iterable, Iterator
@@ -47,6 +52,11 @@ from distributed.diagnostics.plugin import WorkerPlugin
 
 #: Seconds the client waits for a scheduler before giving up (the CLI then exits 2).
 CONNECT_TIMEOUT = 5.0
+#: Seconds beyond the timeout that :meth:`DaskExecutor.connect` may take to give up
+#: (closing the half-open connection, a thread join).
+CONNECT_MARGIN = 1.0
+#: Where a local cluster listens: this machine only.
+LOOPBACK = "127.0.0.1"
 #: Seconds between checks that the worker of every pinned timing group is still alive.
 CHECK_INTERVAL = 0.5
 #: How often a job that raised is resubmitted (a dead worker's job is rescheduled anyway).
@@ -138,7 +148,8 @@ def local_cluster(n_workers: int, silence_logs: int = logging.ERROR) -> LocalClu
     try:
         with dask.config.set({"distributed.nanny.pre-spawn-environ": spawn}):
             return LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                                dashboard_address=":0", silence_logs=silence_logs,
+                                host=LOOPBACK, dashboard_address=f"{LOOPBACK}:0",
+                                silence_logs=silence_logs,
                                 env=worker_env)
     finally:
         os.environ.clear()
@@ -192,10 +203,13 @@ class DaskExecutor:
     @classmethod
     def connect(cls, address: str, variant: str, timeout: float = CONNECT_TIMEOUT,
                 **options) -> "DaskExecutor":
-        """Join the scheduler at ``address``; :class:`ClusterError` within ``timeout`` s if
-        it cannot be reached."""
+        """Join the scheduler at ``address``; :class:`ClusterError` within ``timeout`` s
+        (plus :data:`CONNECT_MARGIN`) if it cannot be reached or does not answer as one."""
+        start = time.monotonic()
+        probe_scheduler(address, timeout)
         try:
-            client = Client(address, timeout=timeout, set_as_default=False)
+            remaining = max(0.1, timeout - (time.monotonic() - start))
+            client = Client(address, timeout=remaining, set_as_default=False)
         except Exception as e:    # refused, timed out, bad address, not a Dask scheduler
             _close_half_started(e)
             if isinstance(e, OSError):
@@ -326,6 +340,55 @@ class DaskExecutor:
             new = self._submit(run, job)
             pending[new] = job
             ac.add(new)
+
+
+async def _identity(address: str, timeout: float) -> dict:
+    from distributed.comm import connect
+    from distributed.security import Security
+    comm = await connect(address, timeout=timeout,
+                         **Security().get_connection_args("client"))
+    try:
+        await comm.write({"op": "identity", "reply": True})
+        return await comm.read()
+    finally:
+        comm.abort()
+
+
+def probe_scheduler(address: str, timeout: float) -> dict:
+    """The identity of the Dask scheduler at ``address``, or :class:`ClusterError` within
+    ``timeout`` + :data:`CONNECT_MARGIN` seconds, however the peer behaves (refuses,
+    accepts and never speaks, answers slowly, closes, speaks another protocol).
+
+    The exchange runs on its own event loop in a daemon thread under
+    ``asyncio.wait_for``; the join of that thread is bounded too, so not even a
+    loop that ignores cancellation can hold the caller.
+    """
+    outcome: dict = {}
+
+    def run() -> None:
+        try:
+            outcome["reply"] = asyncio.run(asyncio.wait_for(_identity(address, timeout),
+                                                            timeout))
+        except BaseException as e:   # noqa: BLE001  (reported to the caller below)
+            outcome["error"] = e
+
+    thread = threading.Thread(target=run, name="dask-scheduler-probe", daemon=True)
+    thread.start()
+    thread.join(timeout + CONNECT_MARGIN)
+    error = outcome.get("error")
+    if thread.is_alive() or isinstance(error, (asyncio.TimeoutError, TimeoutError, OSError)):
+        raise ClusterError(f"cannot reach the Dask scheduler at '{address}' within "
+                           f"{timeout:g} s")
+    if isinstance(error, (ValueError, TypeError)):
+        raise ClusterError(f"invalid Dask scheduler address '{address}': {_first_line(error)}")
+    if error is not None:
+        raise ClusterError(f"'{address}' does not answer as a Dask scheduler "
+                           f"({type(error).__name__}: {_first_line(error)})")
+    reply = outcome.get("reply")
+    if not isinstance(reply, dict) or reply.get("type") != "Scheduler":
+        raise ClusterError(f"'{address}' does not answer as a Dask scheduler (its identity "
+                           f"is {str(reply)[:80]!r})")
+    return reply
 
 
 def _first_line(e: BaseException) -> str:
