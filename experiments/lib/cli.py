@@ -113,7 +113,7 @@ def common_parser(prog: str, description: str, spp: int | None = None,
                             "each) instead of in this process")
     where.add_argument("--scheduler", metavar="ADDRESS",
                        help="render on the Dask cluster whose scheduler is at ADDRESS (e.g. "
-                            "tcp://head:8786); its workers set up --variant themselves")
+                            "tcp://<host>:8786); its workers set up --variant themselves")
     if time_budget is not None:
         p.add_argument("--time-budget", type=positive_float, default=time_budget, metavar="SECONDS",
                        help="render time per method in the equal-time comparison")
