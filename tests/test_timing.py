@@ -1,0 +1,63 @@
+"""Timed renders are warm in exactly the configuration they time (experiments/lib/execute.py).
+
+Mitsuba's multijitter (like stratified, orthogonal and ldsampler) bakes the
+sample count into its kernel: a warm-up at 1 spp leaves the first render at
+64 spp to compile. The compile detector (Dr.Jit's kernel history) must catch
+that render (negative control), must find nothing in a second render at the
+same count, and ``run_job`` must keep only renders that compiled nothing, while
+giving the same image as a cold render of the same seed.
+"""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+from experiments.lib import execute as E
+from experiments.lib import plan as P
+from experiments.lib.methods import Depth, load_scene, parse_method, read_scene
+
+VARIANT = "llvm_ad_rgb"
+SCENE = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "scenes",
+                     "cbox.xml")
+
+
+@pytest.fixture(scope="module")
+def mitsuba():
+    import mitsuba as mi
+    mi.set_variant(VARIANT)
+    return mi
+
+
+def test_a_one_spp_warm_up_does_not_warm_a_64_spp_render(mitsuba):
+    """Negative control: the detector catches the render that compiled."""
+    scene = load_scene(SCENE, 16, 8, parse_method("bsdf+nee+multijitter"), Depth(2))
+    E._render(scene, False, 1, 1, 0)                       # warm-up at 1 spp (the old way)
+    first = E._render(scene, False, 64, 2, 0)
+    second = E._render(scene, False, 64, 3, 0)
+    assert first[3] > 0, "a render at a new sample count compiled, and must be caught"
+    assert second[3] == 0, "the second render at the same count is warm"
+
+
+def test_independent_does_not_recompile_for_a_new_count(mitsuba):
+    """The opposite case: independent's kernel does not depend on the count."""
+    scene = load_scene(SCENE, 16, 8, parse_method("bsdf+nee"), Depth(2))
+    E._render(scene, False, 1, 1, 0)
+    assert E._render(scene, False, 64, 2, 0)[3] == 0
+
+
+@pytest.mark.parametrize("method", ["bsdf+nee+multijitter", "bsdf+nee+orthogonal",
+                                    "bsdf+nee+halton:owen", "path+stratified"])
+def test_run_job_times_only_warm_renders(mitsuba, method):
+    info = read_scene(SCENE)
+    jobs = P.ladder(f"timing/{method}", info, method, 16, 8, [1, 4, 16], 7, Depth(2),
+                    VARIANT)
+    results = [E.run_job(j, VARIANT) for j in jobs]
+    assert all(r.compiled_passes == 0 for r in results), [r.compiled_passes for r in results]
+    if "halton" not in method and "independent" not in method:
+        assert sum(r.recompiled for r in results) >= 1   # a new count did compile, once
+    # a discarded render does not change the image: the same job in a fresh scene cache
+    E._scenes.clear()
+    again = E.run_job(jobs[-1], VARIANT)
+    np.testing.assert_array_equal(again.image, results[-1].image)
