@@ -19,11 +19,11 @@ from __future__ import annotations
 import os
 import time
 
-from experiments.lib import cli, figures, metrics, report
+from experiments.lib import cli, figures, metrics, report, stats
 from experiments.lib import plan as P
 from experiments.lib import sampler_study as SS
 from experiments.lib.methods import NATIVE_SAMPLERS, RANDOMIZATIONS, Depth
-from experiments.lib.study import Study
+from experiments.lib.study import Study, repeat_prefix
 
 NAME = "samplers"
 ORDER = 30
@@ -83,25 +83,29 @@ def depths(args) -> list[int]:
 
 
 def plan(st: Study) -> tuple[dict, dict]:
-    """(reference jobs per depth, {depth: {sampler: [jobs of the ladder]}}), interleaved."""
+    """(reference jobs per depth, {depth: {sampler: [repeat: [jobs of the ladder]]}})."""
     a = st.args
     targets = P.doubling_targets(a.spp, a.ladder_factor)
     refs, ladders = {}, {}
     for d in depths(a):
         depth = Depth(d, a.depth.rr_depth, a.depth.hide_emitters)
         refs[d] = st.reference_jobs(depth=depth)
-        ladders[d] = {s: [st.job(f"{NAME}/depth{d}/{s}/spp{t:05d}", method_name(a.base, s), t,
-                                 depth=depth, timing_group=f"{NAME}/depth{d}")
-                          for t in targets] for s in samplers()}
+        ladders[d] = {s: [[st.job(repeat_prefix(f"{NAME}/depth{d}/{s}/spp{t:05d}", r),
+                                  method_name(a.base, s), t, depth=depth,
+                                  timing_group=f"{NAME}/depth{d}") for t in targets]
+                          for r in range(st.repeats_of(method_name(a.base, s)))]
+                      for s in samplers()}
     return refs, ladders
 
 
 def ordered(refs: dict, ladders: dict) -> list[P.Job]:
-    """References first, then per depth every sampler at one spp before the next spp."""
+    """References first, then per depth and repeat every sampler at one spp before the
+    next spp (so that drifting machine load affects every sampler alike)."""
     jobs = [j for r in refs.values() for j in r]
     for by_sampler in ladders.values():
-        for i in range(len(next(iter(by_sampler.values())))):
-            jobs += [ladder[i] for ladder in by_sampler.values()]
+        for r in range(max(len(reps) for reps in by_sampler.values())):
+            for i in range(len(next(iter(by_sampler.values()))[0])):
+                jobs += [reps[r][i] for reps in by_sampler.values() if r < len(reps)]
     return jobs
 
 
@@ -114,34 +118,76 @@ def timing(st: Study, result) -> float:
 
 
 def analyse(st: Study, refs: dict, ladders: dict) -> tuple[list[SS.Row], dict, dict]:
+    """Rows, ``{depth: {sampler: [Point per count]}}`` and the references' metadata.
+
+    Errors are expected values over the repeats with the reference's own expected
+    error subtracted; plain Halton (``halton:none``) is deterministic, so its one run
+    stands for every repeat (its error has no spread).
+    """
     points, floors = {}, {}
     for d, by_sampler in ladders.items():
         ref, meta = st.reference(refs[d])
         floors[d] = meta
         points[d] = {}
-        for s, jobs in by_sampler.items():
+        for s, reps in by_sampler.items():
             pts = []
-            for j in jobs:
-                r = st.store.get(j.key)
-                image = r.image.astype(float)
-                pts.append(SS.Point(r.spp, timing(st, r), metrics.mse(image, ref),
-                                    metrics.relmse(image, ref)))
+            for i, target in enumerate(reps[0]):
+                results = [st.store.get(rep[i].key) for rep in reps]
+                images = [r.image.astype(float) for r in results]
+                fill = st.repeats if len(reps) == 1 else 1
+                pts.append(SS.Point(
+                    results[0].spp, tuple(timing(st, r) for r in results) * fill,
+                    tuple(metrics.mse(im, ref) - meta["mse_floor"] for im in images) * fill,
+                    tuple(metrics.relmse(im, ref) - meta["relmse_floor"] for im in images)
+                    * fill, target.spp))
             points[d][s] = pts
     return SS.table(points, st.width * st.height), points, floors
 
 
 def comparison(st: Study, refs: dict, ladders: dict, d: int) -> dict:
-    """Viewer block: every sampler's image at the largest count of the ladder, at max_depth d."""
+    """Viewer block: every sampler's image at the largest count of the ladder, at max_depth d
+    (the first repeat)."""
     ref, _ = st.reference(refs[d])
-    images = [(s, st.store.get(jobs[-1].key).image.astype(float))
-              for s, jobs in ladders[d].items()]
+    images = [(s, st.store.get(reps[0][-1].key).image.astype(float))
+              for s, reps in ladders[d].items()]
     return report.viewer(st.out, f"Samplers at max_depth {d}, {st.args.spp} spp", images, ref,
                          f"{st.args.base} with each sampler at max_depth {d} after the largest "
-                         f"sample count, against the reference.")
+                         f"sample count (first repeat), against the reference.")
 
 
 def g(x: float) -> str:
     return f"{x:.3g}"
+
+
+def _interval_cells(e) -> list[str]:
+    return [g(e.value), g(e.lo), g(e.hi)]
+
+
+TABLE_HEADER = ["max_depth", "sampler", "spp rendered", "spp requested", "repeats",
+                "MSE", "MSE_lo", "MSE_hi", "relMSE", "relMSE_lo", "relMSE_hi", "µs / sample",
+                "MSE / independent", "MSE / independent_lo", "MSE / independent_hi",
+                "efficiency / independent", "efficiency / independent_lo",
+                "efficiency / independent_hi", "MSE slope"]
+
+
+def table_rows(rows: list[SS.Row]) -> list[list]:
+    return [[r.depth, r.sampler, r.spp, r.requested, r.repeats, *_interval_cells(r.mse),
+             *_interval_cells(r.relmse), f"{r.us_per_sample:.3f}",
+             *_interval_cells(r.relative_mse), *_interval_cells(r.relative_efficiency),
+             f"{r.slope:.2f}"] for r in rows]
+
+
+def curve_rows(curves: dict) -> list[list]:
+    return [[d, s, i, spp, *_interval_cells(e)]
+            for d, by_sampler in curves.items() for s, pts in by_sampler.items()
+            for i, (spp, e) in enumerate(pts)]
+
+
+def best_sampler(rows: list[SS.Row], depth: int) -> str:
+    """The sampler of the highest efficiency at ``depth`` (the nearest depth studied)."""
+    studied = sorted({r.depth for r in rows}, key=lambda d: (abs(d - depth), d))
+    at = [r for r in rows if r.depth == studied[0]]
+    return max(at, key=lambda r: r.relative_efficiency.value).sampler
 
 
 def run(args) -> None:
@@ -150,46 +196,69 @@ def run(args) -> None:
     refs, ladders = plan(st)
     st.run(ordered(refs, ladders), f"{NAME}: renders")
     rows, points, floors = analyse(st, refs, ladders)
-    sentences = SS.conclude(rows)
+    curves = SS.curves(points)
+    sentences = SS.conclude(rows, points)
+    targets = P.doubling_targets(args.spp, args.ladder_factor)
     blocks = [report.text(
         f"Which sampler to use with {args.base} on {os.path.basename(args.scene)} at "
         f"{st.width}x{st.height}: Mitsuba's independent, stratified, multijitter, orthogonal "
         f"and ldsampler against the bundled halton with each randomization, at max_depth "
-        f"{', '.join(map(str, depths(args)))}. Every point of the ladder "
-        f"{', '.join(map(str, P.doubling_targets(args.spp, args.ladder_factor)))} spp is its "
-        f"own render (samplers that round the count up are shown at the count they rendered). "
-        f"Efficiency is Veach's 1/(MSE x render time) at the largest count, relative to "
-        f"independent: above 1, a sampler reaches a given error sooner. Render time is "
-        f"{CPU_TIME if st.variant.startswith('llvm') else 'wall-clock time'}.")]
+        f"{', '.join(map(str, depths(args)))}. Every count of the ladder "
+        f"{', '.join(map(str, targets))} spp is its own render, {st.repeats} times with "
+        f"independent randomizations (plain halton:none is deterministic: one run); samplers "
+        f"that round the count up (orthogonal to a prime squared, stratified to a square) "
+        f"are compared at the count they rendered, which the table gives beside the "
+        f"requested one. Errors are expected values over the repeats, with the reference's "
+        f"own expected error subtracted. Efficiency is Veach's 1/(MSE x render time) "
+        f"relative to independent: above 1, a sampler reaches a given error sooner. Render "
+        f"time is {CPU_TIME if st.variant.startswith('llvm') else 'wall-clock time'}, warm "
+        f"in exactly the timed configuration (a render during which a kernel compiled is "
+        f"rendered again). Intervals: {stats.LEVEL:.0%}, {stats.METHOD}.")]
     for d in points:
-        figures.error_plots(os.path.join(args.out, NAME, f"error_depth{d}.png"),
-                            {s: ([p.spp for p in pts], [p.seconds for p in pts],
-                                 [p.mse for p in pts]) for s, pts in points[d].items()}, "MSE")
+        bands = {s: ([p.spp for p in pts], [p.seconds for p in pts], [p.mse for p in pts])
+                 for s, pts in points[d].items()}
+        figures.error_bands(os.path.join(args.out, NAME, f"error_depth{d}.png"), bands, "MSE")
+        figures.ratio_bands(os.path.join(args.out, NAME, f"efficiency_depth{d}.png"),
+                            curves[d], "efficiency / independent",
+                            f"max_depth {d}: efficiency relative to independent")
         blocks.append(report.image(
-            f"{NAME}/error_depth{d}.png", f"max_depth {d}: MSE against spp and against render "
-            f"(CPU) time per sampler (log-log, fitted slopes in the legend); reference: "
+            f"{NAME}/error_depth{d}.png", f"max_depth {d}: expected MSE against spp and "
+            f"against render (CPU) time per sampler, with {stats.LEVEL:.0%} bands over the "
+            f"repeats (log-log, fitted slopes in the legend); reference: "
             f"{st.describe_reference(floors[d])}."))
+        blocks.append(report.image(
+            f"{NAME}/efficiency_depth{d}.png", f"max_depth {d}: efficiency relative to "
+            f"independent at every count of the ladder, with {stats.LEVEL:.0%} bands: where "
+            f"the curves cross, the order of the samplers changes with the sample count."))
         blocks.append(comparison(st, refs, ladders, d))
-    table_rows = [[r.depth, r.sampler, r.spp, g(r.mse), g(r.relmse), f"{r.us_per_sample:.3f}",
-                   f"{r.relative_mse:.2f}", f"{r.relative_efficiency:.2f}", f"{r.slope:.2f}"]
-                  for r in rows]
     blocks += [
-        report.write_table(args.out, f"{NAME}/samplers",
-                           ["max_depth", "sampler", "spp", "MSE", "relMSE", "µs / sample",
-                            "MSE / independent", "efficiency / independent", "MSE slope"],
-                           table_rows, f"Samplers with {args.base} at the largest sample count"),
+        report.write_table(args.out, f"{NAME}/samplers", TABLE_HEADER, table_rows(rows),
+                           f"Samplers with {args.base} at the largest sample count "
+                           f"(expected values over {st.repeats} runs, {stats.LEVEL:.0%} "
+                           f"intervals as _lo/_hi)"),
+        report.write_table(args.out, f"{NAME}/efficiency_ladder",
+                           ["max_depth", "sampler", "ladder index", "spp rendered",
+                            "efficiency / independent", "efficiency / independent_lo",
+                            "efficiency / independent_hi"], curve_rows(curves),
+                           "Efficiency relative to independent at every count of the ladder",
+                           collapsed=True),
         report.text("Conclusion: " + " ".join(sentences))]
     settings = {"scene": args.scene, "resolution": f"{st.width}x{st.height}", "spp": args.spp,
                 "base method": args.base, "max_depth": ", ".join(map(str, depths(args))),
-                "path settings": args.depth.describe(), "variant": args.variant,
-                "seed": args.seed, "reference": f"{args.reference_spp} spp of "
-                f"{args.reference_method}",
+                "repeats": st.repeats, "path settings": args.depth.describe(),
+                "variant": args.variant, "seed": args.seed,
+                "reference": f"{args.reference_spp} spp of {args.reference_method}",
+                "intervals": f"{stats.LEVEL:.0%}, {stats.METHOD}",
                 "render times measured on": st.timed_on(ordered(refs, ladders))}
     report.write_section(args.out, NAME, "Samplers: halton against Mitsuba's own", ORDER,
                          settings, blocks, args.variant, time.perf_counter() - start)
     from experiments.lib import store
     store.write_json(os.path.join(args.out, NAME, "summary.json"),
-                     {"rows": [r.__dict__ for r in rows], "conclusion": sentences})
+                     {"rows": [r.record() for r in rows], "conclusion": sentences,
+                      "best": {d: best_sampler(rows, d) for d in points},
+                      "curves": {d: {s: [dict(spp=spp, **e.fields("relative_efficiency"))
+                                         for spp, e in pts] for s, pts in by.items()}
+                                 for d, by in curves.items()}})
 
 
 def main(argv=None) -> None:

@@ -81,7 +81,7 @@ def method_list(text: str) -> list[str]:
 
 def common_parser(prog: str, description: str, spp: int | None = None,
                   time_budget: float | None = None, default_resolution: str = "256x128",
-                  methods=M.DEFAULT_METHODS) -> Parser:
+                  methods=M.DEFAULT_METHODS, repeats: int = 3) -> Parser:
     """The options every script takes; ``spp``/``time_budget`` add those options (defaults)."""
     p = Parser(prog=prog, description=description,
                formatter_class=argparse.ArgumentDefaultsHelpFormatter)
@@ -106,6 +106,9 @@ def common_parser(prog: str, description: str, spp: int | None = None,
     p.add_argument("--variant", default=DEFAULT_VARIANT,
                    help="Mitsuba variant: llvm_* or cuda_* (e.g. cuda_ad_rgb on a GPU)")
     p.add_argument("--seed", type=nonnegative_int, default=0, help="base random seed")
+    p.add_argument("--repeats", type=positive_int, default=repeats, metavar="R",
+                   help="independent randomizations of every compared render: errors are "
+                        "expected values over them, with 95%% confidence intervals (R >= 2)")
     p.add_argument("--out", default=DEFAULT_OUT, help="output directory (report: OUT/index.html)")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--workers", type=positive_int, metavar="N",

@@ -134,3 +134,60 @@ def line_chart(path: str, panels: list[tuple[str, str, dict[str, tuple[list, lis
         ax.legend(fontsize=7)
     fig.tight_layout()
     return _save(fig, path)
+
+
+def _band(values):
+    """(mean, lo, hi) over the repeats of each point (:func:`.stats.mean_interval`)."""
+    from . import stats
+    est = [stats.mean_interval(v) for v in values]
+    return ([e.value for e in est], [e.lo if e.known else e.value for e in est],
+            [e.hi if e.known else e.value for e in est])
+
+
+def error_bands(path: str, series: dict, metric: str) -> str:
+    """Log-log expected error against spp and against seconds, one line per method, with a
+    95% band over the repeats.
+
+    ``series[method] = (spp list, [seconds per repeat] per point, [error per repeat] per
+    point)``; the legend gives the least-squares slope of the mean.
+    """
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
+    for name, (spp, seconds, err) in series.items():
+        mean, lo, hi = _band(err)
+        secs = [float(np.mean(s)) for s in seconds]
+        for ax, x in zip(axes, (spp, secs)):
+            line, = ax.loglog(x, mean, "o-", ms=3,
+                              label=f"{name} (slope {loglog_slope(x, mean):.2f})")
+            ax.fill_between(x, np.maximum(lo, 1e-300), hi, color=line.get_color(), alpha=0.2,
+                            linewidth=0)
+    for ax, xlabel in zip(axes, ("samples per pixel", "render time (s)")):
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(f"expected {metric}")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+    axes[0].set_title(f"{metric} against spp (95% bands over repeats)")
+    axes[1].set_title(f"{metric} against time")
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def ratio_bands(path: str, curves: dict, ylabel: str, title: str) -> str:
+    """A ratio (efficiency relative to a baseline) against spp, one line per method with its
+    interval as a band; ``curves[method] = [(spp, Estimate)]``; a dashed line at 1."""
+    fig, ax = plt.subplots(figsize=(7.5, 4.5))
+    for name, pts in curves.items():
+        spp = [p for p, _ in pts]
+        est = [e for _, e in pts]
+        line, = ax.semilogx(spp, [e.value for e in est], "o-", ms=3, label=name)
+        ax.fill_between(spp, [e.lo if e.known else e.value for e in est],
+                        [e.hi if e.known else e.value for e in est], color=line.get_color(),
+                        alpha=0.18, linewidth=0)
+    ax.axhline(1.0, color="k", lw=0.8, ls="--")
+    ax.set_yscale("log")
+    ax.set_xlabel("samples per pixel (rendered)")
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    return _save(fig, path)

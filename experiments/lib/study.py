@@ -14,8 +14,15 @@ import numpy as np
 
 from . import plan as P
 from .execute import execute
-from .methods import Depth, SceneInfo
+from .methods import Depth, SceneInfo, parse_method
+from .metrics import RELMSE_EPS
 from .store import STORE_DIR, JobStore
+
+
+def repeat_prefix(prefix: str, repeat: int) -> str:
+    """Job prefix of repeat ``repeat`` (0: the prefix itself, so earlier single runs are
+    reused as the first repeat; others: ``prefix/rN``, hence another seed)."""
+    return prefix if repeat == 0 else f"{prefix}/r{repeat}"
 
 
 class Study:
@@ -29,10 +36,16 @@ class Study:
         self.width, self.height = args.resolution
         self.store = JobStore(os.path.join(args.out, STORE_DIR))
         self.executor = executor if executor is not None else getattr(args, "executor", None)
+        self.repeats: int = getattr(args, "repeats", 1)
 
     def run(self, jobs: list, label: str = "render jobs") -> int:
         """Execute the jobs the store lacks; return how many were rendered."""
         return execute(jobs, self.store, self.executor, progress=label, variant=self.variant)
+
+    def repeats_of(self, method: str) -> int:
+        """Independent randomizations rendered of ``method``: ``--repeats``, but 1 for a
+        deterministic method (plain Halton: every run gives the same image)."""
+        return 1 if parse_method(method).deterministic else self.repeats
 
     def job(self, prefix: str, method: str, spp: int, info: SceneInfo | None = None,
             depth: Depth | None = None, **options) -> P.Job:
@@ -59,9 +72,11 @@ class Study:
         """The reference image of ``jobs`` and its metadata (render seconds, passes, and the
         expected MSE of the reference itself, the floor under every measured MSE)."""
         acc = P.accumulate(self.store, jobs)[-1]
+        var = acc.variance_of_mean()
         return acc.mean, {"seconds": acc.seconds, "passes": acc.passes, "spp": acc.spp,
-                          "method": jobs[0].method,
-                          "mse_floor": float(np.mean(acc.variance_of_mean()))}
+                          "method": jobs[0].method, "mse_floor": float(np.mean(var)),
+                          "relmse_floor": float(np.mean(var / (acc.mean ** 2
+                                                               + RELMSE_EPS)))}
 
     def timed_on(self, jobs: list[P.Job]) -> str:
         """Which machine (host, CPU) measured the render times that each comparison of
@@ -80,4 +95,6 @@ class Study:
 
     def describe_reference(self, meta: dict) -> str:
         return (f"{meta['spp']} spp of {meta['method']} (NEE + MIS), {meta['passes']} passes, "
-                f"{meta['seconds']:.1f} s; its own expected MSE about {meta['mse_floor']:.1e}")
+                f"{meta['seconds']:.1f} s; its own expected MSE about {meta['mse_floor']:.1e} "
+                f"(relMSE {meta['relmse_floor']:.1e}), estimated from the spread of its "
+                f"passes and subtracted from every expected MSE and relMSE")
