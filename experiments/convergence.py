@@ -15,68 +15,124 @@ from __future__ import annotations
 import os
 import time
 
-from experiments.lib import cli, figures, metrics, report, store
+import numpy as np
+
+from experiments.lib import cli, figures, metrics, report, stats, store
 from experiments.lib import plan as P
-from experiments.lib.study import Study
+from experiments.lib.study import Study, repeat_prefix
 
 NAME = "convergence"
 
 
 def build_parser() -> cli.Parser:
-    return cli.common_parser("python -m experiments.convergence", __doc__.split("\n")[0],
-                             spp=256, time_budget=2.0)
+    p = cli.common_parser("python -m experiments.convergence", __doc__.split("\n")[0],
+                          spp=256, time_budget=0.5, default_resolution="128x64")
+    p.set_defaults(reference_spp=4096)
+    add_arguments(p)
+    return p
+
+
+def add_arguments(p: cli.Parser) -> None:
+    """The options of this experiment (also taken by run_all)."""
+    p.add_argument("--best-sampler", default="auto", metavar="SAMPLER|auto|none",
+                   help="add bsdf+nee with this sampler to the default methods (the best "
+                        "combination the suite offers); auto: the sampler study's most "
+                        "efficient one at the nearest depth, read from OUT/samplers/"
+                        "summary.json when that study has run (run_all runs it first)")
 
 
 def fmt(x: float) -> str:
     return f"{x:.3g}"
 
 
-def plan_sequences(st: Study) -> dict[str, list[P.Job]]:
+def best_method(args) -> str | None:
+    """``bsdf+nee+SAMPLER`` for ``--best-sampler`` (None: none, or no sampler study yet)."""
+    choice = getattr(args, "best_sampler", "none")
+    if choice == "none":
+        return None
+    if choice == "auto":
+        summary = store.read_json(os.path.join(args.out, "samplers", "summary.json"), {})
+        best = summary.get("best") or {}
+        if not best:
+            return None
+        depth = args.depth.max_depth if args.depth.max_depth is not None else 8
+        choice = best[min(best, key=lambda d: (abs(int(d) - depth), int(d)))]
+    method = "bsdf+nee" if choice == "independent" else f"bsdf+nee+{choice}"
+    cli.one_method(method)        # a clear error for a sampler that does not exist
+    return method
+
+
+def methods_of(args) -> list[str]:
+    """--methods, with the best combination added to the defaults (see --best-sampler)."""
+    methods = list(args.methods)
+    best = None if "methods" in args.explicit else best_method(args)
+    if best is not None and best not in methods:
+        methods.append(best)
+    return methods
+
+
+def plan_sequences(st: Study, methods: list[str]) -> dict[str, list[list[P.Job]]]:
+    """Per method, one ladder per repeat (plain Halton: one, it is deterministic)."""
     targets = P.doubling_targets(st.args.spp)
-    return {m: st.ladder(f"{NAME}/{m}", m, targets, timing_group=NAME)
-            for m in st.args.methods}
+    return {m: [st.ladder(repeat_prefix(f"{NAME}/{m}", r), m, targets, timing_group=NAME)
+                for r in range(st.repeats_of(m))] for m in methods}
 
 
-def plan_equal_time(st: Study, ladders: dict[str, list[P.Job]]) -> dict[str, P.Job]:
-    """One job per method with as many spp as fit in the budget at its measured speed."""
+def plan_equal_time(st: Study, ladders: dict[str, list[list[P.Job]]]) -> dict[str, list]:
+    """Per method, repeats of one job with as many spp as fit in the budget at the speed
+    measured on its ladders."""
     jobs = {}
-    for m, ladder in ladders.items():
-        results = [st.store.get(j.key) for j in ladder]
+    for m, reps in ladders.items():
+        results = [st.store.get(j.key) for ladder in reps for j in ladder]
         per_spp = sum(r.seconds for r in results) / sum(r.spp for r in results)
         spp = max(1, int(st.args.time_budget / per_spp))
-        jobs[m] = st.job(f"equal_time/{m}", m, spp, timing_group=NAME)
+        jobs[m] = [st.job(repeat_prefix(f"equal_time/{m}", r), m, spp, timing_group=NAME)
+                   for r in range(st.repeats_of(m))]
     return jobs
 
 
-def sequences(st: Study, ladders, ref) -> tuple[dict, list[dict]]:
-    """Errors of every ladder image; returns ({metric: {method: (spp, seconds, errors)}},
-    report blocks)."""
+def _per_repeat(st: Study, values: list) -> tuple:
+    """Values of the repeats rendered; a deterministic method's one run for every repeat."""
+    return tuple(values) * (st.repeats if len(values) == 1 else 1)
+
+
+def sequences(st: Study, ladders, ref, floor) -> tuple[dict, list[dict]]:
+    """Expected errors along every ladder; returns ({metric: {method: (spp, [seconds per
+    repeat], [errors per repeat])}}, report blocks). Images: the first repeat."""
     out = st.out
     table, series, grid, captions = [], {"MSE": {}, "relMSE": {}, "FLIP": {}}, [], []
     viewers, notes = [], []
-    for m, jobs in ladders.items():
-        points = []
+    for m, reps in ladders.items():
+        per_repeat = [P.accumulate(st.store, jobs) for jobs in reps]
         grid.append([]), captions.append([]), notes.append([])
-        for acc in P.accumulate(st.store, jobs):
-            stem = os.path.join(out, NAME, m, f"spp{acc.spp:05d}")
-            store.write_image(stem, acc.mean)
-            err = metrics.errors(acc.mean, ref)
-            points.append((acc.spp, acc.seconds, err["mse"], err["relmse"], err["flip"]))
-            table.append([m, acc.spp, round(acc.seconds, 4), fmt(err["mse"]),
-                          fmt(err["relmse"]), fmt(err["flip"]), fmt(err["rmse"]),
-                          f"{NAME}/{m}/spp{acc.spp:05d}.exr"])
-            grid[-1].append(acc.mean)
-            captions[-1].append(f"MSE {err['mse']:.2e}\nrelMSE {err['relmse']:.2e}\n"
-                                f"{acc.seconds:.2f} s")
-            notes[-1].append(f"{acc.seconds:.2f} s · relMSE {err['relmse']:.3g} · "
-                             f"FLIP {err['flip']:.3f}")
-        spp, secs, mse, rel, flip = (list(v) for v in zip(*points))
+        spp, secs, mse, rel, flip = [], [], [], [], []
+        for i, accs in enumerate(zip(*per_repeat)):
+            first = accs[0]
+            stem = os.path.join(out, NAME, m, f"spp{first.spp:05d}")
+            store.write_image(stem, first.mean)
+            spp.append(first.spp)
+            secs.append(_per_repeat(st, [a.seconds for a in accs]))
+            mse.append(_per_repeat(st, [metrics.mse(a.mean, ref) - floor["mse_floor"]
+                                        for a in accs]))
+            rel.append(_per_repeat(st, [metrics.relmse(a.mean, ref) - floor["relmse_floor"]
+                                        for a in accs]))
+            flip.append(_per_repeat(st, [metrics.flip_mean(a.mean, ref) for a in accs]))
+            e_mse, e_rel, e_flip = (stats.mean_interval(v[-1]) for v in (mse, rel, flip))
+            table.append([m, first.spp, len(accs), round(float(np.mean(secs[-1])), 4),
+                          *cells(e_mse), *cells(e_rel), *cells(e_flip),
+                          f"{NAME}/{m}/spp{first.spp:05d}.exr"])
+            grid[-1].append(first.mean)
+            captions[-1].append(f"MSE {e_mse.value:.2e}\nrelMSE {e_rel.value:.2e}\n"
+                                f"{np.mean(secs[-1]):.2f} s")
+            notes[-1].append(f"{first.seconds:.2f} s · expected relMSE {e_rel.value:.3g} · "
+                             f"FLIP {e_flip.value:.3f}")
         series["MSE"][m] = (spp, secs, mse)
         series["relMSE"][m] = (spp, secs, rel)
         series["FLIP"][m] = (spp, secs, flip)
         viewers.append(report.viewer(
             out, f"{m}: 1 to {spp[-1]} spp", [(f"{n} spp", im) for n, im in zip(spp, grid[-1])],
-            ref, f"The convergence sequence of {m} against the reference.", notes[-1]))
+            ref, f"The convergence sequence of {m} against the reference (first repeat; the "
+                 f"notes give expected errors over the repeats).", notes[-1]))
     viewers.insert(0, report.viewer(
         out, f"Every method at {st.args.spp} spp", [(m, g[-1]) for m, g in zip(ladders, grid)],
         ref, "The last image of each sequence.", [n[-1] for n in notes]))
@@ -84,119 +140,185 @@ def sequences(st: Study, ladders, ref) -> tuple[dict, list[dict]]:
     figures.image_grid(os.path.join(out, NAME, "sequences.png"), grid, list(ladders),
                        [f"{t} spp" for t in targets], captions)
     for metric in series:
-        figures.error_plots(os.path.join(out, NAME, f"error_{metric.lower()}.png"),
+        figures.error_bands(os.path.join(out, NAME, f"error_{metric.lower()}.png"),
                             series[metric], metric)
+    band = (f"expected over {st.repeats} repeats with {stats.LEVEL:.0%} bands; the reference's "
+            f"own expected error is subtracted")
     return series, viewers + [
-        report.image(f"{NAME}/sequences.png", "Convergence sequences: rows = methods, columns = "
-                     "spp; MSE, relMSE and cumulative render time under each tile."),
-        report.image(f"{NAME}/error_mse.png", "MSE against spp and against render time "
-                     "(log-log); fitted slopes in the legend (-1 is the Monte Carlo rate)."),
+        report.image(f"{NAME}/sequences.png", "Convergence sequences (first repeat): rows = "
+                     "methods, columns = spp; expected MSE, relMSE and cumulative render time "
+                     "under each tile."),
+        report.image(f"{NAME}/error_mse.png", f"MSE against spp and against render time "
+                     f"(log-log), {band}; fitted slopes in the legend (-1 is the Monte Carlo "
+                     f"rate)."),
         report.image(f"{NAME}/error_relmse.png", f"relMSE = mean((x - ref)^2 / (ref^2 + "
-                     f"{metrics.RELMSE_EPS})) against spp and time."),
+                     f"{metrics.RELMSE_EPS})) against spp and time, {band}."),
         report.image(f"{NAME}/error_flip.png", "Mean FLIP (NVIDIA's perceptual error in "
-                     "[0, 1], flip-evaluator, HDR) against spp and time; not a squared error, "
-                     "so its slope is not the Monte Carlo -1."),
-        report.write_table(out, f"{NAME}/errors", ["method", "spp", "seconds", "MSE", "relMSE",
-                                                   "FLIP", "RMSE", "image"], table,
-                           "Every intermediate image with its error and cumulative time",
-                           collapsed=True),
+                     "[0, 1], flip-evaluator, HDR) against spp and time, with bands over the "
+                     "repeats; not a squared error, so its slope is not the Monte Carlo -1 "
+                     "(and the reference's noise is not subtracted from it)."),
+        report.write_table(out, f"{NAME}/errors", ERRORS_HEADER, table,
+                           f"Every intermediate image with its expected error ({band}) and "
+                           f"mean cumulative time", collapsed=True),
         report.write_table(out, f"{NAME}/slopes", ["method", "MSE vs spp", "MSE vs time",
                                                    "relMSE vs spp", "relMSE vs time"],
-                           slope_rows(series), "Fitted convergence slopes (least squares in "
-                           "log-log; -1 is the Monte Carlo rate)"),
+                           slope_rows(series), "Fitted convergence slopes of the expected "
+                           "errors (least squares in log-log; -1 is the Monte Carlo rate)"),
     ]
 
 
+ERRORS_HEADER = ["method", "spp", "repeats", "seconds", "MSE", "MSE_lo", "MSE_hi", "relMSE",
+                 "relMSE_lo", "relMSE_hi", "FLIP", "FLIP_lo", "FLIP_hi", "image"]
+
+
+def cells(e: stats.Estimate) -> list[str]:
+    return [fmt(e.value), fmt(e.lo), fmt(e.hi)]
+
+
+def _means(values: list) -> list[float]:
+    return [float(np.mean(v)) for v in values]
+
+
 def slope_rows(series: dict) -> list[list]:
-    """Per method: slopes of MSE and relMSE against spp and against time."""
+    """Per method: slopes of expected MSE and relMSE against spp and against time."""
     rows = []
     for name in series["MSE"]:
         row = [name]
         for metric in ("MSE", "relMSE"):
             spp, seconds, err = series[metric][name]
+            err, seconds = _means(err), _means(seconds)
             row += [fmt(metrics.loglog_slope(spp, err)), fmt(metrics.loglog_slope(seconds, err))]
         rows.append(row)
     return rows
 
 
-def equal_time(st: Study, jobs: dict[str, P.Job], ref) -> tuple[dict, list[dict]]:
-    """The equal-time panel; returns ({method: (spp, seconds, MSE)}, report blocks)."""
+def equal_time(st: Study, jobs: dict[str, list], ref, floor) -> tuple[dict, list[dict]]:
+    """The equal-time panel; returns ({method: (spp, [seconds], [MSE])}, report blocks)."""
     images, captions, result, notes = [], [], {}, []
-    for m, job in jobs.items():
-        r = st.store.get(job.key)
-        image = r.image.astype(float)
+    for m, reps in jobs.items():
+        results = [st.store.get(j.key) for j in reps]
+        image = results[0].image.astype(float)
         store.write_image(os.path.join(st.out, "equal_time", m), image)
-        mse = metrics.mse(image, ref)
-        result[m] = (r.spp, r.seconds, mse)
+        mse = _per_repeat(st, [metrics.mse(r.image.astype(float), ref) - floor["mse_floor"]
+                               for r in results])
+        secs = _per_repeat(st, [r.seconds for r in results])
+        result[m] = (results[0].spp, secs, mse)
+        e = stats.mean_interval(mse)
         images.append(image)
-        captions.append(f"{r.spp} spp, {r.seconds:.2f} s\nMSE {mse:.2e}")
-        notes.append(f"{r.spp} spp, {r.seconds:.2f} s · relMSE {metrics.relmse(image, ref):.3g}"
-                     f" · FLIP {metrics.flip_mean(image, ref):.3f}")
+        captions.append(f"{results[0].spp} spp, {np.mean(secs):.2f} s\nMSE {e.value:.2e}")
+        notes.append(f"{results[0].spp} spp, {np.mean(secs):.2f} s · expected MSE "
+                     f"{e.text()} · FLIP {metrics.flip_mean(image, ref):.3f}")
     figures.image_grid(os.path.join(st.out, NAME, "equal_time.png"), [images], ["equal time"],
                        list(jobs), [captions])
     return result, [report.viewer(
         st.out, f"Equal time ({st.args.time_budget:g} s)", list(zip(jobs, images)), ref,
         f"Equal time: each method renders the samples that fit in {st.args.time_budget:g} s "
-        f"at the speed measured on its convergence sequence (spp and actual render time "
-        f"on each label).", notes, figure=f"{NAME}/equal_time.png")]
+        f"at the speed measured on its convergence sequences, {st.repeats} times (the first "
+        f"repeat is shown; the notes give the expected MSE over the repeats with its "
+        f"{stats.LEVEL:.0%} interval).", notes, figure=f"{NAME}/equal_time.png")]
 
 
-def efficiency(st: Study, series: dict, equal: dict) -> list[dict]:
+EFFICIENCY_HEADER = ["method", "spp", "repeats", "seconds", "MSE", "MSE_lo", "MSE_hi",
+                     "relMSE", "relMSE_lo", "relMSE_hi", "relative efficiency",
+                     "relative efficiency_lo", "relative efficiency_hi", "equal-time spp",
+                     "equal-time MSE", "equal-time MSE_lo", "equal-time MSE_hi",
+                     "equal-time relative efficiency", "equal-time relative efficiency_lo",
+                     "equal-time relative efficiency_hi"]
+
+
+def efficiency(st: Study, series: dict, equal: dict) -> tuple[list[dict], list[dict]]:
+    """The efficiency table (relative to uniform, with intervals) and its verdicts; returns
+    (report blocks, rows for summary.json)."""
     final = {n: (spp[-1], secs[-1], mse[-1], series["relMSE"][n][2][-1])
              for n, (spp, secs, mse) in series["MSE"].items()}
     base = "uniform" if "uniform" in final else next(iter(final))
-    eff = {n: metrics.efficiency(v[2], v[1]) for n, v in final.items()}
-    eff_eq = {n: metrics.efficiency(v[2], v[1]) for n, v in equal.items()}
-    rows = [[n, final[n][0], round(final[n][1], 3), fmt(final[n][2]), fmt(final[n][3]),
-             fmt(eff[n]), f"{eff[n] / eff[base]:.2f}", equal[n][0], fmt(equal[n][2]),
-             f"{eff_eq[n] / eff_eq[base]:.2f}"] for n in final]
-    best = max(eff, key=eff.get)
+    one = stats.Estimate(1.0, 1.0, 1.0, len(final[base][2]))    # the baseline against itself
+    rel = {n: one if n == base else
+           stats.efficiency_ratio(v[2], v[1], final[base][2], final[base][1])
+           for n, v in final.items()}
+    rel_eq = {n: one if n == base else
+              stats.efficiency_ratio(v[2], v[1], equal[base][2], equal[base][1])
+              for n, v in equal.items()}
+    rows, records = [], []
+    for n, (spp, secs, mse, relmse) in final.items():
+        e_mse, e_rel, e_eq = (stats.mean_interval(x) for x in (mse, relmse, equal[n][2]))
+        rows.append([n, spp, len(mse), round(float(np.mean(secs)), 3), *cells(e_mse),
+                     *cells(e_rel), *cells(rel[n]), equal[n][0], *cells(e_eq),
+                     *cells(rel_eq[n])])
+        records.append({"method": n, "spp": spp, "repeats": len(mse),
+                        "seconds": float(np.mean(secs)), **e_mse.fields("mse"),
+                        **e_rel.fields("relmse"), **rel[n].fields("relative_efficiency"),
+                        "equal_time_spp": equal[n][0], **e_eq.fields("equal_time_mse"),
+                        **rel_eq[n].fields("equal_time_relative_efficiency")})
+    ranked = sorted(rel, key=lambda n: rel[n].value, reverse=True)
+    best = ranked[0]
+    sentences = [f"Most efficient after {st.args.spp} spp: {best}; "
+                 + stats.verdict(best, base, rel[best]) + "."]
+    if len(ranked) > 2 or (len(ranked) == 2 and ranked[1] != base):
+        second = next(n for n in ranked[1:])
+        sentences.append("Against the next best, " + stats.verdict(
+            best, second, stats.efficiency_ratio(final[best][2], final[best][1],
+                                                 final[second][2], final[second][1])) + ".")
+    best_eq = max(rel_eq, key=lambda n: rel_eq[n].value)
+    sentences.append(f"At equal time ({st.args.time_budget:g} s) the most efficient is "
+                     f"{best_eq}: " + stats.verdict(best_eq, base, rel_eq[best_eq]) + ".")
     return [
         report.write_table(
-            st.out, f"{NAME}/efficiency",
-            ["method", "spp", "seconds", "MSE", "relMSE", "1/(MSE x time)",
-             f"relative to {base}", "equal-time spp", "equal-time MSE",
-             f"equal-time relative to {base}"], rows,
+            st.out, f"{NAME}/efficiency", EFFICIENCY_HEADER, rows,
             f"Veach efficiency 1/(MSE x time) after {st.args.spp} spp and at equal time, "
-            f"relative to {base}"),
-        report.text(
-            f"Most efficient after {st.args.spp} spp: {best}, {eff[best] / eff[base]:.1f} times "
-            f"{base}. Timings are warm render times on this machine and vary with its load "
-            f"(other processes sharing the cores slow every method); MSE does not."),
-    ]
+            f"relative to {base}: expected values over {st.repeats} repeats with "
+            f"{stats.LEVEL:.0%} intervals ({stats.METHOD})"),
+        report.text(" ".join(sentences) + " Timings are warm render times on this machine "
+                    "and vary with its load (other processes sharing the cores slow every "
+                    "method); MSE does not."),
+    ], records
 
 
 def run(args) -> None:
     start = time.perf_counter()
     st = Study(args)
+    methods = methods_of(args)
     ref_jobs = st.reference_jobs()
-    ladders = plan_sequences(st)
-    st.run(ref_jobs + [j for jobs in ladders.values() for j in jobs], f"{NAME}: sequences")
+    ladders = plan_sequences(st, methods)
+    st.run(ref_jobs + [j for reps in ladders.values() for jobs in reps for j in jobs],
+           f"{NAME}: sequences")
     equal_jobs = plan_equal_time(st, ladders)
-    st.run(list(equal_jobs.values()), f"{NAME}: equal time")
+    st.run([j for reps in equal_jobs.values() for j in reps], f"{NAME}: equal time")
 
     ref, ref_meta = st.reference(ref_jobs)
+    best = None if "methods" in args.explicit else best_method(args)
     blocks = [report.text(
         f"Progressive renders of {os.path.basename(args.scene)} at {st.width}x{st.height} "
         f"({args.depth.describe()}): each method accumulates jobs (a new seed each; Halton "
         f"continues its sequence) to 1, 2, 4, ... {args.spp} spp (Mitsuba's stratified, "
-        f"orthogonal and ldsampler round counts up; the spp shown are those rendered). Errors "
-        f"are against the reference: {st.describe_reference(ref_meta)}, a floor under every "
-        f"MSE below. Times are warm render times (JIT compilation excluded), cumulative over "
-        f"passes.")]
-    series, part = sequences(st, ladders, ref)
+        f"orthogonal and ldsampler round counts up; the spp shown are those rendered), "
+        f"{st.repeats} times with independent randomizations (plain Halton, deterministic, "
+        f"once). Errors are expected values over the repeats against the reference: "
+        f"{st.describe_reference(ref_meta)}. Times are warm render times in the timed "
+        f"configuration (JIT compilation excluded), cumulative over passes. "
+        + (f"{best} is the best combination the sampler study found (its most efficient "
+           f"sampler with bsdf+nee)." if best else
+           "The sampler study's winner is not among the methods (run the sampler study "
+           "first, as run_all does, or give --best-sampler).")
+        + f" Intervals: {stats.LEVEL:.0%}, {stats.METHOD}.")]
+    series, part = sequences(st, ladders, ref, ref_meta)
     blocks += part
-    equal, part = equal_time(st, equal_jobs, ref)
-    blocks += part + efficiency(st, series, equal)
+    equal, part = equal_time(st, equal_jobs, ref, ref_meta)
+    blocks += part
+    part, records = efficiency(st, series, equal)
+    blocks += part
     settings = {"scene": args.scene, "resolution": f"{st.width}x{st.height}", "spp": args.spp,
-                "methods": ", ".join(args.methods), "variant": args.variant,
+                "methods": ", ".join(methods), "repeats": st.repeats, "variant": args.variant,
                 "seed": args.seed, "time budget (s)": args.time_budget,
                 "path settings": args.depth.describe(),
                 "reference": st.describe_reference(ref_meta), "max lanes per pass": P.MAX_LANES,
+                "intervals": f"{stats.LEVEL:.0%}, {stats.METHOD}",
                 "render times measured on": st.timed_on(
-                    [j for jobs in ladders.values() for j in jobs] + list(equal_jobs.values()))}
+                    [j for reps in ladders.values() for jobs in reps for j in jobs]
+                    + [j for reps in equal_jobs.values() for j in reps])}
     report.write_section(args.out, NAME, "Convergence, error against time, efficiency", 10,
                          settings, blocks, args.variant, time.perf_counter() - start)
+    store.write_json(os.path.join(args.out, NAME, "summary.json"), {"efficiency": records})
 
 
 def main(argv=None) -> None:

@@ -12,13 +12,16 @@
 """
 from __future__ import annotations
 
+import math
 import os
 import time
 
-from experiments.lib import cli, figures, metrics, report
+import numpy as np
+
+from experiments.lib import cli, figures, metrics, report, stats
 from experiments.lib import plan as P
 from experiments.lib.methods import parse_method
-from experiments.lib.study import Study
+from experiments.lib.study import Study, repeat_prefix
 
 NAME = "writeup"
 #: (method, compared against, which spp option) of the 256x128 figures.
@@ -55,14 +58,15 @@ def _selected(args, pairs):
     return [p for p in pairs if p[0] in names and p[1] in names]
 
 
-def _plan(st: Study, experiment: str, name: str, targets, resolution, pass_spp: int):
+def _plan(st: Study, experiment: str, name: str, targets, resolution, pass_spp: int,
+          repeat: int = 0):
     """The ladder of ``name`` to ``targets`` (plain Halton also to 1/4 and 1/2 of the last,
-    for its convergence check)."""
+    for its convergence check); ``repeat``: an independent randomization of it."""
     targets = set(targets)
     if parse_method(name).deterministic:
         targets |= {max(1, max(targets) // 4), max(1, max(targets) // 2)}
-    return st.ladder(f"{experiment}/{name}", name, sorted(targets), resolution=resolution,
-                     pass_spp=pass_spp)
+    return st.ladder(repeat_prefix(f"{experiment}/{name}", repeat), name, sorted(targets),
+                     resolution=resolution, pass_spp=pass_spp)
 
 
 def _images(st: Study, jobs) -> dict[int, P.Accumulator]:
@@ -111,6 +115,7 @@ def _deterministic_rows(name, images, ref, ref_var):
 
 def short_figures(st: Study, ref, ref_var) -> list[dict]:
     args = st.args
+    ref_floor = float(np.mean(ref_var))
     width, height = args.resolution
     pairs = _selected(args, SHORT_PAIRS)
     if not pairs:
@@ -119,12 +124,29 @@ def short_figures(st: Study, ref, ref_var) -> list[dict]:
     for a, b, opt in pairs:
         for name in (a, b):
             wanted.setdefault(name, set()).add(getattr(args, opt))
-    ladders = {n: _plan(st, NAME, n, t, args.resolution, 1) for n, t in wanted.items()}
-    st.run([j for jobs in ladders.values() for j in jobs], f"{NAME}: figures")
-    renders = {n: _images(st, jobs) for n, jobs in ladders.items()}
-    blocks, rows, bias_rows, det_rows = [], [], [], []
+    ladders = {n: [_plan(st, NAME, n, t, args.resolution, 1, r)
+                   for r in range(st.repeats_of(n))] for n, t in wanted.items()}
+    st.run([j for reps in ladders.values() for jobs in reps for j in jobs], f"{NAME}: figures")
+    repeats = {n: [_images(st, jobs) for jobs in reps] for n, reps in ladders.items()}
+    renders = {n: reps[0] for n, reps in repeats.items()}
+    blocks, rows, bias_rows, det_rows, verdicts = [], [], [], [], []
     for a, b, opt in pairs:
         spp = getattr(args, opt)
+        # expected MSE over the repeats, the reference's own subtracted (a deterministic
+        # method's one run stands for every repeat)
+        mse = {n: [metrics.mse(r[spp].mean, ref) - ref_floor for r in repeats[n]]
+               * (st.repeats if len(repeats[n]) == 1 else 1) for n in (a, b)}
+        var_ratio = stats.ratio_interval([mse[b]], [mse[a]])
+        rmse_ratio = stats.Estimate(*(math.sqrt(x) if x > 0 else float("nan") for x in
+                                      (var_ratio.value, var_ratio.lo, var_ratio.hi)),
+                                    var_ratio.n)
+        expected = {n: stats.mean_interval(v) for n, v in mse.items()}
+        rows.append([f"{a} vs {b}", spp, st.repeats,
+                     *(f"{math.sqrt(max(expected[n].value, 0)):.4f}" for n in (b, a)),
+                     *(f"{x:.3g}" for x in (rmse_ratio.value, rmse_ratio.lo, rmse_ratio.hi,
+                                            var_ratio.value, var_ratio.lo, var_ratio.hi))])
+        verdicts.append(f"After {spp} spp, " + stats.verdict(a, b, var_ratio, "accurate")
+                        + " (ratio of expected MSEs at equal spp).")
         acc_a, acc_b = renders[a][spp], renders[b][spp]
         img_a, img_b = acc_a.mean, acc_b.mean
         rmse_a, rmse_b = metrics.rmse(img_a, ref), metrics.rmse(img_b, ref)
@@ -138,17 +160,21 @@ def short_figures(st: Study, ref, ref_var) -> list[dict]:
                                     f"{a} vs {b} at {width}x{height} after {spp} spp: RMSE "
                                     f"{rmse_a:.4f} vs {rmse_b:.4f}, ratio {b}/{a} = "
                                     f"{rmse_b / rmse_a:.2f}", figure=f"{NAME}/{stem}.png"))
-        rows.append([f"{a} vs {b}", spp, f"{rmse_b:.4f}", f"{rmse_a:.4f}",
-                     f"{rmse_b / rmse_a:.2f}", f"{(rmse_b / rmse_a) ** 2:.2f}"])
         if parse_method(a).deterministic:
             det_rows += _deterministic_rows(a, renders[a], ref, ref_var)[0]
         else:
             bias_rows.append(_bias_row(f"{a} − {b} ({spp} spp)", metrics.bias_check(
                 img_a, acc_a.variance_of_mean(), img_b, acc_b.variance_of_mean())))
-    blocks.insert(0, report.write_table(
-        args.out, f"{NAME}/rmse", ["pair A vs B", "spp", "RMSE B", "RMSE A", "RMSE ratio B/A",
-                                   "variance ratio B/A"], rows,
-        f"RMSE against the reference at {width}x{height} (ratio > 1: A has less error)"))
+    blocks[0:0] = [report.write_table(
+        args.out, f"{NAME}/rmse", ["pair A vs B", "spp", "repeats", "RMSE B", "RMSE A",
+                                   "RMSE ratio B/A", "RMSE ratio B/A_lo", "RMSE ratio B/A_hi",
+                                   "variance ratio B/A", "variance ratio B/A_lo",
+                                   "variance ratio B/A_hi"], rows,
+        f"Expected RMSE against the reference at {width}x{height} over {st.repeats} "
+        f"independent runs, the reference's own expected MSE ({ref_floor:.1e}) subtracted "
+        f"(ratio > 1: A has less error; {stats.LEVEL:.0%} intervals, {stats.METHOD}; plain "
+        f"Halton is deterministic: one run, no spread of its own). The images below are the "
+        f"first run."), report.text(" ".join(verdicts))]
     if bias_rows:
         blocks.append(report.write_table(
             args.out, f"{NAME}/bias_short", BIAS_HEADER, bias_rows,
