@@ -87,7 +87,6 @@ to ``1 - 2^-24`` at most.
 from __future__ import annotations
 
 import itertools
-import math
 
 import drjit as dr
 import mitsuba as mi
