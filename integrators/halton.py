@@ -87,10 +87,8 @@ class HaltonSampler(mi.Sampler):
 
     Sample counts: powers of two stratify dimension 0 fully, powers of three
     dimension 1; counts with both factors (72 = 2^3 3^2) stratify the pair
-    into 2^a x 3^b boxes. Measured (``python -m benchmarks.halton``,
-    ``vr_path`` bsdf + NEE), ``owen`` at 81 spp had 1.2-1.7x the efficiency
-    1/(MSE x time) of ``owen`` at 64 spp on ``mi.cornell_box()``, and about
-    the same on ``scenes/cbox.xml``.
+    into 2^a x 3^b boxes, so 81 or 72 spp can be more efficient than 64
+    (measured efficiencies: README, Benchmarks).
 
     Progressive rendering: to render ``N`` samples in passes of ``k_1, k_2,
     ...`` samples, keep the seed fixed and set ``sample_offset`` to the
@@ -188,7 +186,7 @@ class HaltonSampler(mi.Sampler):
         #: Sample of this lane within its pixel's samples of one pass.
         self._lane_sample = lanes - pixel * spw
         #: Per-pixel scramble seed.
-        self._pixel_seed = qmc.mix32(qmc.mix32(seed ^ 0x85EBCA6B) + pixel * 0x9E3779B9)
+        self._pixel_seed = qmc.pixel_seed(seed, pixel)
         #: Passes (``advance`` calls) since the last seed, times samples per wavefront.
         self._pass_offset = dr.opaque(mi.UInt32, 0)
         #: Next dimension to be drawn (one per lane).

@@ -14,7 +14,8 @@ from .choices import STRATEGIES  # noqa: F401  (the strategy list, defined once)
 #: (else from the BSDF's own sampling). See :class:`VRPathIntegrator`.
 MIS_COSINE_WEIGHT = 0.25
 
-_ONE_MINUS_EPSILON = 1.0 - 2.0 ** -24   # largest float32 below 1
+#: Largest survival probability of Russian roulette (as Mitsuba's ``path``).
+RR_MAX_PROBABILITY = 0.95
 
 
 class DirectionSample(NamedTuple):
@@ -28,39 +29,32 @@ class DirectionSample(NamedTuple):
     null: mi.Bool         # passed straight through a ``null`` component
 
 
-def mis_weight(pdf_a, pdf_b):
-    """Power heuristic (beta = 2) weight of technique a against b.
-
-    Written as 1 / (1 + (b/a)^2) so that an infinite density (an emitter seen
-    exactly edge-on) gives 1 or 0 instead of inf / inf = NaN.
-    """
-    ratio = pdf_b / dr.select(pdf_a > 0, pdf_a, 1.0)
-    return dr.select(pdf_a > 0, dr.rcp(1.0 + dr.square(ratio)), 0.0)
+class VertexSample(NamedTuple):
+    """The next direction and the BSDF at an emitter sample's direction (for NEE)."""
+    direction: DirectionSample
+    em_value: mi.Spectrum  # bsdf.eval(wo_em) (f * cos)
+    em_pdf: mi.Float       # density of the strategy at wo_em (for the MIS weight)
 
 
 # ------------------------------------------------------------- strategies
 #
 # One function per concern, callable outside the render loop (the warp tests
 # call them on a single BSDF): ``sample_direction`` draws the next direction of
-# a strategy and ``direction_pdf`` reports its density at any direction.
-
-def _hemisphere_warp(strategy):
-    """(warp, pdf) on z > 0 of the uniform or cosine strategy (``mis``: cosine)."""
-    if strategy == "uniform":
-        return warps.square_to_uniform_hemisphere, warps.square_to_uniform_hemisphere_pdf
-    return warps.square_to_cosine_hemisphere, warps.square_to_cosine_hemisphere_pdf
-
+# a strategy, ``sample_direction_and_eval`` also evaluates the BSDF at an
+# emitter sample's direction, and ``direction_pdf`` reports the strategy's
+# density at any direction. The sampling maths is in :mod:`.warps`.
 
 def _hemisphere_sample(strategy, wi, transmits, sample1, sample2):
-    """Uniform/cosine direction on the side of ``wi``; for a BSDF that transmits,
-    on either side (``sample1 < 0.5``: the far side of the surface's z axis)."""
-    warp, _ = _hemisphere_warp(strategy)
-    below = dr.select(transmits, sample1 < 0.5, wi.z < 0)
-    return warps.reflect_to_side(warp(sample2), below)
+    """Direction of the ``uniform`` or ``cosine`` strategy: on the side of ``wi``;
+    for a BSDF that transmits, on either side (``sample1 < 0.5``: z < 0)."""
+    return warps.square_to_sided_hemisphere(warps.hemisphere_warp(strategy).warp,
+                                            sample1, sample2, wi.z, transmits)
 
 
 def _hemisphere_pdf(strategy, wi, wo, transmits):
-    return warps.sided_pdf(_hemisphere_warp(strategy)[1], wo, wi.z, transmits)
+    """Density of :func:`_hemisphere_sample` (the unbiasedness tests replace it)."""
+    return warps.square_to_sided_hemisphere_pdf(warps.hemisphere_warp(strategy).pdf,
+                                                wo, wi.z, transmits)
 
 
 def _crossing_eta(bsdf, ctx, si, wo, transmits, active):
@@ -78,47 +72,55 @@ def _crossing_eta(bsdf, ctx, si, wo, transmits, active):
     return dr.select(crosses & (bs.eta > 0), bs.eta, 1.0)
 
 
-def _vertex(bsdf, strategy, ctx, si, sample1, sample2, wo_em, active):
+def _vertex(bsdf, strategy, ctx, si, sample1, sample2, active) -> DirectionSample:
     """Per BSDF instance (inside ``dr.dispatch``) for ``uniform``, ``cosine`` and
-    ``mis``: the next direction and, at ``wo_em`` (None: skipped), the BSDF
-    value and the strategy's density there (for NEE and its MIS weight).
+    ``mis``: the next direction.
 
     BSDFs with a Dirac delta lobe (mirrors, smooth dielectrics, ``plastic``,
     ``null``) cannot be hit by a sampled direction: they use their own sampling.
     """
     flags = bsdf.flags()
     if mi.has_flag(flags, mi.BSDFFlags.Delta):
-        return _bsdf_vertex(bsdf, ctx, si, sample1, sample2, wo_em, active)
+        return _bsdf_vertex(bsdf, ctx, si, sample1, sample2, active)
     transmits = mi.has_flag(flags, mi.BSDFFlags.Transmission)
     if strategy == "mis":
         c = MIS_COSINE_WEIGHT
-        use_cosine = sample1 < c
-        # Reuse sample1: rescaled to [0, 1) within the chosen technique.
-        s1_cos = dr.minimum(sample1 / c, _ONE_MINUS_EPSILON)
-        s1_bsdf = dr.minimum((sample1 - c) / (1.0 - c), _ONE_MINUS_EPSILON)
-        bs, bs_weight = bsdf.sample(ctx, si, s1_bsdf, sample2, active & ~use_cosine)
-        wo_cos = _hemisphere_sample("cosine", si.wi, transmits, s1_cos, sample2)
-        wo = dr.select(use_cosine, wo_cos, bs.wo)
-        drawn = use_cosine | _drawn(bs_weight)
+        split = warps.split_mixture_sample(sample1, c)
+        bs, bs_weight = bsdf.sample(ctx, si, split.u_b, sample2, active & ~split.use_a)
+        wo_cos = _hemisphere_sample("cosine", si.wi, transmits, split.u_a, sample2)
+        wo = dr.select(split.use_a, wo_cos, bs.wo)
+        drawn = split.use_a | _drawn(bs_weight)
         value, bsdf_pdf = bsdf.eval_pdf(ctx, si, wo, active & drawn)
         pdf = warps.mixture_pdf(c, _hemisphere_pdf("cosine", si.wi, wo, transmits), bsdf_pdf)
         pdf = dr.select(drawn, pdf, 0.0)
-        eta = dr.select(use_cosine, _crossing_eta(bsdf, ctx, si, wo, transmits, active), bs.eta)
+        eta = dr.select(split.use_a, _crossing_eta(bsdf, ctx, si, wo, transmits, active),
+                        bs.eta)
     else:
         wo = _hemisphere_sample(strategy, si.wi, transmits, sample1, sample2)
         value = bsdf.eval(ctx, si, wo, active)
         pdf = _hemisphere_pdf(strategy, si.wi, wo, transmits)
         eta = _crossing_eta(bsdf, ctx, si, wo, transmits, active)
         drawn = mi.Bool(True)
-    weight = dr.select(drawn & (pdf > 0), value / dr.maximum(pdf, 1e-30), 0.0)
-    out = (wo, pdf, weight, mi.Bool(False), eta, mi.Bool(False))
-    if wo_em is None:
-        return out
+    weight = dr.select(drawn & (pdf > 0), value / dr.maximum(pdf, warps.PDF_EPSILON), 0.0)
+    return DirectionSample(wo, pdf, weight, mi.Bool(False), eta, mi.Bool(False))
+
+
+def _vertex_and_eval(bsdf, strategy, ctx, si, sample1, sample2, wo_em, active) -> VertexSample:
+    """:func:`_vertex`, and at ``wo_em`` the BSDF value and the strategy's density
+    (for NEE and its MIS weight)."""
+    flags = bsdf.flags()
+    if mi.has_flag(flags, mi.BSDFFlags.Delta):
+        return _bsdf_vertex_and_eval(bsdf, ctx, si, sample1, sample2, wo_em, active)
+    transmits = mi.has_flag(flags, mi.BSDFFlags.Transmission)
+    direction = _vertex(bsdf, strategy, ctx, si, sample1, sample2, active)
     em_value, em_bsdf_pdf = bsdf.eval_pdf(ctx, si, wo_em, active)
-    em_pdf = _hemisphere_pdf(strategy, si.wi, wo_em, transmits)     # mis: its cosine part
     if strategy == "mis":
-        em_pdf = warps.mixture_pdf(MIS_COSINE_WEIGHT, em_pdf, em_bsdf_pdf)
-    return out + (em_value, em_pdf)
+        em_pdf = warps.mixture_pdf(MIS_COSINE_WEIGHT,
+                                   _hemisphere_pdf("cosine", si.wi, wo_em, transmits),
+                                   em_bsdf_pdf)
+    else:
+        em_pdf = _hemisphere_pdf(strategy, si.wi, wo_em, transmits)
+    return VertexSample(direction, em_value, em_pdf)
 
 
 def _drawn(bsdf_weight):
@@ -127,37 +129,69 @@ def _drawn(bsdf_weight):
     return dr.any(mi.unpolarized_spectrum(bsdf_weight) != 0)
 
 
-def _bsdf_vertex(bsdf, ctx, si, sample1, sample2, wo_em, active):
-    """The ``bsdf`` strategy: the BSDF's own sampling (with ``wo_em``: evaluated
-    there in the same call, ``eval_pdf_sample``, as Mitsuba's ``path``)."""
-    if wo_em is None:
-        bs, weight = bsdf.sample(ctx, si, sample1, sample2, active)
-    else:
-        em_value, em_pdf, bs, weight = bsdf.eval_pdf_sample(ctx, si, wo_em, sample1, sample2,
-                                                            active)
-    out = (bs.wo, dr.select(_drawn(weight), bs.pdf, 0.0), weight,
-           mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta), bs.eta,
-           mi.has_flag(bs.sampled_type, mi.BSDFFlags.Null))
-    return out if wo_em is None else out + (em_value, em_pdf)
+def _bsdf_direction(bs, weight) -> DirectionSample:
+    """A :class:`DirectionSample` from the BSDF's own sample and weight."""
+    return DirectionSample(bs.wo, dr.select(_drawn(weight), bs.pdf, 0.0), weight,
+                           mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta), bs.eta,
+                           mi.has_flag(bs.sampled_type, mi.BSDFFlags.Null))
 
 
-def sample_direction(strategy, bsdf, ctx, si, sample1, sample2, active=True, wo_em=None):
+def _bsdf_vertex(bsdf, ctx, si, sample1, sample2, active) -> DirectionSample:
+    """The ``bsdf`` strategy: the BSDF's own sampling."""
+    return _bsdf_direction(*bsdf.sample(ctx, si, sample1, sample2, active))
+
+
+def _bsdf_vertex_and_eval(bsdf, ctx, si, sample1, sample2, wo_em, active) -> VertexSample:
+    """The ``bsdf`` strategy, evaluated at ``wo_em`` in the same call
+    (``eval_pdf_sample``, as Mitsuba's ``path``)."""
+    em_value, em_pdf, bs, weight = bsdf.eval_pdf_sample(ctx, si, wo_em, sample1, sample2,
+                                                        active)
+    return VertexSample(_bsdf_direction(bs, weight), em_value, em_pdf)
+
+
+def _plain(value):
+    """(Nested) NamedTuples as plain tuples."""
+    return tuple(_plain(v) for v in value) if isinstance(value, tuple) else value
+
+
+def _per_bsdf(result_type, fn, bsdf, *args):
+    """``fn(bsdf, *args)`` for one BSDF, or one ``dr.dispatch`` over a ``mi.BSDFPtr``.
+
+    Dr.Jit 1.5's ``dr.dispatch`` does not traverse NamedTuples (it compares the
+    results of the BSDFs as opaque objects and fails), so the results cross it
+    as plain nested tuples and are rebuilt as ``result_type``.
+    """
+    if not isinstance(bsdf, mi.BSDFPtr):
+        return fn(bsdf, *args)
+    out = dr.dispatch(bsdf, lambda b, *a: _plain(fn(b, *a)), *args)
+    if result_type is VertexSample:
+        return VertexSample(DirectionSample(*out[0]), *out[1:])
+    return result_type(*out)
+
+
+def sample_direction(strategy, bsdf, ctx, si, sample1, sample2,
+                     active=True) -> DirectionSample:
     """Next direction of ``strategy`` at the vertex ``si`` with BSDF ``bsdf``.
 
     ``bsdf``: a ``mi.BSDFPtr`` (one dispatch over the BSDFs) or one BSDF.
-    Returns a :class:`DirectionSample`; with ``wo_em`` (a local direction, e.g.
-    of an emitter sample) also ``(bsdf value, strategy density)`` there, from
-    the same BSDF call: ``(DirectionSample, (value, pdf))``.
     """
     active = mi.Bool(active)
     if strategy == "bsdf":
-        out = _bsdf_vertex(bsdf, ctx, si, sample1, sample2, wo_em, active)
-    elif isinstance(bsdf, mi.BSDFPtr):
-        out = dr.dispatch(bsdf, _vertex, strategy, ctx, si, sample1, sample2, wo_em, active)
-    else:
-        out = _vertex(bsdf, strategy, ctx, si, sample1, sample2, wo_em, active)
-    ds = DirectionSample(*out[:6])
-    return ds if wo_em is None else (ds, tuple(out[6:]))
+        return _bsdf_vertex(bsdf, ctx, si, sample1, sample2, active)
+    return _per_bsdf(DirectionSample, _vertex, bsdf, strategy, ctx, si, sample1, sample2,
+                     active)
+
+
+def sample_direction_and_eval(strategy, bsdf, ctx, si, sample1, sample2, wo_em,
+                              active=True) -> VertexSample:
+    """:func:`sample_direction`, and at ``wo_em`` (a local direction, e.g. of an
+    emitter sample) the BSDF value and the strategy's density, from the same
+    BSDF call (``bsdf``: ``eval_pdf_sample``)."""
+    active = mi.Bool(active)
+    if strategy == "bsdf":
+        return _bsdf_vertex_and_eval(bsdf, ctx, si, sample1, sample2, wo_em, active)
+    return _per_bsdf(VertexSample, _vertex_and_eval, bsdf, strategy, ctx, si, sample1,
+                     sample2, wo_em, active)
 
 
 def direction_pdf(strategy, bsdf, ctx, si, wo, active=True):
@@ -237,12 +271,13 @@ class VRPathIntegrator(mi.SamplingIntegrator):
     crosses the surface, the relative index of refraction is tracked as
     Mitsuba's ``path`` does for sampled refractions (read from the BSDF's
     own transmission sample), so that Russian roulette, whose survival
-    probability is :math:`\min(0.95, \max\beta\,\eta^2)`, treats paths inside
+    probability is :math:`\min(p_\mathrm{max}, \max\beta\,\eta^2)` with
+    :math:`p_\mathrm{max}` = ``RR_MAX_PROBABILITY`` = 0.95, treats paths inside
     glass the same for every strategy. These strategies are unbiased on any
     BSDF but are poor estimators of narrow glossy lobes: on rough glass
-    (``roughdielectric``, alpha 0.2) lit by a small light their weights
-    reach :math:`10^5`-:math:`10^6` over a few vertices (a tail of index
-    below 2), so low-spp renders are usually too dark, with rare fireflies
+    (``roughdielectric``) lit by a small light their weights grow by orders
+    of magnitude over a few vertices (a tail heavy enough for an infinite
+    variance), so low-spp renders are usually too dark, with rare fireflies
     holding the missing energy.
 
     ``mis`` draws from the cosine strategy with probability
@@ -259,9 +294,9 @@ class VRPathIntegrator(mi.SamplingIntegrator):
     density of at least :math:`0.25\cos\theta/\pi` over the whole
     hemisphere, which bounds the weight wherever the BSDF's own sampling
     undersamples its integrand (a lobe clipped by the horizon, a diffuse part
-    that a multi-lobe sampler picks rarely). On the stability study's Phong
-    exponent sweep (1 to :math:`10^4`, no NEE) its relMSE was 0.81-0.96x that
-    of the better of ``cosine`` and ``bsdf``; 0.5 gave 0.96-0.97x.
+    that a multi-lobe sampler picks rarely). How it compares with the better
+    of ``cosine`` and ``bsdf`` over the stability study's Phong exponent
+    sweep: see the README.
 
     BSDFs with a Dirac delta lobe (mirrors, smooth dielectrics, ``plastic``,
     ``null``) cannot be hit by a sampled direction: at such vertices every
@@ -388,7 +423,7 @@ class VRPathIntegrator(mi.SamplingIntegrator):
             if dr.hint(nee, mode='scalar'):
                 ds = mi.DirectionSample3f(scene, si, prev_it)
                 em_pdf = scene.pdf_emitter_direction(prev_it, ds, visible & ~prev_delta)
-                w_dir = dr.select(prev_delta, 1.0, mis_weight(prev_pdf, em_pdf))
+                w_dir = dr.select(prev_delta, 1.0, warps.power_heuristic(prev_pdf, em_pdf))
             L = dr.select(visible, L + beta * emitter.eval(si, visible) * w_dir, L)
 
             active_next = on & si.is_valid() & (depth + 1 < max_depth)
@@ -405,11 +440,12 @@ class VRPathIntegrator(mi.SamplingIntegrator):
                 active_em &= ds_em.pdf != 0
                 sample1 = sampler.next_1d(active_next)
                 sample2 = sampler.next_2d(active_next)
-                direction, (bsdf_val, pdf_em_dir) = sample_direction(
-                    self.strategy, bsdf, ctx, si, sample1, sample2, active_next,
-                    wo_em=si.to_local(ds_em.d))
-                w_em = dr.select(ds_em.delta, 1.0, mis_weight(ds_em.pdf, pdf_em_dir))
-                L = dr.select(active_em, L + beta * bsdf_val * em_weight * w_em, L)
+                vertex = sample_direction_and_eval(self.strategy, bsdf, ctx, si, sample1,
+                                                   sample2, si.to_local(ds_em.d), active_next)
+                direction = vertex.direction
+                w_em = dr.select(ds_em.delta, 1.0,
+                                 warps.power_heuristic(ds_em.pdf, vertex.em_pdf))
+                L = dr.select(active_em, L + beta * vertex.em_value * em_weight * w_em, L)
             else:
                 sample1 = sampler.next_1d(active_next)
                 sample2 = sampler.next_2d(active_next)
@@ -432,9 +468,9 @@ class VRPathIntegrator(mi.SamplingIntegrator):
             # interfaces, so paths inside glass are not ended for it.
             beta_max = dr.max(mi.unpolarized_spectrum(beta))
             rr_active = depth >= self.rr_depth
-            rr_prob = dr.minimum(beta_max * dr.square(eta), 0.95)
+            rr_prob = dr.minimum(beta_max * dr.square(eta), RR_MAX_PROBABILITY)
             rr_continue = sampler.next_1d(active_next) < rr_prob
-            beta[rr_active] *= dr.rcp(dr.maximum(rr_prob, 1e-20))
+            beta[rr_active] *= dr.rcp(dr.maximum(rr_prob, warps.PDF_EPSILON))
             active = skip | (active_next & (~rr_active | rr_continue) & (beta_max > 0)
                              & (direction.pdf > 0))
 

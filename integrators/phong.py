@@ -216,7 +216,7 @@ class PhongBSDF(mi.BSDF):
         if not has_glossy:
             ks = dr.zeros(mi.Spectrum)
         md, ms = dr.mean(kd), dr.mean(ks)
-        p_glossy = dr.select(md + ms > 0, ms / dr.maximum(md + ms, 1e-20), 0.0)
+        p_glossy = dr.select(md + ms > 0, ms / dr.maximum(md + ms, warps.PDF_EPSILON), 0.0)
         return kd, ks, p_glossy
 
     def _lobe_frame(self, wi):
@@ -259,7 +259,7 @@ class PhongBSDF(mi.BSDF):
         bs.sampled_component = dr.select(glossy, mi.UInt32(1), mi.UInt32(0))
         bs.sampled_type = dr.select(glossy, mi.UInt32(+mi.BSDFFlags.GlossyReflection),
                                     mi.UInt32(+mi.BSDFFlags.DiffuseReflection))
-        value = self._eval(kd, ks, wi, wo, glossy_pdf) / dr.maximum(pdf, 1e-20)
+        value = self._eval(kd, ks, wi, wo, glossy_pdf) / dr.maximum(pdf, warps.PDF_EPSILON)
         return bs, dr.select(active, value, 0.0)
 
     def eval(self, ctx, si, wo, active=True):

@@ -25,24 +25,19 @@ megakernel, so every instruction counts): the per-base constants (base,
 reciprocal, shift) are packed into one 64-bit table entry, read with a
 single gather (AVX2 gathers are slow); ``1/b`` is one float division;
 small unsigned integers go to float through a signed conversion (a single
-instruction; unsigned ones are emulated on x86). Measured in renders
-(``mi.cornell_box()``, 256x256, 32 spp, ``python -m benchmarks.halton``):
-``none`` costs 0.99-1.00x ``independent`` per sample, the randomized
-variants 1.11-1.18x. Most of that gap is not the scramble's arithmetic but
-SIMD coherence: a packet's lanes are consecutive samples of one pixel, and
-the plain (or merely rotated) radical inverse gives them neighbouring values
-in every base above the sample count, so their rays and Russian-roulette
-decisions stay together, while random permutations scatter them as
-independent samples do. Probes that add this module's arithmetic (times
-1e-30) to hash-based random values in the odd bases separate the two
-(``path`` and ``vr_path``, 5 interleaved rounds each): the hash alone
-1.01x, plus the plain radical inverse 1.05x, plus the rotation and Owen
-child hash 1.06-1.08x, plus the permutation table lookup 1.11-1.13x. So
-any randomized radical inverse costs about 1.06x or more, however cheap
-its permutation; a gather-free permutation (two swap-or-not rounds) cost
-as much as the table lookup (1.111x against 1.110x), a rotation alone
-(``T`` = identity, a shifted lattice) 0.98x only through coherence, and
-pbrt's cycle-walking ``PermutationElement`` 1.31x.
+instruction; unsigned ones are emulated on x86). The randomized variants
+cost more per sample than ``none`` mostly not for the scramble's arithmetic
+but for SIMD coherence: a packet's lanes are consecutive samples of one
+pixel, and the plain (or merely rotated) radical inverse gives them
+neighbouring values in every base above the sample count, so their rays and
+Russian-roulette decisions stay together, while random permutations scatter
+them as independent samples do. Probes that add this module's arithmetic
+(times 1e-30) to hash-based random values in the odd bases separate the two
+(``python -m benchmarks.halton --floor``): any randomized radical inverse
+pays that scattering, however cheap its permutation, so cheaper
+permutations (gather-free swap-or-not rounds, pbrt's cycle-walking
+``PermutationElement``) were no faster than the table lookup. Measured
+costs: README, Benchmarks.
 
 Randomizations (pbrt-v4's ``RandomizeStrategy``):
 
@@ -80,7 +75,7 @@ into ``b^m`` intervals. Base 2: the permutations are bit flips, an XOR with a
 random 32-bit mask (``permute_digits``, exactly uniform), and pbrt's
 ``FastOwenScrambler`` (``owen``). (pbrt-v4's hashed ``PermutationElement``,
 tried first, reaches only 8 of the 24 permutations of 4 elements and 336 of
-720 of 6, and cost 1.3x ``independent`` per sample.)
+720 of 6, and cost more.)
 
 Dimensions map to primes: dimension ``j`` uses ``PRIMES[j % PRIME_TABLE_SIZE]``
 (the table holds the first 1000 primes, 2 .. 7919). Past the table the bases
@@ -92,11 +87,12 @@ to ``1 - 2^-24`` at most.
 from __future__ import annotations
 
 import itertools
-import math
 
 import drjit as dr
 import mitsuba as mi
 import numpy as np
+
+from .warps import ONE_MINUS_EPSILON  # the clamp of every output (one definition)
 
 #: Valid randomizations (pbrt-v4's ``RandomizeStrategy``).
 RANDOMIZATIONS = ("none", "permute_digits", "owen")
@@ -107,8 +103,9 @@ PRIME_TABLE_SIZE = 1000
 #: Largest index for which the radical inverses are exact (``dr.mul_hi`` reciprocals).
 MAX_INDEX = 2**31 - 1
 
-#: Largest float32 below 1 (``0x1.fffffep-1``).
-ONE_MINUS_EPSILON = float(np.float32(1.0) - np.float32(2.0**-24))
+#: 2^32 / golden ratio (odd): the Weyl-sequence step that spreads an index
+#: (dimension, pixel) over 32 bits before it is hashed with :func:`mix32`.
+HASH_MULTIPLIER = 0x9E3779B9
 
 
 def _first_primes(count: int) -> np.ndarray:
@@ -224,7 +221,13 @@ def mix32(x):
 
 def dimension_seed(seed, dimension):
     """Scramble seed of one dimension, from a sequence seed (UInt32 arrays)."""
-    return mix32(seed + dimension * 0x9E3779B9)
+    return mix32(seed + dimension * HASH_MULTIPLIER)
+
+
+def pixel_seed(seed, pixel):
+    """Per-pixel scramble seed (a sequence seed for :func:`halton_sample`), from
+    the render's seed and the pixel index (``mi.UInt32`` arrays)."""
+    return mix32(mix32(seed ^ 0x85EBCA6B) + pixel * HASH_MULTIPLIER)
 
 
 def _fast_owen_base2(v, seed):

@@ -2,7 +2,9 @@
 
 Statistical checks use a significance level of 1e-3: two-sided normal bounds
 ``|mean_a - mean_b| < z sqrt(var_a/n_a + var_b/n_b)`` with z = 3.29, and
-p-values > 1e-3. Seeds are fixed, so the tests are deterministic.
+p-values > 1e-3; the error comparisons with ``independent`` a one-sided t-test
+on log MSE ratios over seeds at 0.01, with negative controls. Seeds are fixed,
+so the tests are deterministic.
 """
 import drjit as dr
 import mitsuba as mi
@@ -393,15 +395,66 @@ def cbox_reference():
     return np.array(mi.render(scene, seed=1000))
 
 
+class ShuffledHalton(HaltonSampler):
+    """Negative control: every lane takes a hashed Halton index in [0, 2^20) instead
+    of its pixel's next one, so each value is still a (randomized) Halton point but a
+    pixel's samples are no longer stratified: no QMC gain is expected."""
+
+    def current_sample_index(self):
+        return qmc.mix32(super().current_sample_index() * qmc.HASH_MULTIPLIER
+                         ^ self._pixel_seed) >> 12
+
+
+ALPHA = 0.01           # significance of the one-sided tests below
+GAIN_SEEDS = 8         # paired renders per test
+
+
+def _log_mse_ratios(scene_a, scene_b, reference, spp, seeds_a, seeds_b):
+    """log(MSE of a) - log(MSE of b) per seed pair (independent renders)."""
+    return np.array([np.log(_mse(scene_a, reference, spp, (sa,)))
+                     - np.log(_mse(scene_b, reference, spp, (sb,)))
+                     for sa, sb in zip(seeds_a, seeds_b)])
+
+
+def _lower(log_ratios):
+    """One-sided t-test of mean log MSE ratio < 0 at ALPHA: (rejected, p-value)."""
+    from scipy import stats
+    p = stats.ttest_1samp(log_ratios, 0.0, alternative="less").pvalue
+    return bool(p < ALPHA), float(p)
+
+
+def _cbox(sampler="independent", randomization=None):
+    scene = mi.load_file(scene_path("cbox.xml"), sampler=sampler, width=64, height=32)
+    if randomization is not None:
+        scene.sensors()[0].sampler().randomization = randomization
+    return scene
+
+
 @pytest.mark.parametrize("randomization", ["none", "permute_digits", "owen"])
 def test_lower_error_than_independent(cbox_reference, randomization):
-    independent = mi.load_file(scene_path("cbox.xml"), width=64, height=32)
-    halton = mi.load_file(scene_path("cbox.xml"), sampler="halton", width=64, height=32)
-    halton.sensors()[0].sampler().randomization = randomization
+    """Halton's MSE is lower than independent's: over GAIN_SEEDS seed pairs, the mean
+    log MSE ratio is < 0 by a one-sided t-test at ALPHA = 0.01 (``none`` ignores the
+    seed: its spread is independent's alone), at 64 and 256 spp."""
+    independent, halton = _cbox(), _cbox("halton", randomization)
+    seeds = range(1, 1 + GAIN_SEEDS)
     for spp in (64, 256):
-        mse_i = _mse(independent, cbox_reference, spp, (1, 2))
-        mse_h = _mse(halton, cbox_reference, spp, (1, 2))
-        assert mse_h < mse_i, (spp, mse_h, mse_i)
+        r = _log_mse_ratios(halton, independent, cbox_reference, spp, seeds, seeds)
+        rejected, p = _lower(r)
+        assert rejected, (spp, p, np.exp(r))
+
+
+def test_lower_error_test_rejects_no_gain(cbox_reference):
+    """Negative controls: the same test at the same size must not find a gain where
+    there is none: independent against independent (other seeds), and a Halton
+    sampler whose pixels draw shuffled indices (:class:`ShuffledHalton`)."""
+    mi.register_sampler("shuffled_halton", lambda props: ShuffledHalton(props))
+    independent, shuffled = _cbox(), _cbox("shuffled_halton", "owen")
+    seeds = range(1, 1 + GAIN_SEEDS)
+    others = range(101, 101 + GAIN_SEEDS)
+    r = _log_mse_ratios(independent, independent, cbox_reference, 64, others, seeds)
+    assert not _lower(r)[0], (_lower(r), np.exp(r))
+    r = _log_mse_ratios(shuffled, independent, cbox_reference, 64, seeds, seeds)
+    assert not _lower(r)[0], (_lower(r), np.exp(r))
 
 
 def test_qmc_gain_on_cornell_box():

@@ -7,6 +7,7 @@ with exit code 2 and one line naming the bad part.
 import os
 
 import mitsuba as mi
+import numpy as np
 import pytest
 from conftest import scene_path
 
@@ -90,8 +91,23 @@ def test_every_invalid_form_exits_2_with_one_line(name, part, capsys, tmp_path, 
     assert os.listdir(tmp_path) == []
 
 
-def test_the_strategy_list_is_the_plugins():
-    from integrators import path
-    assert M.strategies() == tuple(path.STRATEGIES)
-    for s in M.strategies():
-        assert mi.load_dict({"type": "vr_path", "strategy": s}).strategy == s
+@pytest.mark.parametrize("strategy", STRATEGIES)
+def test_every_listed_strategy_is_accepted_and_renders(strategy):
+    """Each entry of the one strategy list is a strategy ``vr_path`` accepts and renders
+    with (finite, non-negative, lit image), with and without NEE."""
+    for nee in (False, True):
+        scene = mi.load_file(scene_path("cbox.xml"), width=8, height=4, spp=4,
+                             strategy=strategy, emitter_sampling=str(nee).lower())
+        assert scene.integrator().strategy == strategy
+        img = np.array(mi.render(scene, seed=1))
+        assert np.all(np.isfinite(img)) and np.all(img >= 0) and img.mean() > 0, (strategy, nee)
+
+
+@pytest.mark.parametrize("name", ["phong", "BSDF", "cosine+nee", ""])
+def test_a_name_not_listed_is_rejected_naming_the_choices(name):
+    assert name not in STRATEGIES
+    with pytest.raises(Exception) as exc:
+        mi.load_dict({"type": "vr_path", "strategy": name})
+    message = str(exc.value) + str(exc.value.__cause__ or "")
+    assert f"unknown strategy {name!r}" in message, message
+    assert "valid choices are " + ", ".join(STRATEGIES) in message, message

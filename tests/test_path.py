@@ -271,7 +271,20 @@ def test_registration_follows_variant_switch():
     for plugin in ({"type": "phong"}, {"type": "vr_path"}, {"type": "halton"}):
         obj = mi.load_dict(plugin)
         assert isinstance(obj, (mi.BSDF, mi.SamplingIntegrator, mi.Sampler))
-    mi.load_dict({"type": "halton"}).fork()
+    # fork() builds this variant's class (not the one of the variant it was defined
+    # first in): a new object, the same settings, its own state, the same draws.
+    sampler = mi.load_dict({"type": "halton", "sample_count": 8, "seed": 3,
+                            "randomization": "permute_digits"})
+    fork = sampler.fork()
+    assert fork is not sampler and type(fork) is type(sampler)
+    assert isinstance(fork, mi.Sampler)
+    assert (fork.sample_count(), fork.base_seed, fork.randomization) == (8, 3, "permute_digits")
+    sampler.seed(5, 16)
+    fork.seed(5, 16)
+    first = np.array(fork.next_1d())
+    second = np.array(fork.next_1d())
+    assert not np.array_equal(first, second)
+    assert np.array_equal(np.array(sampler.next_1d()), first)   # fork's draws left it alone
 
 
 def _python(code):

@@ -302,3 +302,21 @@ def test_high_base_projections_no_worse_than_random(randomization):
     y = (_affine_permutations(71, pixels, rng)[:, :n] + tail[:, 1:]) / 71
     empty = _empty_cells(x, y)
     assert _empty_tail_pvalue(empty, reference, 40) < 1e-6
+
+
+def test_pixel_seeds_are_distinct_and_balanced():
+    """qmc.pixel_seed (the halton sampler's per-pixel seed): no two of 2^16 pixels share
+    a seed, every bit is set in half the pixels (within 5 sigma), and another render
+    seed gives another set. The sampler takes its seeds from it."""
+    n = 1 << 16
+    pixels = dr.arange(mi.UInt32, n)
+    a = np.array(qmc.pixel_seed(mi.UInt32(3), pixels), dtype=np.uint32)
+    b = np.array(qmc.pixel_seed(mi.UInt32(4), pixels), dtype=np.uint32)
+    assert len(np.unique(a)) == n
+    bits = (a[:, None] >> np.arange(32, dtype=np.uint32)) & 1
+    assert np.all(np.abs(bits.mean(axis=0) - 0.5) < 5 * 0.5 / np.sqrt(n))
+    assert np.mean(a == b) < 1e-3
+    sampler = mi.load_dict({"type": "halton", "sample_count": 4, "seed": 0})
+    sampler.seed(3, 4 * 16)
+    assert np.array_equal(np.array(sampler._pixel_seed),
+                          np.repeat(a[:16], 4))

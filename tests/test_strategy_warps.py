@@ -21,6 +21,7 @@ import math
 
 import drjit as dr
 import mitsuba as mi
+import numpy as np
 import pytest
 
 import integrators.path as vr_path
@@ -108,3 +109,30 @@ def test_eta_of_a_crossing_direction_is_the_relative_ior(strategy):
         assert dr.all(dr.abs(got - dr.select(crosses, eta, 1.0)) < 1e-3)
         assert dr.all(dr.select(crosses | (ds.pdf == 0), 1.0, ds.eta) == 1.0)
         assert dr.any(crosses) and dr.any(~crosses & (ds.pdf > 0))
+
+
+@pytest.mark.parametrize("strategy", vr_path.STRATEGIES)
+@pytest.mark.parametrize("name", ["phong", "roughdielectric", "dielectric"])
+def test_sample_and_eval_is_sample_plus_the_bsdf_at_wo_em(strategy, name):
+    """The NEE form returns a VertexSample (through dr.dispatch as in the render loop):
+    its direction is sample_direction's, its em_value the BSDF's eval at wo_em and its
+    em_pdf the strategy's density there (a delta BSDF: 0 and 0)."""
+    bsdf = mi.load_dict(BSDFS.get(name, {"type": name}))
+    ctx, n = mi.BSDFContext(), 1024
+    u = (dr.arange(mi.Float, n) + 0.5) / n
+    u2 = mi.Point2f(u * 37.0 - dr.floor(u * 37.0), u * 101.0 - dr.floor(u * 101.0))
+    si = interaction(incident(0.6), n)
+    wo_em = dr.normalize(mi.Vector3f(u2.x - 0.5, u2.y - 0.5, u - 0.3))
+    for b in (mi.BSDFPtr(bsdf), bsdf):
+        vs = vr_path.sample_direction_and_eval(strategy, b, ctx, si, u, u2, wo_em)
+        ds = vr_path.sample_direction(strategy, b, ctx, si, u, u2)
+        assert isinstance(vs, vr_path.VertexSample)
+        assert isinstance(vs.direction, vr_path.DirectionSample) and isinstance(
+            ds, vr_path.DirectionSample)
+        for field in vr_path.DirectionSample._fields:
+            got, want = (np.array(getattr(t, field)) for t in (vs.direction, ds))
+            assert np.array_equal(*np.broadcast_arrays(got, want)), field
+        value, pdf = bsdf.eval_pdf(ctx, si, wo_em)
+        assert dr.allclose(vs.em_value, value, rtol=1e-5, atol=1e-7)
+        assert dr.allclose(vs.em_pdf, vr_path.direction_pdf(strategy, bsdf, ctx, si, wo_em),
+                           rtol=1e-5, atol=1e-7)

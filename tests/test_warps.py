@@ -91,3 +91,84 @@ def test_exact_pdf_values():
     c = np.cos(0.3)
     v = mi.Vector3f(float(np.sin(0.3)), 0.0, float(c))
     assert warps.square_to_phong_lobe_pdf(v, mi.Float(7))[0] == pytest.approx(8 / (2 * np.pi) * c ** 7, rel=1e-5)
+
+
+# ------------------------------------------- side warp, mixture, power heuristic
+
+#: (hemisphere warp, wi_z, both sides) cases of the side warp.
+SIDED = [(k, wi_z, both) for k in warps.HEMISPHERE_WARPS
+         for wi_z, both in ((0.5, False), (-0.5, False), (0.5, True))]
+
+
+def sided_chi2(kind, wi_z, both, monkeypatch, tmp_path, pdf_both=None, seed=0):
+    warp, pdf = warps.hemisphere_warp(kind)
+    pdf_both = both if pdf_both is None else pdf_both
+    run_chi2(CapDomain((0, 0, 1), -1.0),
+             lambda u: (warps.square_to_sided_hemisphere(warp, u.x, mi.Point2f(u.y, u.z),
+                                                         mi.Float(wi_z), mi.Bool(both)),
+                        mi.Float(1.0)),
+             lambda v: warps.square_to_sided_hemisphere_pdf(pdf, v, mi.Float(wi_z),
+                                                            mi.Bool(pdf_both)),
+             3, monkeypatch, tmp_path, test_count=len(SIDED), seed=seed)
+
+
+@pytest.mark.parametrize("kind,wi_z,both", SIDED,
+                         ids=[f"{k}-wiz{z}-{'both' if b else 'one'}" for k, z, b in SIDED])
+def test_sided_hemisphere_chi2(kind, wi_z, both, monkeypatch, tmp_path):
+    """The side warp follows its density: one-sided on wi's side, two-sided on both."""
+    sided_chi2(kind, wi_z, both, monkeypatch, tmp_path, seed=SIDED.index((kind, wi_z, both)))
+
+
+def test_sided_hemisphere_with_the_one_sided_density_fails(monkeypatch, tmp_path):
+    """Negative control: a two-sided warp reported with the one-sided density."""
+    with pytest.raises(AssertionError):
+        sided_chi2("cosine", 0.5, True, monkeypatch, tmp_path, pdf_both=False)
+
+
+def test_unknown_hemisphere_warp_names_the_choices():
+    with pytest.raises(ValueError, match="valid choices are uniform, cosine"):
+        warps.hemisphere_warp("mis")
+
+
+@pytest.mark.parametrize("weight", [0.25, 0.5, 0.9])
+def test_mixture_split_reuses_the_sample_uniformly(weight):
+    """u < weight picks a; within each technique the rescaled sample is the uniform
+    grid of [0, 1) again (a stratified u stays stratified), clamped below 1."""
+    n = 1 << 16
+    u = (dr.arange(mi.Float, n) + 0.5) / n
+    split = warps.split_mixture_sample(u, weight)
+    use_a = np.array(split.use_a)
+    assert abs(use_a.mean() - weight) < 1.0 / n
+    for rescaled, chosen in ((np.array(split.u_a), use_a), (np.array(split.u_b), ~use_a)):
+        v = np.sort(rescaled[chosen])
+        assert v.min() >= 0 and v.max() < 1
+        assert np.abs(v - (np.arange(len(v)) + 0.5) / len(v)).max() < 2.0 / len(v)
+    top = warps.split_mixture_sample(mi.Float(warps.ONE_MINUS_EPSILON), weight)
+    assert np.array(top.u_b)[0] < 1
+
+
+def test_mixture_of_cosine_and_phong_lobe_chi2(monkeypatch, tmp_path):
+    """The one-sample mixture (split_mixture_sample) follows mixture_pdf."""
+    w, n = 0.25, mi.Float(20.0)
+
+    def sample(u):
+        split = warps.split_mixture_sample(u.x, w)
+        u2 = mi.Point2f(u.y, u.z)
+        wo = dr.select(split.use_a, warps.square_to_cosine_hemisphere(u2),
+                       warps.square_to_phong_lobe(u2, n))
+        return wo, mi.Float(1.0)
+
+    run_chi2(CapDomain((0, 0, 1), -1.0), sample,
+             lambda v: warps.mixture_pdf(w, warps.square_to_cosine_hemisphere_pdf(v),
+                                         warps.square_to_phong_lobe_pdf(v, n)),
+             3, monkeypatch, tmp_path)
+
+
+def test_power_heuristic():
+    a = mi.Float(1.0, 2.0, 0.0, float("inf"), 3.0)
+    b = mi.Float(1.0, 1.0, 5.0, 1.0, float("inf"))
+    got = np.array(warps.power_heuristic(a, b))
+    assert np.allclose(got, [0.5, 0.8, 0.0, 1.0, 0.0]) and np.all(np.isfinite(got))
+    # the weights of the two techniques sum to one wherever both densities are > 0
+    x, y = mi.Float(0.3, 7.0, 1e-6), mi.Float(2.0, 0.1, 1e3)
+    assert np.allclose(np.array(warps.power_heuristic(x, y) + warps.power_heuristic(y, x)), 1.0)
