@@ -1,14 +1,16 @@
 """The default experiment suite on the bundled scene, and the report (``make run``).
 
-Runs :mod:`experiments.convergence` (sequences, error against spp and time,
+Runs :mod:`experiments.samplers` first (halton against Mitsuba's samplers;
+its most efficient sampler joins the convergence study as ``bsdf+nee+SAMPLER``),
+then :mod:`experiments.convergence` (sequences, error against spp and time,
 equal-time panel, efficiency table; with ``bsdf+nee`` and ``path`` as
 reference rows), :mod:`experiments.writeup` (the writeup's figures; with
---full also the 1024x512, 1000-spp no-bias checks), :mod:`experiments.samplers`
-(halton against Mitsuba's samplers) and :mod:`experiments.stability` (where
-each method breaks down), then writes OUT/index.html. The sampler and
-stability studies run at their own default sizes unless --resolution, --spp,
---methods (stability), --max-depth or --rr-depth are given here. Rerunning
-resumes: finished render jobs are not redone.
+--full also the 1024x512, 1000-spp no-bias checks) and
+:mod:`experiments.stability` (where each method breaks down), then writes
+OUT/index.html. Every study runs at its own default sizes and repeats; the
+options given here (--resolution, --spp, --repeats, --methods, --max-depth,
+...) are passed on to each study that takes them. Rerunning resumes: finished
+render jobs are not redone.
 
     python -m experiments.run_all --help
 """
@@ -20,15 +22,21 @@ import time
 from experiments import convergence, samplers, stability, writeup
 from experiments.lib import cli, report
 
-#: Options passed on to the sampler and stability studies when given here.
+#: Options passed on to every study: always (SHARED), or when given here (FORWARDED).
 SHARED = {"scene": "--scene", "variant": "--variant", "seed": "--seed", "out": "--out"}
 FORWARDED = {"resolution": "--resolution", "spp": "--spp", "max_depth": "--max-depth",
-             "rr_depth": "--rr-depth", "reference_spp": "--reference-spp"}
+             "rr_depth": "--rr-depth", "reference_spp": "--reference-spp",
+             "repeats": "--repeats", "methods": "--methods"}
+#: Options of the convergence study and of the writeup's, passed on when given here.
+CONVERGENCE = {"time_budget": "--time-budget", "best_sampler": "--best-sampler"}
+WRITEUP = {"short_spp": "--short-spp", "halton_spp": "--halton-spp", "full": "--full",
+           "full_resolution": "--full-resolution", "full_spp": "--full-spp"}
 
 
 def build_parser() -> cli.Parser:
     p = cli.common_parser("python -m experiments.run_all", __doc__.split("\n")[0],
-                          spp=256, time_budget=2.0)
+                          spp=256, time_budget=0.5)
+    convergence.add_arguments(p)
     writeup.add_arguments(p)
     p.add_argument("--stability", choices=("default", "quick", "off"), default="default",
                    help="the stability study at its own default settings, tiny (quick), "
@@ -40,19 +48,34 @@ def build_parser() -> cli.Parser:
 
 
 def _value(key, value) -> str:
-    return "{}x{}".format(*value) if key == "resolution" else str(value)
+    if key in ("resolution", "full_resolution"):
+        return "{}x{}".format(*value)
+    return ",".join(value) if isinstance(value, list) else str(value)
 
 
-def sub_argv(args, extra: tuple = ()) -> list[str]:
-    """Arguments for a sub-study: the shared ones, and those given explicitly here."""
+def sub_argv(args, module, extra: dict | None = None) -> list[str]:
+    """Arguments for ``module``'s study: the shared ones, and those given explicitly here
+    that its parser takes."""
+    known = module.build_parser()._option_string_actions
     argv = []
     for key, option in SHARED.items():
         argv += [option, _value(key, getattr(args, key))]
-    for key, option in dict(FORWARDED, **dict(extra)).items():
-        if key in args.explicit:
+    for key, option in dict(FORWARDED, **(extra or {})).items():
+        if key in args.explicit and option in known:
             value = getattr(args, key)
-            argv += [option, ",".join(value) if isinstance(value, list) else _value(key, value)]
+            if isinstance(value, bool):
+                argv += [option] if value else []
+            else:
+                argv += [option, _value(key, value)]
     return argv
+
+
+def study_args(module, args, argv: list[str]):
+    """``module``'s own parser over ``argv``, sharing this run's cluster, if any."""
+    parse = getattr(module, "parse", None) or (lambda a: cli.parse_args(module.build_parser(), a))
+    sub = parse(argv)
+    sub.executor = args.executor
+    return sub
 
 
 #: Tiny sizes of --samplers quick (for tests).
@@ -62,18 +85,14 @@ SAMPLERS_QUICK = ["--resolution", "16x8", "--spp", "4", "--reference-spp", "16"]
 def main(argv=None) -> None:
     args = cli.parse_args(build_parser(), argv)
     start = time.perf_counter()
-    convergence.run(args)
-    writeup.run(args)
-    if args.samplers != "off":
+    if args.samplers != "off":       # first: the convergence study adds its winner
         quick = SAMPLERS_QUICK if args.samplers == "quick" else []
-        sub = cli.parse_args(samplers.build_parser(), quick + sub_argv(args))
-        sub.executor = args.executor                  # the same cluster, if any
-        samplers.run(sub)
+        samplers.run(study_args(samplers, args, quick + sub_argv(args, samplers)))
+    convergence.run(study_args(convergence, args, sub_argv(args, convergence, CONVERGENCE)))
+    writeup.run(study_args(writeup, args, sub_argv(args, writeup, WRITEUP)))
     if args.stability != "off":
-        sub = stability.parse(sub_argv(args, (("methods", "--methods"),))
-                              + (["--quick"] if args.stability == "quick" else []))
-        sub.executor = args.executor
-        stability.run(sub)
+        stability.run(study_args(stability, args, sub_argv(args, stability) + (
+            ["--quick"] if args.stability == "quick" else [])))
     seconds = time.perf_counter() - start
     report.write_section(args.out, "run_all", "This run", 90, {
         "command": "python -m experiments.run_all " + " ".join(sys.argv[1:] if argv is None
