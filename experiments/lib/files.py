@@ -1,4 +1,4 @@
-"""Files: atomic writes, EXR/PNG/JSON/CSV/NPZ I/O, tone mapping (imports no other module of the library).
+"""Files: atomic writes, EXR/PNG/JSON/CSV/NPZ I/O, tone mapping (no other lib module imported).
 
 Every file is written to a temporary name in its own directory and then moved
 over the final name with :func:`os.replace`, so an interrupted run (Ctrl-C,

@@ -1,4 +1,4 @@
-"""Render jobs and their results as plain data; the base of the library (imports no other module of it).
+"""Render jobs and their results as plain data: the base of the library (imports none of it).
 
 A :class:`Job` is one render (a scene, a method, a resolution, a number of
 samples per pixel, rendered in passes of at most ``pass_spp``); the planner
