@@ -31,10 +31,10 @@ import mitsuba as mi  # noqa: E402
 from experiments.lib import cluster, execute  # noqa: E402
 from experiments.lib import methods as M  # noqa: E402
 from experiments.lib import plan as P  # noqa: E402
-from experiments.lib.report import cpu_model  # noqa: E402
+from experiments.lib.jobs import cpu_model  # noqa: E402
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-SCENE = os.path.join(ROOT, "scenes", "cbox.xml")
+from .common import ROOT, SCENE  # noqa: E402
+
 VARIANT = "llvm_ad_rgb"
 OVERHEAD_TARGET = 1.10
 

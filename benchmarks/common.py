@@ -11,12 +11,15 @@ import integrators  # noqa: F401  (chooses libLLVM; must come before mitsuba/drj
 import drjit as dr  # noqa: E402
 import mitsuba as mi  # noqa: E402
 
-from experiments.lib.report import cpu_model  # noqa: E402  (one definition, shared)
-
+import scenes  # noqa: E402
 from experiments.lib import methods as M  # noqa: E402  (strategies, samplers, scene loading)
+from experiments.lib.jobs import cpu_model  # noqa: E402  (one definition, shared)
 
+#: The checkout (the benchmarks run from it: README.md, results/); the one definition for
+#: the benchmarks.
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-SCENE = os.path.join(ROOT, "scenes", "cbox.xml")
+#: The bundled default scene (package data of :mod:`scenes`).
+SCENE = scenes.path("cbox.xml")
 VARIANT = "llvm_ad_rgb"
 RANDOMIZATIONS = M.RANDOMIZATIONS
 STRATEGIES = M.strategies()
@@ -46,9 +49,10 @@ def plugin_available(plugin: str) -> bool:
         return False
 
 
-def halton_randomizations() -> list[str]:
-    """Randomizations of the bundled ``halton`` sampler (kept for callers; all of them)."""
-    return list(RANDOMIZATIONS)
+def halton_randomizations() -> tuple[str, ...]:
+    """The ``halton`` sampler's randomizations, all of them (one definition:
+    ``integrators.qmc.RANDOMIZATIONS``, through :mod:`experiments.lib.methods`)."""
+    return tuple(RANDOMIZATIONS)
 
 
 def path_integrator(max_depth: int):

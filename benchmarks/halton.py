@@ -46,18 +46,12 @@ import numpy as np
 
 from . import common as C
 from .common import mi
+from experiments.lib.methods import NATIVE_SAMPLERS as NATIVE  # Mitsuba's own samplers
 
-NATIVE = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler")
 #: Other sample counts at which halton (owen) is measured: 3^4 and 2^3 3^2.
 EXTRA_HALTON_SPP = (81, 72)
 COST_TARGET = 1.05
 EFFICIENCY_TARGET = 1.0
-
-
-def halton_randomizations() -> tuple[str, ...]:
-    """The halton sampler's randomizations (one definition: ``integrators.qmc``)."""
-    from integrators import qmc
-    return tuple(qmc.RANDOMIZATIONS)
 
 
 # ------------------------------------------------------------------ scenes
@@ -90,7 +84,7 @@ def sampler_label(sampler: str, randomization: str | None, spp: int | None = Non
 def measure_cost(reps: int, width: int = 256, spp: int = 32) -> dict:
     """{integrator: {halton:<r>: {cpu, wall}}}: time per sample over independent."""
     out = {}
-    configs = [("independent", None)] + [("halton", r) for r in halton_randomizations()]
+    configs = [("independent", None)] + [("halton", r) for r in C.halton_randomizations()]
     scenes = {sampler_label(s, r): cornell_box(width, width, spp, s, 8, r) for s, r in configs}
     integrators = {"path": C.path_integrator(8), "vr_path": C.vr_path_integrator("bsdf", 8)}
     for name, integrator in integrators.items():
@@ -107,7 +101,7 @@ def _probe(kind: str):
     inner = qmc._radical_inverse_odd
 
     def odd(base_index, a, seed, randomization):
-        x = qmc.mix32(qmc.mix32(seed ^ (base_index * 0x68E31DA4)) + a * 0x9E3779B9)
+        x = qmc.mix32(qmc.mix32(seed ^ (base_index * 0x68E31DA4)) + a * qmc.HASH_MULTIPLIER)
         r = qmc._to_unit_fast(x)
         if kind == "hash":
             return r
@@ -119,8 +113,8 @@ def measure_cost_floor(reps: int, width: int = 256, spp: int = 32) -> dict:
     """{integrator: {probe: {cpu, wall}}}: the cost probes over independent."""
     from integrators import qmc
     original = qmc._radical_inverse_odd
-    probes = ["hash", "none"] + [r for r in halton_randomizations() if r != "none"]
-    configs = {"independent": None} | {f"halton:{r}": None for r in halton_randomizations()} \
+    probes = ["hash", "none"] + [r for r in C.halton_randomizations() if r != "none"]
+    configs = {"independent": None} | {f"halton:{r}": None for r in C.halton_randomizations()} \
         | {f"probe:hash" if p == "hash" else f"probe:hash+{p}": p for p in probes}
     scenes = {n: cornell_box(width, width, spp, "independent" if n == "independent" else "halton",
                              8, None if n == "independent" else
@@ -155,7 +149,7 @@ def measure_efficiency(scene: str, max_depth: int, seeds: int, width: int, heigh
     different sample counts.
     """
     configs = [(s, None, None) for s in NATIVE]
-    configs += [("halton", r, None) for r in halton_randomizations() if r != "none"]
+    configs += [("halton", r, None) for r in C.halton_randomizations() if r != "none"]
     configs += [("halton", "owen", n) for n in EXTRA_HALTON_SPP]
     integrator = C.vr_path_integrator("bsdf", max_depth)
     scenes = {sampler_label(s, r, n): scene_for(scene, width, height, n or spp, s, max_depth, r)

@@ -25,6 +25,7 @@ import sys
 import warnings
 
 from . import llvm as _llvm
+from .choices import JIT_VARIANT_PREFIXES
 
 _llvm.configure()
 
@@ -40,7 +41,7 @@ _registered: set[str] = set()
 
 def supported_variant(variant: str | None) -> bool:
     """True for the JIT variants the plugins run on (``llvm_*``, ``cuda_*``)."""
-    return variant is not None and variant.split("_")[0] in ("llvm", "cuda", "metal")
+    return variant is not None and variant.split("_")[0] in JIT_VARIANT_PREFIXES
 
 
 def _check_variant(variant: str | None) -> None:

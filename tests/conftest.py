@@ -1,8 +1,8 @@
 """Test set-up: every test runs on Mitsuba's LLVM backend (``llvm_ad_rgb``)."""
-import os
 import sys
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+from _paths import ROOT, SCENES, scene_path  # noqa: F401  (tests import them from here too)
+
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 
@@ -11,7 +11,6 @@ import mitsuba as mi  # noqa: E402
 import pytest  # noqa: E402
 
 VARIANT = "llvm_ad_rgb"
-SCENES = os.path.join(ROOT, "scenes")
 
 mi.set_variant(VARIANT)  # registers the plugins (integrators' variant callback)
 
@@ -22,7 +21,3 @@ def variant():
     mi.set_variant(VARIANT)
     yield VARIANT
     mi.set_variant(VARIANT)
-
-
-def scene_path(name: str) -> str:
-    return os.path.join(SCENES, name)

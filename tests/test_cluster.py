@@ -26,10 +26,10 @@ import numpy as np
 import pytest
 from distributed import Client
 
+from _paths import ROOT
 from experiments.lib import cluster as C
 
 VARIANT = "toy_variant"
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 @dataclass(frozen=True)

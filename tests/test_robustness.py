@@ -24,9 +24,9 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
+from _paths import ROOT
 from experiments.lib.methods import strategies, vr_path_dict
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PYTHON = sys.executable
 
 

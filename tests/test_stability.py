@@ -13,13 +13,13 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
+from _paths import scene_path
 from experiments import stability
 from experiments.lib import methods as M
 from experiments.lib import metrics
 from experiments.lib import scene_probes as SP
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-CBOX = os.path.join(ROOT, "scenes", "cbox.xml")
+CBOX = scene_path("cbox.xml")
 
 
 def phong(kd, ks, n):

@@ -1,6 +1,7 @@
 """Size of a report directory and how fast its page opens in Chromium (from file://).
 
     .venv/bin/python tools/report_stats.py [results] [--runs 5]
+    .venv/bin/python -m tools.report_stats [results] [--runs 5]
 
 Prints the total size of the directory, of index.html, of the viewer data
 (``viewer-data/``) and of the rest, then opens ``index.html`` in headless
@@ -16,10 +17,10 @@ import os
 import statistics
 import sys
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, ROOT)
-
-from tools.ensure_browser import browser_path  # noqa: E402
+if __package__:                       # python -m tools.report_stats
+    from .ensure_browser import browser_path
+else:                                 # python tools/report_stats.py (its folder is sys.path[0])
+    from ensure_browser import browser_path
 
 ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
         "--disable-component-update", "--disable-sync", "--no-first-run"]

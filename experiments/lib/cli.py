@@ -14,11 +14,13 @@ import tempfile
 import sys
 
 import mitsuba as mi
+import scenes
+from integrators.choices import JIT_VARIANT_PREFIXES
 
 from . import methods as M
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-DEFAULT_SCENE = os.path.join(ROOT, "scenes", "cbox.xml")
+#: The bundled scene (package data of :mod:`scenes`, found in a checkout and an install alike).
+DEFAULT_SCENE = scenes.path("cbox.xml")
 DEFAULT_OUT = "results"
 DEFAULT_VARIANT = "llvm_ad_rgb"
 
@@ -168,7 +170,7 @@ def _check_out(out: str) -> str | None:
 
 
 def _set_variant(parser: Parser, variant: str) -> None:
-    jit = [v for v in mi.variants() if v.split("_")[0] in ("llvm", "cuda")]
+    jit = [v for v in mi.variants() if v.split("_")[0] in JIT_VARIANT_PREFIXES]
     if variant not in mi.variants():
         parser.error(f"unknown variant '{variant}': this Mitsuba has {', '.join(jit)}")
     if variant not in jit:

@@ -1,7 +1,7 @@
 """Run a plan: render jobs, store each result as it arrives.
 
-* :func:`run_job` renders one :class:`~.plan.Job` and returns a
-  :class:`JobResult` (plain data: the image as a float32 numpy array, the
+* :func:`run_job` renders one :class:`~.jobs.Job` and returns a
+  :class:`~.jobs.JobResult` (plain data: the image as a float32 numpy array, the
   per-pixel sum of squares of its passes, render seconds, host and CPU). It
   is a module-level function that works in a fresh process (a cluster
   worker): it imports the plugins, sets the variant if another one is set,
@@ -38,7 +38,7 @@ arguments; an executor is any object with ``map_unordered(jobs: list[Job])
 -> Iterator[tuple[Job, JobResult]]``; pass it as ``execute(jobs, store,
 executor)`` (scripts: :class:`~.study.Study` takes ``executor``, or reads
 ``args.executor``). Jobs of one ``timing_group`` are those whose times one
-comparison divides. Beyond the planned interface: :class:`~.plan.Job` also
+comparison divides. Beyond the planned interface: :class:`~.jobs.Job` also
 has ``pass_spp`` (passes inside a job, for per-pixel variances) and
 ``hide_emitters``, resolution is ``width``/``height``, and :func:`execute`
 takes ``variant`` for the default executor.
@@ -52,16 +52,16 @@ runs a job. Passes inside a job: independent samplers get seed
 from __future__ import annotations
 
 import os
-import platform
 import socket
 import time
 from collections import OrderedDict
-from dataclasses import dataclass, field
 from typing import Iterable, Iterator
 
 import numpy as np
 
-from .plan import Job, derive_seed
+from .jobs import Job, JobResult, cpu_model, derive_seed
+from .methods import Depth, Method, file_hash, load_scene, parse_method
+from .store import JobStore
 
 #: Scenes kept loaded per process (each keeps its compiled kernels warm).
 SCENE_CACHE = 8
@@ -69,47 +69,22 @@ SCENE_CACHE = 8
 WARM_TRIES = 3
 
 
-@dataclass
-class JobResult:
-    """What a job produced: plain data, picklable."""
-    image: np.ndarray            # (H, W, 3) float32, mean of the job's samples
-    sq: np.ndarray | None        # (H, W, 3) sum over passes of k_i * m_i^2 (float64)
-    spp: int
-    passes: int
-    seconds: float               # warm render time (wall clock), summed over passes
-    pass_seconds: list = field(default_factory=list)
-    cpu_seconds: float = 0.0     # CPU time of this process (all threads) over the passes
-    host: str = ""
-    cpu: str = ""
-    recompiled: int = 0          # renders discarded because a kernel compiled during them
-    compiled_passes: int = 0     # timed passes that compiled even after WARM_TRIES tries
-
-    def metadata(self) -> dict:
-        return {"spp": self.spp, "passes": self.passes, "seconds": self.seconds,
-                "pass_seconds": list(self.pass_seconds), "cpu_seconds": self.cpu_seconds,
-                "host": self.host, "cpu": self.cpu, "recompiled": self.recompiled,
-                "compiled_passes": self.compiled_passes}
-
-
 _scenes: OrderedDict = OrderedDict()
 
 
-def cpu_model() -> str:
-    """The CPU's model name (``/proc/cpuinfo``), or what ``platform`` knows of it."""
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
+def job_depth(job: Job) -> Depth:
+    """The path-length settings of ``job``."""
+    return Depth(job.max_depth, job.rr_depth, job.hide_emitters)
+
+
+def job_method(job: Job) -> Method:
+    """The :class:`~.methods.Method` that ``job`` renders."""
+    return parse_method(job.method)
 
 
 def _check_scene_file(job: Job) -> None:
     """The scene file this process reads must be the one the plan was made from (a
     cluster worker may see another file, or none, at the same path)."""
-    from .methods import file_hash
     if not os.path.isfile(job.scene):
         raise FileNotFoundError(
             f"scene file '{job.scene}' not found on host {socket.gethostname()}: workers "
@@ -126,14 +101,15 @@ def _check_scene_file(job: Job) -> None:
 
 def _scene(job: Job, variant: str):
     """The loaded, warmed-up scene of ``job`` (cached per process)."""
-    from .methods import load_scene
-    key = (variant, job.scene, job.scene_sha256, job.method, job.width, job.height, job.depth)
+    key = (variant, job.scene, job.scene_sha256, job.method, job.width, job.height,
+           job_depth(job))
     if key in _scenes:
         _scenes.move_to_end(key)
         return _scenes[key]
     _check_scene_file(job)
-    scene = load_scene(job.scene, job.width, job.height, job.method_obj(), job.depth)
-    _render(scene, job.method_obj().continues_sequence, 1, 0x5EED, 0)   # load, first compile
+    method = job_method(job)
+    scene = load_scene(job.scene, job.width, job.height, method, job_depth(job))
+    _render(scene, method.continues_sequence, 1, 0x5EED, 0)   # load, first compile
     _scenes[key] = scene
     while len(_scenes) > SCENE_CACHE:
         _scenes.popitem(last=False)
@@ -196,7 +172,7 @@ def run_job(job: Job, variant: str) -> JobResult:
     if mi.variant() != variant:
         mi.set_variant(variant)
     scene = _scene(job, variant)
-    continues = job.method_obj().continues_sequence
+    continues = job_method(job).continues_sequence
     mean = np.zeros((job.height, job.width, 3))
     sq = np.zeros_like(mean)
     done, times, cpu, recompiled, compiled_passes = 0, [], 0.0, 0, 0
@@ -232,7 +208,7 @@ class LocalExecutor:
             yield job, run_job(job, self.variant)
 
 
-def pending(jobs: Iterable[Job], store) -> list[Job]:
+def pending(jobs: Iterable[Job], store: JobStore) -> list[Job]:
     """The jobs (first of each key) that have no entry in ``store`` yet."""
     seen, todo = set(), []
     for job in jobs:
@@ -242,7 +218,7 @@ def pending(jobs: Iterable[Job], store) -> list[Job]:
     return todo
 
 
-def execute(jobs: Iterable[Job], store, executor=None, progress: bool | str = True,
+def execute(jobs: Iterable[Job], store: JobStore, executor=None, progress: bool | str = True,
             variant: str | None = None) -> int:
     """Run the jobs that ``store`` lacks, storing each result as it arrives; return how many.
 

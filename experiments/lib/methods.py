@@ -30,15 +30,17 @@ import os
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 
+import integrators
 import mitsuba as mi
-
+from integrators.choices import STRATEGIES
 from integrators.qmc import RANDOMIZATIONS
+
+from .files import read_text, write_text
 
 
 def strategies() -> tuple[str, ...]:
     """The ``vr_path`` strategies: ``integrators.choices.STRATEGIES``, the one definition
     (importable before a variant is set)."""
-    from integrators.choices import STRATEGIES
     return tuple(STRATEGIES)
 
 
@@ -185,7 +187,6 @@ def plugins_version() -> str:
     Part of every render job's key, so renders made with other plugin code are
     made again rather than reused.
     """
-    import integrators
     digest = hashlib.sha256(mi.__version__.encode())
     directory = os.path.dirname(os.path.abspath(integrators.__file__))
     for name in sorted(os.listdir(directory)):
@@ -346,7 +347,6 @@ def scene_variant(info: SceneInfo, directory: str, name: str,
     KeyError if the scene does not declare one of the parameters. Relative
     paths inside the scene keep resolving against the original file's folder.
     """
-    from . import store
     root = copy.deepcopy(ET.parse(info.path).getroot())
     found = set()
     for d in root.iter("default"):
@@ -358,8 +358,8 @@ def scene_variant(info: SceneInfo, directory: str, name: str,
         raise KeyError(", ".join(sorted(missing)))
     path = os.path.join(directory, name + ".xml")
     text = ET.tostring(root, encoding="unicode")
-    if store.read_text(path) != text:
-        store.write_text(path, text)
+    if read_text(path) != text:
+        write_text(path, text)
     _add_scene_dir(info.path)
     return read_scene(path)
 
@@ -415,9 +415,8 @@ def builtin_scene(name: str, directory: str) -> str:
     for key, value in items:
         _dict_to_xml(root, key, value)
     ET.indent(root)
-    from . import store
     path = os.path.join(directory, f"{name}.xml")
     text = ET.tostring(root, encoding="unicode") + "\n"
-    if store.read_text(path) != text:
-        store.write_text(path, text)
+    if read_text(path) != text:
+        write_text(path, text)
     return path

@@ -1,71 +1,29 @@
-"""Render jobs as plain data: what to render, with which seed and sample offset.
+"""Render jobs planned as plain data: what to render, with which seed and sample offset.
 
-Data flows one way: plan -> execute -> store -> analyse -> present. A
-:class:`Job` is one render (a scene, a method, a resolution, a number of
-samples per pixel, rendered in passes of at most ``pass_spp``); the planner
-fixes its seed and, for samplers that continue one sequence (``halton``), its
-sample offset, so the same plan gives the same images whichever process
-(or cluster worker) runs it. ``key`` names its entry in the
-:class:`~.store.JobStore` and is a hash of everything the image depends on.
+Data flows one way: plan -> execute -> store -> analyse -> present. The job
+types live in :mod:`.jobs`; this module fixes their fields: :func:`make_job`
+gives a job its key (a hash of everything its image depends on),
+:func:`ladder` plans a progressive render as one job per stretch between two
+sample counts: independent samplers get a new seed per stretch, ``halton``
+keeps its seed and continues the sequence (``sample_offset`` = samples
+already taken), so the stretches together are exactly one render of all
+their samples. The analysis adds them up (:func:`.jobs.accumulate` of their
+results, :meth:`.study.Study.accumulate`).
 
-A progressive render is a :func:`ladder` of jobs, one per stretch between
-two sample counts; the analysis adds them up (:func:`accumulate`):
-independent samplers get a new seed per stretch, ``halton`` keeps its seed
-and continues the sequence (``sample_offset`` = samples already taken), so
-the stretches together are exactly one render of all their samples.
+``Job``, ``derive_seed``, ``MAX_LANES`` and ``Accumulator`` are defined in
+:mod:`.jobs` and importable from here too.
 """
 from __future__ import annotations
 
 import dataclasses
 import hashlib
 import json
-import zlib
-from dataclasses import dataclass
 
-import numpy as np
+from .jobs import MAX_LANES, Accumulator, Job, accumulate as accumulate_results, derive_seed
+from .methods import Depth, SceneInfo, parse_method, plugins_version
 
-from .methods import Depth, Method, SceneInfo, parse_method, plugins_version
-
-#: Largest number of samples (pixels x spp) rendered in one pass; bigger jobs
-#: render in several passes, which bounds memory (1024x512 -> 8 spp per pass).
-MAX_LANES = 2**22
-
-
-@dataclass(frozen=True)
-class Job:
-    """One render job: plain, picklable data."""
-    key: str                    # stable unique id = the store entry name
-    scene: str                  # scene XML path
-    scene_sha256: str
-    method: str                 # a method name (see experiments.lib.methods)
-    width: int
-    height: int
-    spp: int                    # samples per pixel of this job
-    seed: int
-    sample_offset: int = 0      # index of the first sample (halton continues sequences)
-    pass_spp: int = 0           # spp per pass (0: the largest MAX_LANES allows)
-    max_depth: int | None = None     # None: the integrator's default
-    rr_depth: int | None = None
-    hide_emitters: bool | None = None
-    timing_group: str | None = None  # jobs whose times one comparison divides
-
-    @property
-    def depth(self) -> Depth:
-        return Depth(self.max_depth, self.rr_depth, self.hide_emitters)
-
-    def method_obj(self) -> Method:
-        return parse_method(self.method)
-
-    def passes(self) -> list[int]:
-        """The spp of each pass of this job."""
-        cap = max(1, MAX_LANES // (self.width * self.height))
-        cap = min(cap, self.pass_spp) if self.pass_spp else cap
-        return [min(cap, self.spp - s) for s in range(0, self.spp, cap)]
-
-
-def derive_seed(*parts) -> int:
-    """A seed from any parts (distinct parts give distinct, stable seeds)."""
-    return zlib.crc32("/".join(map(str, parts)).encode()) & 0x7FFFFFFF
+__all__ = ["MAX_LANES", "Accumulator", "Job", "derive_seed", "make_job", "ladder",
+           "doubling_targets", "reference_jobs", "accumulate"]
 
 
 def make_job(prefix: str, info: SceneInfo, method: str, width: int, height: int, spp: int,
@@ -88,7 +46,7 @@ def ladder(prefix: str, info: SceneInfo, method: str, width: int, height: int,
     """Jobs rendering ``method`` progressively to every sample count in ``targets``.
 
     Job ``i`` renders the samples between targets ``i-1`` and ``i``; the
-    images at each target are :func:`accumulate` of the first jobs.
+    images at each target accumulate the results of the first jobs (:func:`.jobs.accumulate`).
     """
     m = parse_method(method)
     jobs, done = [], 0
@@ -111,61 +69,14 @@ def doubling_targets(max_spp: int, factor: int = 2) -> list[int]:
     return targets + [max_spp]
 
 
-@dataclass
-class Accumulator:
-    """Running mean of job images, weighted by their sample counts.
-
-    ``sq`` is sum_i k_i m_i^2 over passes i with k_i samples and mean image
-    m_i, from which :meth:`variance_of_mean` estimates per-pixel variances.
-    """
-    mean: np.ndarray
-    sq: np.ndarray
-    spp: int = 0
-    passes: int = 0
-    seconds: float = 0.0
-
-    @classmethod
-    def empty(cls, height: int, width: int, channels: int = 3) -> "Accumulator":
-        shape = (height, width, channels)
-        return cls(np.zeros(shape), np.zeros(shape))
-
-    def add(self, image: np.ndarray, spp: int, seconds: float = 0.0, sq=None,
-            passes: int = 1) -> None:
-        """Fold in an image that averages ``spp`` samples per pixel (``passes`` passes whose
-        sum of squares is ``sq``; one pass when None)."""
-        image = np.asarray(image, np.float64)
-        n = self.spp
-        self.mean = (self.mean * n + image * spp) / (n + spp)
-        self.sq = self.sq + (spp * image * image if sq is None else np.asarray(sq, np.float64))
-        self.spp += spp
-        self.passes += passes
-        self.seconds += seconds
-
-    def add_result(self, result) -> None:
-        self.add(result.image, result.spp, result.seconds, result.sq, result.passes)
-
-    def variance_of_mean(self) -> np.ndarray:
-        """Per-pixel variance of :attr:`mean`, from the spread of the pass images.
-
-        Per-sample variance: sum_i k_i (m_i - mean)^2 / (passes - 1)
-        = (sq - spp * mean^2) / (passes - 1); divided by spp for the mean.
-        """
-        if self.passes < 2:
-            return np.full_like(self.mean, np.inf)
-        s2 = np.maximum(self.sq - self.spp * self.mean ** 2, 0.0) / (self.passes - 1)
-        return s2 / self.spp
-
-
 def accumulate(store, jobs: list[Job]) -> list[Accumulator]:
-    """The cumulative image after each job of a :func:`ladder` (read from ``store``)."""
-    out, acc = [], None
-    for job in jobs:
-        result = store.get(job.key)
-        if acc is None:
-            acc = Accumulator.empty(*result.image.shape[:2])
-        acc.add_result(result)
-        out.append(dataclasses.replace(acc))
-    return out
+    """The cumulative image after each job of ``jobs``, read from ``store``.
+
+    Kept for callers not yet moved to :meth:`.study.Study.accumulate` (or
+    :func:`.jobs.accumulate` of ``store.results(jobs)``); the planner itself
+    never reads the store.
+    """
+    return accumulate_results(store.results(jobs))
 
 
 def reference_jobs(info: SceneInfo, width: int, height: int, spp: int, method: str,

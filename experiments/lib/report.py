@@ -18,7 +18,8 @@ import resource
 
 from . import store
 from . import viewer as viewers
-from .execute import cpu_model  # noqa: F401  (one definition; benchmarks import it from here)
+from .files import markdown_table, read_json, write_csv, write_json, write_text
+from .jobs import cpu_model
 
 SECTION = "section.json"
 
@@ -81,8 +82,8 @@ def table(header: list[str], rows: list[list], caption: str = "", files=(),
 def write_table(out: str, stem: str, header: list[str], rows: list[list],
                 caption: str = "", collapsed: bool = False) -> dict:
     """Write ``<out>/<stem>.csv`` and ``.md``; return the table block linking both."""
-    store.write_csv(os.path.join(out, stem + ".csv"), header, rows)
-    store.write_text(os.path.join(out, stem + ".md"), store.markdown_table(header, rows))
+    write_csv(os.path.join(out, stem + ".csv"), header, rows)
+    write_text(os.path.join(out, stem + ".md"), markdown_table(header, rows))
     return table(header, rows, caption, [stem + ".csv", stem + ".md"], collapsed)
 
 
@@ -94,8 +95,8 @@ def write_section(out: str, name: str, title: str, order: int, settings: dict,
                "wall_seconds": round(wall_seconds, 2), "peak_rss_mb": round(peak_rss_mb(), 1),
                "finished": datetime.datetime.now().isoformat(timespec="seconds")}
     path = os.path.join(out, name, SECTION)
-    store.write_json(path, section)
-    store.write_text(os.path.join(out, name, "summary.md"), section_markdown(section))
+    write_json(path, section)
+    write_text(os.path.join(out, name, "summary.md"), section_markdown(section))
     return path
 
 
@@ -115,7 +116,7 @@ def section_markdown(section: dict) -> str:
         elif block["kind"] == "table":
             if block["caption"]:
                 lines += [f"**{block['caption']}**", ""]
-            lines += [store.markdown_table(block["header"], block["rows"])]
+            lines += [markdown_table(block["header"], block["rows"])]
     lines += [f"Wall time {section['wall_seconds']} s, peak RSS {section['peak_rss_mb']} MiB.", ""]
     return "\n".join(lines)
 
@@ -123,7 +124,7 @@ def section_markdown(section: dict) -> str:
 def read_sections(out: str) -> list[dict]:
     sections = []
     for name in sorted(os.listdir(out)) if os.path.isdir(out) else []:
-        section = store.read_json(os.path.join(out, name, SECTION))
+        section = read_json(os.path.join(out, name, SECTION))
         if section is not None:
             sections.append(section)
     return sorted(sections, key=lambda s: (s["order"], s["name"]))
@@ -137,7 +138,7 @@ def produced_files(out: str) -> list[str]:
     """Every result file under ``out`` (relative paths): not the page, its viewer's
     scripts and data (``viewer-data/``), the job store (``store/``, summarised by
     :func:`store_summary`), nor temporaries."""
-    files = []
+    found = []
     skip = {viewers.DATA_DIR, store.STORE_DIR}
     for root, dirs, names in os.walk(out):
         dirs[:] = sorted(d for d in dirs if not d.startswith(".") and
@@ -145,8 +146,8 @@ def produced_files(out: str) -> list[str]:
         for name in sorted(names):
             rel = os.path.relpath(os.path.join(root, name), out)
             if rel not in PAGE_FILES and not name.startswith(".tmp-"):
-                files.append(rel.replace(os.sep, "/"))
-    return files
+                found.append(rel.replace(os.sep, "/"))
+    return found
 
 
 def store_summary(out: str) -> str:
@@ -249,7 +250,7 @@ def build_report(out: str, variant: str) -> str:
     toc = "".join(f'<li><a href="#{_esc(s["name"])}">{_esc(s["title"])}</a></li>'
                   for s in sections)
     body = "\n".join(_section_html(s) for s in sections) or "<p>No experiment has finished yet.</p>"
-    files = produced_files(out)
+    produced = produced_files(out)
     page = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
 <meta name="viewport" content="width=device-width, initial-scale=1">
@@ -267,11 +268,11 @@ keys act on the viewer under the mouse. Click a chart to open it at full size.</
 <li><a href="#files">All files</a></li></ul></nav>
 {body}
 <section id="versions"><h2>Versions</h2>{_kv_table(versions(variant))}</section>
-<section id="files"><h2>All files ({len(files)})</h2>{_files_html(files)}
+<section id="files"><h2>All files ({len(produced)})</h2>{_files_html(produced)}
 <p class="note">{_esc(store_summary(out))}</p></section>
 </main></body></html>
 """
     viewers.install_assets(out)
     path = os.path.join(out, "index.html")
-    store.write_text(path, page)
+    write_text(path, page)
     return path

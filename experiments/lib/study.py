@@ -2,7 +2,8 @@
 
 A :class:`Study` is built from the parsed arguments. Scripts plan jobs
 (:mod:`.plan`), hand them to :meth:`Study.run` (which executes what the store
-lacks, :func:`.execute.execute`), then read the results back from the store.
+lacks, :func:`.execute.execute`), then read the results back from the store
+(:meth:`Study.accumulate`: the cumulative images of a ladder).
 The store lives in ``<out>/store``; jobs that several experiments share (a
 reference at the same settings) are rendered once.
 """
@@ -14,6 +15,7 @@ import numpy as np
 
 from . import plan as P
 from .execute import execute
+from .jobs import Accumulator, Job, accumulate as accumulate_results, derive_seed
 from .methods import Depth, SceneInfo, parse_method
 from .metrics import RELMSE_EPS
 from .store import STORE_DIR, JobStore
@@ -48,37 +50,41 @@ class Study:
         return 1 if parse_method(method).deterministic else self.repeats
 
     def job(self, prefix: str, method: str, spp: int, info: SceneInfo | None = None,
-            depth: Depth | None = None, **options) -> P.Job:
+            depth: Depth | None = None, **options) -> Job:
         """One job at this study's resolution, seed derived from the base seed and prefix."""
         width, height = options.pop("resolution", (self.width, self.height))
         return P.make_job(prefix, info or self.info, method, width, height, spp,
-                          P.derive_seed(self.seed, prefix), depth or self.depth, self.variant,
+                          derive_seed(self.seed, prefix), depth or self.depth, self.variant,
                           **options)
 
     def ladder(self, prefix: str, method: str, targets, info: SceneInfo | None = None,
-               depth: Depth | None = None, **options) -> list[P.Job]:
+               depth: Depth | None = None, **options) -> list[Job]:
         width, height = options.pop("resolution", (self.width, self.height))
         return P.ladder(prefix, info or self.info, method, width, height, targets, self.seed,
                         depth or self.depth, self.variant, **options)
 
     def reference_jobs(self, info: SceneInfo | None = None, depth: Depth | None = None,
-                       resolution=None) -> list[P.Job]:
+                       resolution=None) -> list[Job]:
         width, height = resolution or (self.width, self.height)
         return P.reference_jobs(info or self.info, width, height, self.args.reference_spp,
                                 self.args.reference_method, depth or self.depth, self.variant,
                                 self.seed)
 
-    def reference(self, jobs: list[P.Job]) -> tuple[np.ndarray, dict]:
+    def accumulate(self, jobs: list[Job]) -> list[Accumulator]:
+        """The cumulative image after each of ``jobs`` (a ladder, in order), from the store."""
+        return accumulate_results(self.store.results(jobs))
+
+    def reference(self, jobs: list[Job]) -> tuple[np.ndarray, dict]:
         """The reference image of ``jobs`` and its metadata (render seconds, passes, and the
         expected MSE of the reference itself, the floor under every measured MSE)."""
-        acc = P.accumulate(self.store, jobs)[-1]
+        acc = self.accumulate(jobs)[-1]
         var = acc.variance_of_mean()
         return acc.mean, {"seconds": acc.seconds, "passes": acc.passes, "spp": acc.spp,
                           "method": jobs[0].method, "mse_floor": float(np.mean(var)),
                           "relmse_floor": float(np.mean(var / (acc.mean ** 2
                                                                + RELMSE_EPS)))}
 
-    def timed_on(self, jobs: list[P.Job]) -> str:
+    def timed_on(self, jobs: list[Job]) -> str:
         """Which machine (host, CPU) measured the render times that each comparison of
         ``jobs`` divides (their ``timing_group``), read from the store."""
         groups: dict[str, set] = {}

@@ -30,13 +30,16 @@ import math
 import os
 import re
 import zlib
+from importlib import resources
 
 import numpy as np
 
-from . import store
+from .files import write_bytes, write_text
 from .metrics import check_shapes, flip, relmse_map
 
-ASSETS_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "viewer_assets")
+#: The page side of the viewer, package data of :mod:`experiments.lib` (read with
+#: :mod:`importlib.resources`, so an installed wheel finds it too).
+ASSETS_DIR = resources.files(__package__).joinpath("viewer_assets")
 ASSETS = ("viewer.js", "viewer.css")
 DATA_DIR = "viewer-data"
 #: Value types of the data files, as numpy dtypes (little-endian).
@@ -52,11 +55,10 @@ def install_assets(out: str) -> list[str]:
     """Copy viewer.js and viewer.css into ``out`` (next to the page); return their paths."""
     paths = []
     for name in ASSETS:
-        with open(os.path.join(ASSETS_DIR, name), "rb") as f:
-            data = f.read()
+        data = ASSETS_DIR.joinpath(name).read_bytes()
         path = os.path.join(out, name)
         if _read_bytes(path) != data:
-            store.write_bytes(path, data)
+            write_bytes(path, data)
         paths.append(path)
     return paths
 
@@ -89,7 +91,7 @@ def write_blob(out: str, array: np.ndarray, dtype: str = "f32") -> dict:
     path = os.path.join(out, DATA_DIR, digest + ".js")
     if not os.path.exists(path):
         payload = base64.b64encode(zlib.compress(values.tobytes(), 6)).decode("ascii")
-        store.write_text(path, f'VRViewer.blob("{digest}","{payload}");\n')
+        write_text(path, f'VRViewer.blob("{digest}","{payload}");\n')
     return {"id": digest, "src": src, "type": dtype}
 
 
@@ -199,5 +201,5 @@ def write_page(out: str, title: str, body: str) -> str:
             f'<title>{html.escape(title)}</title>\n{HEAD}\n</head>\n'
             f'<body><h1>{html.escape(title)}</h1>\n{body}\n</body></html>\n')
     path = os.path.join(out, "index.html")
-    store.write_text(path, page)
+    write_text(path, page)
     return path

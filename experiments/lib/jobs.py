@@ -1,0 +1,153 @@
+"""Render jobs and their results as plain data: the base of the library (imports none of it).
+
+A :class:`Job` is one render (a scene, a method, a resolution, a number of
+samples per pixel, rendered in passes of at most ``pass_spp``); the planner
+(:mod:`.plan`) fixes its seed and, for samplers that continue one sequence
+(``halton``), its sample offset, so the same plan gives the same images
+whichever process (or cluster worker) runs it. ``key`` names its entry in
+the :class:`~.store.JobStore` and is a hash of everything the image depends on.
+
+A :class:`JobResult` is what a job produced (:func:`~.execute.run_job`); the
+store keeps one per finished job. :class:`Accumulator` adds results up
+(weighted by their sample counts) and :func:`accumulate` gives the cumulative
+image after each result of a sequence: the analysis side of a progressive
+render (:func:`~.plan.ladder`), fed with results read back from the store
+(:meth:`~.study.Study.accumulate`).
+
+:func:`cpu_model` names the machine a result was measured on (``JobResult.cpu``).
+"""
+from __future__ import annotations
+
+import dataclasses
+import platform
+import zlib
+from dataclasses import dataclass, field
+from typing import Iterable
+
+import numpy as np
+
+#: Largest number of samples (pixels x spp) rendered in one pass; bigger jobs
+#: render in several passes, which bounds memory (1024x512 -> 8 spp per pass).
+MAX_LANES = 2**22
+
+
+@dataclass(frozen=True)
+class Job:
+    """One render job: plain, picklable data."""
+    key: str                    # stable unique id = the store entry name
+    scene: str                  # scene XML path
+    scene_sha256: str
+    method: str                 # a method name (see experiments.lib.methods)
+    width: int
+    height: int
+    spp: int                    # samples per pixel of this job
+    seed: int
+    sample_offset: int = 0      # index of the first sample (halton continues sequences)
+    pass_spp: int = 0           # spp per pass (0: the largest MAX_LANES allows)
+    max_depth: int | None = None     # None: the integrator's default
+    rr_depth: int | None = None
+    hide_emitters: bool | None = None
+    timing_group: str | None = None  # jobs whose times one comparison divides
+
+    def passes(self) -> list[int]:
+        """The spp of each pass of this job."""
+        cap = max(1, MAX_LANES // (self.width * self.height))
+        cap = min(cap, self.pass_spp) if self.pass_spp else cap
+        return [min(cap, self.spp - s) for s in range(0, self.spp, cap)]
+
+
+def derive_seed(*parts) -> int:
+    """A seed from any parts (distinct parts give distinct, stable seeds)."""
+    return zlib.crc32("/".join(map(str, parts)).encode()) & 0x7FFFFFFF
+
+
+@dataclass
+class JobResult:
+    """What a job produced: plain data, picklable."""
+    image: np.ndarray            # (H, W, 3) float32, mean of the job's samples
+    sq: np.ndarray | None        # (H, W, 3) sum over passes of k_i * m_i^2 (float64)
+    spp: int
+    passes: int
+    seconds: float               # warm render time (wall clock), summed over passes
+    pass_seconds: list = field(default_factory=list)
+    cpu_seconds: float = 0.0     # CPU time of this process (all threads) over the passes
+    host: str = ""
+    cpu: str = ""
+    recompiled: int = 0          # renders discarded because a kernel compiled during them
+    compiled_passes: int = 0     # timed passes that compiled even after the warm tries
+
+    def metadata(self) -> dict:
+        return {"spp": self.spp, "passes": self.passes, "seconds": self.seconds,
+                "pass_seconds": list(self.pass_seconds), "cpu_seconds": self.cpu_seconds,
+                "host": self.host, "cpu": self.cpu, "recompiled": self.recompiled,
+                "compiled_passes": self.compiled_passes}
+
+
+def cpu_model() -> str:
+    """The CPU's model name (``/proc/cpuinfo``), or what ``platform`` knows of it."""
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+# ------------------------------------------------------------ accumulation
+
+@dataclass
+class Accumulator:
+    """Running mean of job images, weighted by their sample counts.
+
+    ``sq`` is sum_i k_i m_i^2 over passes i with k_i samples and mean image
+    m_i, from which :meth:`variance_of_mean` estimates per-pixel variances.
+    """
+    mean: np.ndarray
+    sq: np.ndarray
+    spp: int = 0
+    passes: int = 0
+    seconds: float = 0.0
+
+    @classmethod
+    def empty(cls, height: int, width: int, channels: int = 3) -> "Accumulator":
+        shape = (height, width, channels)
+        return cls(np.zeros(shape), np.zeros(shape))
+
+    def add(self, image: np.ndarray, spp: int, seconds: float = 0.0, sq=None,
+            passes: int = 1) -> None:
+        """Fold in an image that averages ``spp`` samples per pixel (``passes`` passes whose
+        sum of squares is ``sq``; one pass when None)."""
+        image = np.asarray(image, np.float64)
+        n = self.spp
+        self.mean = (self.mean * n + image * spp) / (n + spp)
+        self.sq = self.sq + (spp * image * image if sq is None else np.asarray(sq, np.float64))
+        self.spp += spp
+        self.passes += passes
+        self.seconds += seconds
+
+    def add_result(self, result: JobResult) -> None:
+        self.add(result.image, result.spp, result.seconds, result.sq, result.passes)
+
+    def variance_of_mean(self) -> np.ndarray:
+        """Per-pixel variance of :attr:`mean`, from the spread of the pass images.
+
+        Per-sample variance: sum_i k_i (m_i - mean)^2 / (passes - 1)
+        = (sq - spp * mean^2) / (passes - 1); divided by spp for the mean.
+        """
+        if self.passes < 2:
+            return np.full_like(self.mean, np.inf)
+        s2 = np.maximum(self.sq - self.spp * self.mean ** 2, 0.0) / (self.passes - 1)
+        return s2 / self.spp
+
+
+def accumulate(results: Iterable[JobResult]) -> list[Accumulator]:
+    """The cumulative image after each of ``results`` (e.g. the jobs of a ladder, in order)."""
+    out, acc = [], None
+    for result in results:
+        if acc is None:
+            acc = Accumulator.empty(*result.image.shape[:2])
+        acc.add_result(result)
+        out.append(dataclasses.replace(acc))
+    return out

@@ -1,0 +1,179 @@
+"""Layout of the experiment code (issue #17): one-way imports inside experiments/lib, small classes.
+
+* Every module of ``experiments/lib`` is parsed with :mod:`ast`; every import
+  counts, function-local ones included, so an import moved into a function
+  to dodge a cycle is still an edge. The graph of imports between lib
+  modules must be acyclic (data flows one way: plan -> execute -> store ->
+  analyse -> present), and the base modules (``jobs``, ``files``) import
+  nothing else from lib.
+* No class in ``experiments/`` is longer than :data:`MAX_CLASS_LINES` lines.
+
+Each check has a negative control on synthetic input, so a checker that
+finds nothing because it looks at nothing fails.
+"""
+from __future__ import annotations
+
+import ast
+import os
+
+from _paths import ROOT
+
+LIB = os.path.join(ROOT, "experiments", "lib")
+PACKAGE = "experiments.lib"
+MAX_CLASS_LINES = 250
+
+
+def lib_modules() -> dict[str, str]:
+    """{module name: source path} of every module in experiments/lib."""
+    return {name[:-3]: os.path.join(LIB, name) for name in sorted(os.listdir(LIB))
+            if name.endswith(".py") and name != "__init__.py"}
+
+
+def imported_lib_modules(source: str, modules, package: str = PACKAGE) -> set[str]:
+    """The modules of ``package`` (among ``modules``) that ``source`` imports anywhere:
+    ``from . import x``, ``from .x import y``, ``import experiments.lib.x``,
+    ``from experiments.lib import x``, at module level or inside a function."""
+    found = set()
+    parts = package.split(".")
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            targets = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = parts[:len(parts) - node.level + 1] if node.level else []
+            module = ".".join(base + ([node.module] if node.module else []))
+            targets = [module] + [f"{module}.{alias.name}" for alias in node.names]
+        else:
+            continue
+        for target in targets:
+            if target.startswith(package + "."):
+                head = target[len(package) + 1:].split(".")[0]
+                if head in modules:
+                    found.add(head)
+    return found
+
+
+def import_graph() -> dict[str, set[str]]:
+    modules = lib_modules()
+    graph = {}
+    for name, path in modules.items():
+        with open(path, encoding="utf-8") as f:
+            graph[name] = imported_lib_modules(f.read(), modules) - {name}
+    return graph
+
+
+def find_cycle(graph: dict[str, set[str]]) -> list[str] | None:
+    """A cycle of ``graph`` as a list of nodes (first == last), or None if it is acyclic."""
+    state: dict[str, int] = {}          # 1: on the current path, 2: done
+    path: list[str] = []
+
+    def visit(node: str) -> list[str] | None:
+        state[node] = 1
+        path.append(node)
+        for nxt in sorted(graph.get(node, ())):
+            if state.get(nxt) == 1:
+                return path[path.index(nxt):] + [nxt]
+            if nxt not in state:
+                cycle = visit(nxt)
+                if cycle:
+                    return cycle
+        path.pop()
+        state[node] = 2
+        return None
+
+    for node in sorted(graph):
+        if node not in state:
+            cycle = visit(node)
+            if cycle:
+                return cycle
+    return None
+
+
+def long_classes(source: str, limit: int = MAX_CLASS_LINES) -> list[tuple[str, int]]:
+    """(name, lines) of every class (nested ones too) in ``source`` longer than ``limit``."""
+    out = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.ClassDef):
+            start = min([node.lineno] + [d.lineno for d in node.decorator_list])
+            lines = node.end_lineno - start + 1
+            if lines > limit:
+                out.append((node.name, lines))
+    return out
+
+
+# ------------------------------------------------------------------ imports
+
+def test_import_checker_sees_every_kind_of_import():
+    modules = {"store", "execute", "plan", "methods", "files"}
+    source = '''
+from __future__ import annotations
+import numpy as np
+from . import plan as P
+from .methods import Depth
+import experiments.lib.files
+
+def get():
+    from .execute import JobResult          # function-local: still an edge
+    from experiments.lib import store
+    return JobResult
+'''
+    assert imported_lib_modules(source, modules) == {"plan", "methods", "files", "execute",
+                                                     "store"}
+    assert imported_lib_modules("import os\nfrom integrators import qmc\n", modules) == set()
+    # relative imports that climb out of lib and back in still name lib's modules
+    assert imported_lib_modules("from ..lib import store\n", modules) == {"store"}
+    assert imported_lib_modules("from ..lib.plan import Job\n", modules) == {"plan"}
+    assert imported_lib_modules("from .. import convergence\n", modules) == set()
+
+
+def test_cycle_finder_reports_a_cycle():
+    assert find_cycle({"a": {"b"}, "b": {"c"}, "c": set()}) is None
+    cycle = find_cycle({"methods": {"store"}, "store": {"execute"}, "execute": {"plan"},
+                        "plan": {"methods"}, "report": {"store"}})
+    assert cycle is not None and cycle[0] == cycle[-1]
+    assert set(cycle) == {"methods", "store", "execute", "plan"}
+    assert find_cycle({"a": {"a"}}) == ["a", "a"]
+
+
+def test_lib_imports_flow_one_way():
+    graph = import_graph()
+    assert {"jobs", "files", "plan", "store", "execute", "methods", "study"} <= set(graph)
+    assert sum(map(len, graph.values())) >= 10, graph        # the checker saw the imports
+    cycle = find_cycle(graph)
+    assert cycle is None, f"import cycle in experiments/lib: {' -> '.join(cycle)}"
+
+
+def test_base_modules_import_nothing_from_lib():
+    graph = import_graph()
+    assert graph["jobs"] == set(), graph["jobs"]
+    assert graph["files"] == set(), graph["files"]
+    # the planner does not read the store nor run anything; the store runs nothing
+    assert not graph["plan"] & {"store", "execute", "study"}, graph["plan"]
+    assert not graph["store"] & {"execute", "plan", "methods", "study"}, graph["store"]
+    assert not graph["methods"] & {"store", "execute", "plan", "study"}, graph["methods"]
+
+
+# ------------------------------------------------------------------ classes
+
+def test_class_length_checker_reports_a_long_class():
+    body = "\n".join(f"    x{i} = {i}" for i in range(MAX_CLASS_LINES + 50))
+    source = f"@decorator\nclass Big:\n{body}\n\nclass Small:\n    pass\n"
+    found = long_classes(source)
+    assert [name for name, _ in found] == ["Big"]
+    assert found[0][1] == MAX_CLASS_LINES + 52
+    nested = "class Outer:\n    class Inner:\n" + "\n".join(
+        f"        y{i} = {i}" for i in range(20)) + "\n"
+    assert [name for name, _ in long_classes(nested, limit=10)] == ["Outer", "Inner"]
+
+
+def test_no_class_in_experiments_is_too_long():
+    checked, too_long = 0, []
+    for directory, _, names in os.walk(os.path.join(ROOT, "experiments")):
+        for name in sorted(names):
+            if name.endswith(".py"):
+                path = os.path.join(directory, name)
+                with open(path, encoding="utf-8") as f:
+                    source = f.read()
+                checked += source.count("\nclass ") + source.startswith("class ")
+                too_long += [(os.path.relpath(path, ROOT), c, n) for c, n in long_classes(source)]
+    assert checked >= 5                      # the walk found the classes
+    assert not too_long, f"classes longer than {MAX_CLASS_LINES} lines: {too_long}"
