@@ -103,7 +103,7 @@ def sequences(st: Study, ladders, ref, floor) -> tuple[dict, list[dict]]:
     table, series, grid, captions = [], {"MSE": {}, "relMSE": {}, "FLIP": {}}, [], []
     viewers, notes = [], []
     for m, reps in ladders.items():
-        per_repeat = [P.accumulate(st.store, jobs) for jobs in reps]
+        per_repeat = [st.accumulate(jobs) for jobs in reps]
         grid.append([]), captions.append([]), notes.append([])
         spp, secs, mse, rel, flip = [], [], [], [], []
         for i, accs in enumerate(zip(*per_repeat)):

@@ -71,7 +71,7 @@ def _plan(st: Study, experiment: str, name: str, targets, resolution, pass_spp: 
 
 def _images(st: Study, jobs) -> dict[int, P.Accumulator]:
     """{requested spp: cumulative image} of a ladder."""
-    return dict(zip(_targets(jobs), P.accumulate(st.store, jobs)))
+    return dict(zip(_targets(jobs), st.accumulate(jobs)))
 
 
 def _targets(jobs) -> list[int]:
@@ -201,7 +201,7 @@ def full_checks(st: Study) -> list[dict]:
                for n in dict.fromkeys(x for p in pairs for x in p)}
     st.run(ref_jobs + [j for jobs in ladders.values() for j in jobs], f"{NAME}: --full")
     renders = {n: _images(st, jobs) for n, jobs in ladders.items()}
-    ref = P.accumulate(st.store, ref_jobs)[-1]
+    ref = st.accumulate(ref_jobs)[-1]
     blocks, rows, det_rows = [], [], []
     for a, b in pairs:
         acc_a, acc_b = renders[a][args.full_spp], renders[b][args.full_spp]
@@ -250,7 +250,7 @@ def run(args) -> None:
     ref_jobs = st.reference_jobs()
     st.run(ref_jobs, f"{NAME}: reference")
     ref, ref_meta = st.reference(ref_jobs)
-    ref_var = P.accumulate(st.store, ref_jobs)[-1].variance_of_mean()
+    ref_var = st.accumulate(ref_jobs)[-1].variance_of_mean()
     blocks = [report.text(
         "The writeup's comparisons, measured. Methods: uniform hemisphere, cosine-weighted "
         "hemisphere and Phong-lobe (bsdf) direction sampling, and uniform sampling driven by "

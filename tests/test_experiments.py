@@ -17,6 +17,7 @@ from experiments.lib import execute as X
 from experiments.lib import methods as M
 from experiments.lib import metrics, report, store
 from experiments.lib import plan as P
+from experiments.lib.jobs import accumulate
 
 PYTHON = sys.executable
 
@@ -121,7 +122,7 @@ def test_ladder_images_are_the_average_of_their_passes(tmp_path, count_jobs):
     assert [j.passes() for j in jobs] == [[1], [1], [2], [2, 2]]
     assert [r.passes for _, r in count_jobs] == [1, 1, 1, 2]
     assert all(r.cpu_seconds > 0 and r.seconds > 0 for _, r in count_jobs)
-    accs = P.accumulate(st, jobs)
+    accs = accumulate(st.results(jobs))
     assert [a.spp for a in accs] == [1, 2, 4, 8] and accs[-1].passes == 5
     expected = sum(r.spp * r.image.astype(float) for _, r in count_jobs) / 8
     np.testing.assert_allclose(accs[-1].mean, expected, rtol=1e-6)
@@ -138,8 +139,8 @@ def test_halton_passes_continue_one_sequence(tmp_path):
     assert [j.sample_offset for j in stretched] == [0, 1, 2]
     assert len({j.seed for j in stretched + whole}) == 1
     X.execute(stretched + whole, st, progress=False)
-    np.testing.assert_allclose(P.accumulate(st, stretched)[-1].mean,
-                               P.accumulate(st, whole)[-1].mean, atol=1e-5)
+    np.testing.assert_allclose(accumulate(st.results(stretched))[-1].mean,
+                               accumulate(st.results(whole))[-1].mean, atol=1e-5)
 
 
 @pytest.mark.parametrize("name", ["uniform", "path", "bsdf+nee+stratified", "cosine+ldsampler",
@@ -150,7 +151,7 @@ def test_resume_skips_finished_jobs_and_reproduces_results(name, tmp_path, count
     once = store.JobStore(str(tmp_path / "once"))
     jobs = _ladder(name, (1, 2, 4))
     X.execute(jobs, once, progress=False)
-    full = P.accumulate(once, jobs)
+    full = accumulate(once.results(jobs))
     assert len(count_jobs) == 3
     count_jobs.clear()
     X.execute(jobs, once, progress=False)             # the same command again
@@ -172,7 +173,7 @@ def test_resume_skips_finished_jobs_and_reproduces_results(name, tmp_path, count
     monkeypatch.setattr(X, "run_job", real)
     assert [j.key for j in X.pending(jobs, cut)] == [j.key for j in jobs[1:]]
     X.execute(jobs, cut, progress=False)
-    resumed = P.accumulate(cut, jobs)
+    resumed = accumulate(cut.results(jobs))
     for a, b in zip(resumed, full):
         assert a.spp == b.spp
         np.testing.assert_allclose(a.mean, b.mean, rtol=1e-6, atol=1e-7)
@@ -345,27 +346,87 @@ def _report_links(out):
     return page, set(re.findall(r'href="([^"#]+)"', page))
 
 
+def _csv(path) -> list[dict]:
+    import csv
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def _assert_intervals(rows, *names):
+    """Every row's interval brackets its value: lo <= value <= hi, all positive."""
+    for row in rows:
+        for name in names:
+            lo, value, hi = (float(row[f"{name}{s}"]) for s in ("_lo", "", "_hi"))
+            assert 0 < lo <= value * (1 + 1e-9) and value <= hi * (1 + 1e-9), (name, row)
+
+
 def test_convergence_end_to_end(tmp_path):
     out = tmp_path / "r"
     convergence.main(TINY + ["--spp", "4", "--time-budget", "0.02", "--out", str(out),
-                             "--methods", "uniform,cosine,bsdf"])
-    rows = (out / "convergence" / "errors.csv").read_text().splitlines()
-    assert len(rows) == 1 + 3 * 3                    # header + 3 methods x (1, 2, 4 spp)
+                             "--methods", "uniform,cosine,bsdf", "--repeats", "3"])
+    errors = _csv(out / "convergence" / "errors.csv")
+    assert [(r["method"], int(r["spp"])) for r in errors] == \
+        [(m, n) for m in ("uniform", "cosine", "bsdf") for n in (1, 2, 4)]
+    assert {r["repeats"] for r in errors} == {"3"}
+    _assert_intervals(errors, "MSE", "relMSE", "FLIP")
     assert (out / "convergence" / "bsdf" / "spp00004.exr").exists()
-    eff = (out / "convergence" / "efficiency.md").read_text()
-    assert "| uniform | 4 |" in eff and "1.00" in eff
+    eff = {r["method"]: r for r in _csv(out / "convergence" / "efficiency.csv")}
+    _assert_intervals(eff.values(), "MSE", "relative efficiency",
+                      "equal-time relative efficiency")
+    # the baseline against itself is exactly 1; the others follow from the table's own
+    # expected MSE and mean time: (MSE_u T_u) / (MSE_m T_m)
+    assert eff["uniform"]["relative efficiency"] == "1"
+    u = eff["uniform"]
+    for m in ("cosine", "bsdf"):
+        ratio = (float(u["MSE"]) * float(u["seconds"])) / (float(eff[m]["MSE"])
+                                                           * float(eff[m]["seconds"]))
+        assert float(eff[m]["relative efficiency"]) == pytest.approx(ratio, rel=0.02)
+    summary = json.loads((out / "convergence" / "summary.json").read_text())
+    assert {r["method"] for r in summary["efficiency"]} == set(eff)
+    assert all("relative_efficiency_lo" in r for r in summary["efficiency"])
     for name in ("sequences.png", "error_mse.png", "error_relmse.png", "equal_time.png"):
         assert (out / "convergence" / name).stat().st_size > 0
     page, links = _report_links(out)
     assert "Convergence" in page and "mitsuba" in page and "libLLVM" in page
 
 
+def test_convergence_adds_the_sampler_studys_winner(tmp_path):
+    """The default methods gain bsdf+nee with the most efficient sampler of the nearest
+    depth of the sampler study; not when --methods is given, nor when it is independent."""
+    out = tmp_path / "r"
+    summary = out / "samplers" / "summary.json"
+    summary.parent.mkdir(parents=True)
+
+    def methods(*argv, best):
+        summary.write_text(json.dumps({"best": best}))
+        args = convergence.cli.parse_args(convergence.build_parser(),
+                                          TINY + ["--out", str(out), *argv])
+        return convergence.methods_of(args)
+
+    plain = list(M.DEFAULT_METHODS)
+    assert methods(best={"2": "multijitter", "8": "halton:owen"}) == plain + [
+        "bsdf+nee+halton:owen"]                          # the scene's max_depth is 8
+    assert methods("--max-depth", "3", best={"2": "multijitter", "8": "halton:owen"}) == \
+        plain + ["bsdf+nee+multijitter"]
+    assert methods(best={"8": "independent"}) == plain    # bsdf+nee is there already
+    assert methods("--methods", "uniform", best={"8": "orthogonal"}) == ["uniform"]
+    assert methods("--best-sampler", "none", best={"8": "orthogonal"}) == plain
+    assert methods("--best-sampler", "ldsampler", best={}) == plain + ["bsdf+nee+ldsampler"]
+    summary.unlink()
+    args = convergence.cli.parse_args(convergence.build_parser(), TINY + ["--out", str(out)])
+    assert convergence.methods_of(args) == plain          # no sampler study yet
+
+
 def test_writeup_end_to_end_with_full(tmp_path):
     out = tmp_path / "r"
     writeup.main(TINY + ["--short-spp", "2", "--halton-spp", "3", "--full", "--full-spp", "4",
                          "--full-resolution", "8x4", "--out", str(out)])
-    rmse = (out / "writeup" / "rmse.md").read_text()
-    assert "cosine vs uniform" in rmse and "bsdf vs uniform" in rmse
+    rmse = {r["pair A vs B"]: r for r in _csv(out / "writeup" / "rmse.csv")}
+    assert set(rmse) == {"cosine vs uniform", "bsdf vs uniform", "uniform+halton vs uniform"}
+    _assert_intervals(rmse.values(), "RMSE ratio B/A", "variance ratio B/A")
+    for r in rmse.values():      # the RMSE ratio is the square root of the variance ratio
+        assert float(r["RMSE ratio B/A"]) ** 2 == pytest.approx(
+            float(r["variance ratio B/A"]), rel=0.01)
     bias = (out / "writeup" / "bias_full.md").read_text()
     assert "cosine − uniform" in bias and "uniform+halton" not in bias
     # plain Halton: the deterministic check, not the z-test, and the report says why
@@ -408,20 +469,25 @@ def test_run_all_report_lists_every_produced_file_and_reruns_resume(tmp_path, co
     assert stab["resolution"] == "16x8"
 
 
-def test_run_all_forwards_methods_spp_and_max_depth_to_the_stability_study(tmp_path):
+def test_run_all_forwards_the_options_it_is_given_and_no_others(tmp_path):
     out = str(tmp_path / "r")
     parser = run_all.build_parser()
     args = run_all.cli.parse_args(parser, ["--methods", "cosine,bsdf+nee", "--spp", "8",
-                                           "--max-depth", "3", "--out", out])
-    sub = run_all.stability.parse(run_all.sub_argv(args, (("methods", "--methods"),)))
-    assert (sub.spp, sub.methods, sub.depth.max_depth, sub.resolution) == \
-        (8, ["cosine", "bsdf+nee"], 3, (128, 64))          # its own default resolution
-    sw = run_all.stability.Sweeps(sub, sub.config)
-    assert sw.strategies == ["cosine", "bsdf"] and sw.halton_depths == [2, 3]
-    # options left at run_all's defaults are not forwarded: the study keeps its own
+                                           "--max-depth", "3", "--repeats", "2", "--out", out])
+    sub = run_all.stability.parse(run_all.sub_argv(args, run_all.stability))
+    assert (sub.spp, sub.methods, sub.depth.max_depth, sub.repeats) == \
+        (8, ["cosine", "bsdf+nee"], 3, 2)
+    # the writeup takes no --spp: only what its parser knows reaches it
+    wu = run_all.sub_argv(args, run_all.writeup, run_all.WRITEUP)
+    assert "--spp" not in wu and wu[wu.index("--repeats") + 1] == "2"
+    # options left at run_all's defaults are not forwarded: every study keeps its own
+    # defaults, exactly as if it were run alone with the shared options
     args = run_all.cli.parse_args(parser, ["--out", out])
-    sub = run_all.stability.parse(run_all.sub_argv(args, (("methods", "--methods"),)))
-    assert (sub.spp, sub.methods, sub.depth.max_depth) == (32, ["uniform", "cosine", "bsdf"], 8)
-    smp = run_all.cli.parse_args(run_all.samplers.build_parser(),
-                                 run_all.sub_argv(args) + ["--resolution", "16x8"])
-    assert (smp.spp, smp.resolution, run_all.samplers.depths(smp)) == (256, (16, 8), [2, 8])
+    for module in (run_all.samplers, run_all.convergence, run_all.writeup):
+        via_run_all = run_all.cli.parse_args(module.build_parser(),
+                                             run_all.sub_argv(args, module))
+        alone = run_all.cli.parse_args(module.build_parser(), ["--out", out])
+        for key in ("spp", "resolution", "repeats", "methods", "reference_spp",
+                    "time_budget"):
+            assert getattr(via_run_all, key, None) == getattr(alone, key, None), \
+                (module.__name__, key)
