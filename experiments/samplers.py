@@ -256,6 +256,9 @@ def run(args) -> None:
     store.write_json(os.path.join(args.out, NAME, "summary.json"),
                      {"rows": [r.record() for r in rows], "conclusion": sentences,
                       "best": {d: best_sampler(rows, d) for d in points},
+                      "halton_vs_best_native": {
+                          d: {"halton": h, "native": n, **e.fields("efficiency_ratio")}
+                          for d, (h, n, e) in SS.halton_vs_native(rows, points).items()},
                       "curves": {d: {s: [dict(spp=spp, **e.fields("relative_efficiency"))
                                          for spp, e in pts] for s, pts in by.items()}
                                  for d, by in curves.items()}})

@@ -140,6 +140,22 @@ def describe_order(name_a: str, name_b: str, changes) -> str:
     return text
 
 
+def halton_vs_native(rows: list[Row], points: dict) -> dict[int, tuple[str, str, stats.Estimate]]:
+    """Per depth: halton's best randomization, the best native sampler (both by efficiency
+    at the largest count) and the efficiency ratio of the first over the second."""
+    out = {}
+    for depth in sorted({r.depth for r in rows}):
+        at = [r for r in rows if r.depth == depth]
+        halton = [r for r in at if r.sampler.startswith("halton")]
+        native = [r for r in at if not r.sampler.startswith("halton")]
+        if halton and native:
+            h = max(halton, key=lambda r: r.relative_efficiency.value)
+            n = max(native, key=lambda r: r.relative_efficiency.value)
+            out[depth] = (h.sampler, n.sampler, _ratio(points[depth][h.sampler][-1],
+                                                       points[depth][n.sampler][-1]))
+    return out
+
+
 def conclude(rows: list[Row], points: dict[int, dict[str, list[Point]]]) -> list[str]:
     """One paragraph per depth, computed from the rows and the ladder points."""
     sentences = []
@@ -159,12 +175,10 @@ def conclude(rows: list[Row], points: dict[int, dict[str, list[Point]]]) -> list
                                                  by_sampler[second.sampler][-1])))
         text += (f". The lowest expected MSE is {lowest.sampler}'s "
                  f"({lowest.relative_mse.text()}x {BASELINE}'s at {lowest.spp} spp).")
-        halton = [r for r in at if r.sampler.startswith("halton")]
-        native = [r for r in at if not r.sampler.startswith("halton")]
-        if halton and native:
-            h = max(halton, key=lambda r: r.relative_efficiency.value)
-            n = max(native, key=lambda r: r.relative_efficiency.value)
-            hn = _ratio(by_sampler[h.sampler][-1], by_sampler[n.sampler][-1])
+        pair = halton_vs_native(at, points).get(depth)
+        if pair:
+            h, n, hn = (next(r for r in at if r.sampler == pair[0]),
+                        next(r for r in at if r.sampler == pair[1]), pair[2])
             base = next((r for r in at if r.sampler == BASELINE), at[0])
             text += (f" Halton's best randomization at this count, {h.sampler}, reaches "
                      f"{h.relative_efficiency.text()}x {BASELINE}'s efficiency (MSE "
