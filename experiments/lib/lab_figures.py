@@ -1,0 +1,155 @@
+"""The sampling lab's figures (matplotlib, Agg backend), each written atomically as PNG.
+
+Warp panels are drawn as one mosaic image per BSDF (tiles composed in numpy,
+one ``imshow``), which keeps 72 panels cheap to draw; point sets and spectra
+are ordinary matplotlib charts.
+"""
+from __future__ import annotations
+
+import math
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from . import store  # noqa: E402
+
+#: Standardized residual shown at full colour in the difference tiles.
+Z_RANGE = 5.0
+TILE = 101          # pixels per tile side (the grid is upsampled to it)
+PAD = 6
+
+
+def _save(fig, path: str, dpi: int = 100) -> str:
+    with store.atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=dpi, bbox_inches="tight")
+    plt.close(fig)
+    return path
+
+
+def _resize(grid: np.ndarray, size: int) -> np.ndarray:
+    """Nearest-neighbour resize of a 2-D grid to size x size (rows flipped: up = +cos)."""
+    rows = (np.arange(size) * grid.shape[0] // size)
+    cols = (np.arange(size) * grid.shape[1] // size)
+    return grid[rows][:, cols][::-1]
+
+
+def _colour(grid: np.ndarray, cmap: str, lo: float, hi: float) -> np.ndarray:
+    x = np.clip((grid - lo) / (hi - lo if hi > lo else 1.0), 0.0, 1.0)
+    return plt.get_cmap(cmap)(x)[..., :3]
+
+
+def scatter_tile(xy: np.ndarray, cos_min: float, size: int = TILE) -> np.ndarray:
+    """The directions as dark dots on white, in the panel's equal-area coordinates."""
+    img = np.ones((size, size, 3))
+    if len(xy):
+        cx = np.clip(((xy[:, 0] + math.pi) / (2 * math.pi) * size).astype(int), 0, size - 1)
+        cy = np.clip(((xy[:, 1] - cos_min) / (1 - cos_min) * size).astype(int), 0, size - 1)
+        img[size - 1 - cy, cx] = (0.1, 0.2, 0.5)
+    return img
+
+
+def panel_tiles(panel: dict) -> list[np.ndarray]:
+    """Scatter, histogram, expected, difference (z-scores), f cos: five RGB tiles."""
+    hist, exp, fcos = panel["histogram"], panel["expected"], panel["fcos"]
+    hi = float(max(hist.max(), exp.max(), 1e-12))
+    z = (hist - exp) / np.sqrt(np.maximum(exp, 1.0))
+    return [scatter_tile(panel["scatter"], float(panel["cos_min"])),
+            _colour(_resize(hist, TILE), "viridis", 0.0, hi),
+            _colour(_resize(exp, TILE), "viridis", 0.0, hi),
+            _colour(_resize(z, TILE), "RdBu_r", -Z_RANGE, Z_RANGE),
+            _colour(_resize(fcos, TILE), "magma", 0.0, float(max(fcos.max(), 1e-12)))]
+
+
+COLUMNS = ("directions", "histogram", "strategy's density", "difference (z)", "f·cos")
+
+
+def warp_mosaic(path: str, title: str, rows: list[tuple[str, dict]]) -> str:
+    """One row per panel ((label, panel) pairs), the five tiles of :func:`panel_tiles`."""
+    step = TILE + PAD
+    height = len(rows) * step
+    width = len(COLUMNS) * step
+    canvas = np.ones((height, width, 3))
+    for r, (_, panel) in enumerate(rows):
+        for c, tile in enumerate(panel_tiles(panel)):
+            canvas[r * step:r * step + TILE, c * step:c * step + TILE] = tile
+    inches = width / 100.0
+    fig = plt.figure(figsize=(inches + 3.2, height / 100.0 + 0.6))
+    ax = fig.add_axes([3.2 / (inches + 3.2), 0.0, inches / (inches + 3.2),
+                       height / 100.0 / (height / 100.0 + 0.6)])
+    ax.imshow(canvas, interpolation="nearest")
+    ax.set_axis_off()
+    for c, name in enumerate(COLUMNS):
+        ax.text(c * step + TILE / 2, -4, name, ha="center", va="bottom", fontsize=8)
+    for r, (label, _) in enumerate(rows):
+        ax.text(-6, r * step + TILE / 2, label, ha="right", va="center", fontsize=7,
+                family="monospace")
+    fig.suptitle(title, fontsize=10, y=1.0)
+    return _save(fig, path)
+
+
+def rel_variance_chart(path: str, row_labels: list[str], strategies: list[str],
+                       values: np.ndarray) -> str:
+    """log10 of Var[w]/E[w]^2 per (BSDF and incidence, strategy), annotated."""
+    fig, ax = plt.subplots(figsize=(1.2 * len(strategies) + 2.8, 0.28 * len(row_labels) + 1.2))
+    logv = np.log10(np.clip(values, 1e-4, 1e6))
+    im = ax.imshow(logv, cmap="RdYlGn_r", vmin=-2, vmax=3, aspect="auto")
+    for i in range(values.shape[0]):
+        for j in range(values.shape[1]):
+            ax.text(j, i, f"{values[i, j]:.2g}", ha="center", va="center", fontsize=7)
+    ax.set_xticks(range(len(strategies)), strategies)
+    ax.set_yticks(range(len(row_labels)), row_labels, fontsize=7)
+    fig.colorbar(im, ax=ax, label="log10 Var[w] / E[w]^2")
+    ax.set_title("Relative variance of the weight f·cos/pdf", fontsize=10)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def point_grid(path: str, title: str, samplers: list[str], pairs: list[tuple[int, int]],
+               points: dict, counts: dict) -> str:
+    """Rows = samplers, columns = dimension pairs: one pixel's points."""
+    fig, axes = plt.subplots(len(samplers), len(pairs), squeeze=False,
+                             figsize=(1.55 * len(pairs) + 0.8, 1.55 * len(samplers) + 0.5))
+    for r, s in enumerate(samplers):
+        for c, (a, b) in enumerate(pairs):
+            ax = axes[r][c]
+            xy = points[(s, (a, b))]
+            ax.scatter(xy[:, 0], xy[:, 1], s=2.0, c="#1f3b73", linewidths=0)
+            ax.set_xlim(0, 1)
+            ax.set_ylim(0, 1)
+            ax.set_xticks([])
+            ax.set_yticks([])
+            ax.set_aspect("equal")
+            if r == 0:
+                ax.set_title(f"dims ({a}, {b})", fontsize=8)
+            if c == 0:
+                ax.set_ylabel(f"{s}\n({counts[s]} pts)", fontsize=7)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    return _save(fig, path, dpi=90)
+
+
+def spectra(path: str, title: str, samplers: list[str], pairs: list[tuple[int, int]],
+            freqs: np.ndarray, power: dict, counts: dict) -> str:
+    """Radially averaged power spectrum per pair (one axes each), a line per sampler."""
+    fig, axes = plt.subplots(1, len(pairs), squeeze=False, sharey=True,
+                             figsize=(2.9 * len(pairs), 2.8))
+    cmap = plt.get_cmap("tab10")
+    for c, (a, b) in enumerate(pairs):
+        ax = axes[0][c]
+        for i, s in enumerate(samplers):
+            ax.plot(freqs, power[(s, (a, b))], color=cmap(i % 10), lw=1.0,
+                    label=f"{s} ({counts[s]})")
+        ax.axhline(1.0, color="0.5", lw=0.6, ls=":")
+        ax.set_yscale("log")
+        ax.set_ylim(1e-3, 10)
+        ax.set_title(f"dims ({a}, {b})", fontsize=9)
+        ax.set_xlabel("frequency |k|", fontsize=8)
+        ax.tick_params(labelsize=7)
+    axes[0][0].set_ylabel("power", fontsize=8)
+    axes[0][-1].legend(fontsize=6, loc="lower right")
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    return _save(fig, path)
