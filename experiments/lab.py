@@ -92,11 +92,14 @@ def run_warps(args, out_dir: str) -> tuple[list[dict], list[dict]]:
                          f"Var/E²={panels[s.key()]['rel_variance']:.3g}", panels[s.key()]) for s in mine])
         blocks.append(report.image(
             f"{NAME}/{stem}.png",
-            f"{label}, {LW.domain_for(mine[0]).describe()}: per row one strategy at one "
-            f"incidence; left to right the first drawn directions, the histogram of "
-            f"{args.samples} directions, the strategy's density integrated over the same "
-            f"cells, their difference as a z-score (blue: too few samples, red: too many; "
-            f"±{LF.Z_RANGE:g} at full colour) and the integrand f·cos."))
+            f"{label}, {LW.domain_for(mine[0]).describe()} (x: azimuth, the whole sphere with "
+            f"the mirror direction's azimuth in the middle; y: cosine, the normal or the "
+            f"lobe axis at the top): per row one strategy at one incidence; left to right the "
+            f"first {mine[0].scatter} drawn directions, the histogram of {args.samples} "
+            f"directions, the strategy's density integrated over the same cells (both as "
+            f"(value/max)^{LF.GAMMA:g}), their difference as a z-score (blue: too few "
+            f"samples, red: too many; ±{LF.Z_RANGE:g} at full colour) and the integrand "
+            f"f·cos."))
     configs = list(dict.fromkeys((r["bsdf"], r["incidence_deg"]) for r in rows))
     values = np.array([[next(r["rel_variance"] for r in rows if (r["bsdf"], r["incidence_deg"])
                              == c and r["strategy"] == s) for s in STRATEGIES] for c in configs])
@@ -134,16 +137,14 @@ def run_points(args, out_dir: str) -> tuple[dict, dict, list[dict]]:
     table, joint, counts_by, rows, blocks = {}, {}, {}, [], []
     for spp in cfg.counts:
         points, power, counts = {}, {}, {}
-        freqs = None
         for name in names:
             spec = LP.PointSpec(name, spp, seeds=(args.seed,), width=width, height=height)
             res = LP.cached(spec, cache)
             counts[name] = int(res["count"])
-            freqs = res["freqs"]
             for a, b in LP.PAIRS:
                 tag = f"{a}_{b}"
                 points[(name, (a, b))] = res[f"scatter_{tag}"]
-                power[(name, (a, b))] = res[f"power_{tag}"]
+                power[(name, (a, b))] = (res["freqs"], res[f"power_{tag}"])
                 cd = res[f"cd_{tag}"]
                 table[(spp, name, (a, b))] = float(np.mean(cd))
                 joint[(spp, name, (a, b))] = float(res[f"joint_{tag}"])
@@ -157,7 +158,7 @@ def run_points(args, out_dir: str) -> tuple[dict, dict, list[dict]]:
                       names, list(LP.PAIRS), points, counts)
         LF.spectra(os.path.join(out_dir, f"spectrum_{spp}.png"),
                    f"Radially averaged power spectrum at {spp} spp, mean over "
-                   f"{width * height} pixels", names, list(LP.PAIRS), freqs, power, counts)
+                   f"{min(width * height, LP.PointSpec('', 0).spectrum_pixels)} pixels", names, list(LP.PAIRS), power, counts)
         blocks += [report.image(f"{NAME}/points_{spp}.png",
                                 f"The points pixel 0 receives at {spp} spp requested (count "
                                 f"drawn in brackets), per pair of dimensions."),
@@ -213,7 +214,9 @@ def run(args) -> None:
     start = time.perf_counter()
     out_dir = os.path.join(args.out, NAME)
     warp_rows, warp_blocks = run_warps(args, out_dir)
+    warp_seconds = time.perf_counter() - start
     table, joint, counts, point_blocks = run_points(args, out_dir)
+    point_seconds = time.perf_counter() - start - warp_seconds
     first = args.config.counts[0]
     wide = discrepancy_wide(args, table, counts[first], first)
     at = lambda d: {(n, p): v for (spp, n, p), v in d.items() if spp == first}  # noqa: E731
@@ -228,7 +231,10 @@ def run(args) -> None:
                 "incidences (deg)": ", ".join(f"{i:g}" for i in args.config.incidences),
                 "point sets": f"{args.config.pixels[0]}x{args.config.pixels[1]} pixels, "
                               f"counts {', '.join(map(str, args.config.counts))} requested",
-                "variant": args.variant, "quick": args.quick}
+                "variant": args.variant, "quick": args.quick,
+                "wall time (s)": f"warps {warp_seconds:.1f}, point sets {point_seconds:.1f} "
+                                 f"(panels and point sets cached under {NAME}/cache/ are "
+                                 f"not recomputed)"}
     report.write_section(args.out, NAME, "Sampling lab: strategies as warps, samplers as "
                          "point sets", ORDER, settings, blocks, args.variant,
                          time.perf_counter() - start)

@@ -36,31 +36,46 @@ def _resize(grid: np.ndarray, size: int) -> np.ndarray:
     return grid[rows][:, cols][::-1]
 
 
-def _colour(grid: np.ndarray, cmap: str, lo: float, hi: float) -> np.ndarray:
+#: Densities are drawn as (value / max)^GAMMA, so that narrow peaks and the flat
+#: parts around them are both visible.
+GAMMA = 0.3
+
+
+def _colour(grid: np.ndarray, cmap: str, lo: float, hi: float, gamma: float = 1.0) -> np.ndarray:
     x = np.clip((grid - lo) / (hi - lo if hi > lo else 1.0), 0.0, 1.0)
-    return plt.get_cmap(cmap)(x)[..., :3]
+    return plt.get_cmap(cmap)(x ** gamma)[..., :3]
 
 
-def scatter_tile(xy: np.ndarray, cos_min: float, size: int = TILE) -> np.ndarray:
-    """The directions as dark dots on white, in the panel's equal-area coordinates."""
+def scatter_tile(xy: np.ndarray, cos_min: float, size: int = TILE, shift: bool = False) -> np.ndarray:
+    """The directions as dark dots on white, in the panel's equal-area coordinates
+    (``shift``: phi = pi in the middle, as :func:`panel_tiles` draws the grids)."""
     img = np.ones((size, size, 3))
     if len(xy):
-        cx = np.clip(((xy[:, 0] + math.pi) / (2 * math.pi) * size).astype(int), 0, size - 1)
+        u = (xy[:, 0] + math.pi) / (2 * math.pi)
+        if shift:
+            u = (u + 0.5) % 1.0
+        cx = np.clip((u * size).astype(int), 0, size - 1)
         cy = np.clip(((xy[:, 1] - cos_min) / (1 - cos_min) * size).astype(int), 0, size - 1)
         img[size - 1 - cy, cx] = (0.1, 0.2, 0.5)
     return img
 
 
 def panel_tiles(panel: dict) -> list[np.ndarray]:
-    """Scatter, histogram, expected, difference (z-scores), f cos: five RGB tiles."""
+    """Scatter, histogram, expected, difference (z-scores), f cos: five RGB tiles.
+
+    Grids over the whole sphere are drawn with phi = pi (the mirror direction of
+    an incident direction at phi = 0) in the middle."""
     hist, exp, fcos = panel["histogram"], panel["expected"], panel["fcos"]
+    shift = float(panel["cos_min"]) <= -1.0
+    if shift:
+        hist, exp, fcos = (np.roll(g, g.shape[1] // 2, axis=1) for g in (hist, exp, fcos))
     hi = float(max(hist.max(), exp.max(), 1e-12))
     z = (hist - exp) / np.sqrt(np.maximum(exp, 1.0))
-    return [scatter_tile(panel["scatter"], float(panel["cos_min"])),
-            _colour(_resize(hist, TILE), "viridis", 0.0, hi),
-            _colour(_resize(exp, TILE), "viridis", 0.0, hi),
+    return [scatter_tile(panel["scatter"], float(panel["cos_min"]), shift=shift),
+            _colour(_resize(hist, TILE), "viridis", 0.0, hi, GAMMA),
+            _colour(_resize(exp, TILE), "viridis", 0.0, hi, GAMMA),
             _colour(_resize(z, TILE), "RdBu_r", -Z_RANGE, Z_RANGE),
-            _colour(_resize(fcos, TILE), "magma", 0.0, float(max(fcos.max(), 1e-12)))]
+            _colour(_resize(fcos, TILE), "magma", 0.0, float(max(fcos.max(), 1e-12)), GAMMA)]
 
 
 COLUMNS = ("directions", "histogram", "strategy's density", "difference (z)", "f·cos")
@@ -127,29 +142,33 @@ def point_grid(path: str, title: str, samplers: list[str], pairs: list[tuple[int
             if c == 0:
                 ax.set_ylabel(f"{s}\n({counts[s]} pts)", fontsize=7)
     fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
+    fig.subplots_adjust(left=0.12, right=0.99, bottom=0.01, top=0.95, wspace=0.08, hspace=0.08)
     return _save(fig, path, dpi=90)
 
 
 def spectra(path: str, title: str, samplers: list[str], pairs: list[tuple[int, int]],
-            freqs: np.ndarray, power: dict, counts: dict) -> str:
-    """Radially averaged power spectrum per pair (one axes each), a line per sampler."""
+            power: dict, counts: dict) -> str:
+    """Radially averaged power spectrum per pair (one axes each), a line per sampler;
+    ``power[(sampler, pair)]`` = (frequencies, power)."""
     fig, axes = plt.subplots(1, len(pairs), squeeze=False, sharey=True,
                              figsize=(2.9 * len(pairs), 2.8))
     cmap = plt.get_cmap("tab10")
     for c, (a, b) in enumerate(pairs):
         ax = axes[0][c]
         for i, s in enumerate(samplers):
-            ax.plot(freqs, power[(s, (a, b))], color=cmap(i % 10), lw=1.0,
+            freqs, values = power[(s, (a, b))]
+            ax.plot(freqs, values, color=cmap(i % 10), lw=1.0,
                     label=f"{s} ({counts[s]})")
         ax.axhline(1.0, color="0.5", lw=0.6, ls=":")
         ax.set_yscale("log")
         ax.set_ylim(1e-3, 10)
+        ax.set_yticks([1e-3, 1e-2, 1e-1, 1, 10])
+        ax.minorticks_off()
         ax.set_title(f"dims ({a}, {b})", fontsize=9)
         ax.set_xlabel("frequency |k|", fontsize=8)
         ax.tick_params(labelsize=7)
     axes[0][0].set_ylabel("power", fontsize=8)
     axes[0][-1].legend(fontsize=6, loc="lower right")
     fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
+    fig.subplots_adjust(left=0.05, right=0.99, bottom=0.16, top=0.84, wspace=0.06)
     return _save(fig, path)

@@ -47,7 +47,7 @@ PAIRS = ((0, 1), (2, 3), (10, 11), (30, 31), (1, 2))
 COUNTS = (64, 256)
 #: Samplers of the sampler study (experiments.samplers), as Mitsuba dicts.
 NATIVE = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler")
-VERSION = 2
+VERSION = 3
 
 
 def samplers() -> list[str]:
@@ -143,18 +143,24 @@ def periodogram(points: np.ndarray, k_max: int) -> np.ndarray:
     ``points`` (..., N, 2): (..., 2 k_max + 1, 2 k_max + 1), axis -2 is k_x.
 
     The sum factors as sum_j e_x(j, k_x) e_y(j, k_y): one real matrix product of
-    [cos | sin] of both coordinates gives its real and imaginary parts."""
+    [cos | sin] of both coordinates gives its real and imaginary parts. Only
+    k_x >= 0 is computed; P(-k) = P(k) gives the rest."""
     x = np.asarray(points, np.float64)
-    k = np.arange(-k_max, k_max + 1)
-    ax = 2.0 * np.pi * x[..., 0, None] * k
-    ay = 2.0 * np.pi * x[..., 1, None] * k
-    a = np.concatenate([np.cos(ax), np.sin(ax)], axis=-1)        # (..., N, 2K)
-    b = np.concatenate([np.cos(ay), np.sin(ay)], axis=-1)
-    m = np.swapaxes(a, -1, -2) @ b                               # (..., 2K, 2K)
-    n = len(k)
-    re = m[..., :n, :n] - m[..., n:, n:]
-    im = m[..., :n, n:] + m[..., n:, :n]
-    return (re * re + im * im) / x.shape[-2]
+    kx = np.arange(0, k_max + 1)
+    ky = np.arange(-k_max, k_max + 1)
+    ax = 2.0 * np.pi * x[..., 0, None] * kx
+    ay = 2.0 * np.pi * x[..., 1, None] * ky
+    # float32 products: the spectrum is for display and averages, 1e-5 is plenty
+    a = np.concatenate([np.cos(ax), np.sin(ax)], axis=-1).astype(np.float32)
+    b = np.concatenate([np.cos(ay), np.sin(ay)], axis=-1).astype(np.float32)
+    m = np.matmul(np.ascontiguousarray(np.swapaxes(a, -1, -2)), b)
+    nx, ny = len(kx), len(ky)
+    re = m[..., :nx, :ny] - m[..., nx:, ny:]
+    im = m[..., :nx, ny:] + m[..., nx:, :ny]
+    half = (re.astype(np.float64) ** 2 + im.astype(np.float64) ** 2) / x.shape[-2]
+    # k_x < 0: P(-k_x, k_y) = P(k_x, -k_y)
+    neg = half[..., :0:-1, ::-1]
+    return np.concatenate([neg, half], axis=-2)
 
 
 def radial_average(spectrum: np.ndarray, k_max: int) -> tuple[np.ndarray, np.ndarray]:
@@ -199,8 +205,10 @@ class PointSpec:
     seeds: tuple = (0,)
     width: int = 8
     height: int = 8
-    k_max: int = 24
+    k_max: float = 1.5      # frequencies up to k_max * sqrt(count) (a stratified set's
+                            # dip lies below sqrt(count))
     cd_pixels: int = 16     # pixels whose discrepancy is computed (O(N^2) each)
+    spectrum_pixels: int = 32   # pixels whose spectra are averaged
     scatter_pixel: int = 0
 
     def key(self) -> str:
@@ -225,7 +233,8 @@ def compute(spec: PointSpec) -> dict:
         tag = f"{a}_{b}"
         out[f"scatter_{tag}"] = pair[0, spec.scatter_pixel].astype(np.float32)
         out[f"cd_{tag}"] = centered_discrepancy(pair[:, :spec.cd_pixels]).ravel()
-        freqs, power, joint = power_spectrum(pair, spec.k_max)
+        freqs, power, joint = power_spectrum(pair[:, :spec.spectrum_pixels],
+                                             int(math.ceil(spec.k_max * math.sqrt(count))))
         out[f"power_{tag}"] = power
         out[f"joint_{tag}"] = joint
         out["freqs"] = freqs

@@ -253,15 +253,21 @@ def tabulate(domain, func, samples: int, res: int, ires: int) -> np.ndarray:
     return np.asarray(test.pdf, np.float64).reshape(res, res)
 
 
-def histogram(domain, xy: np.ndarray, weights: np.ndarray, res: int) -> np.ndarray:
-    """Weighted counts of equal-area points ``xy`` on ``domain``'s (res, res) grid,
-    binned as mitsuba.chi2 bins (cell = floor(normalized position * res), clamped)."""
-    bounds = domain.bounds()          # float32, as Mitsuba computes the cell of a sample
-    lo = np.array([bounds.min.x, bounds.min.y], np.float32)
-    ext = np.array([bounds.extents().x, bounds.extents().y], np.float32)
-    cell = (xy.astype(np.float32) - lo) / ext * np.float32(res)
-    cell = np.clip(cell, 0, res - 1).astype(np.int64)
-    flat = np.bincount(cell[:, 0] + cell[:, 1] * res, weights=weights, minlength=res * res)
+def cell_index(domain, xy, res: int):
+    """Cell of every equal-area point ``xy`` (mi.Vector2f) on ``domain``'s (res, res)
+    grid, row-major (mi.UInt32), computed as mitsuba.chi2 bins its samples: in
+    float32, cell = floor(normalized position * res), clamped."""
+    import drjit as dr
+    import mitsuba as mi
+    bounds = domain.bounds()
+    c = (xy - bounds.min) / bounds.extents()
+    c = mi.Vector2u(dr.clip(c * mi.Vector2f(res), 0, mi.Vector2f(res - 1)))
+    return c.x + c.y * res
+
+
+def histogram(cells: np.ndarray, weights: np.ndarray, res: int) -> np.ndarray:
+    """Weighted counts per cell (``cells`` from :func:`cell_index`), (res, res)."""
+    flat = np.bincount(np.asarray(cells, np.int64), weights=weights, minlength=res * res)
     return flat.reshape(res, res)
 
 
@@ -324,12 +330,12 @@ def compute(spec: PanelSpec, path_module=None) -> dict:
     counted = drawn & domain.inside(wo)
     weight = dr.select(drawn, dr.mean(mi.unpolarized_spectrum(ds.weight)), 0.0)
     xy_dr = domain.map_backward(wo)
-    dr.eval(xy_dr, weight, drawn, counted)
-    xy = np.stack([np.asarray(xy_dr.x), np.asarray(xy_dr.y)], axis=1)
+    cells = cell_index(domain, xy_dr, spec.res)
+    dr.eval(xy_dr, cells, weight, drawn, counted)
     drawn_np = np.asarray(drawn)
     counted_np = np.asarray(counted)
     w = np.asarray(weight, np.float64)
-    hist = histogram(domain, xy, counted_np.astype(np.float64), spec.res)
+    hist = histogram(np.asarray(cells), counted_np.astype(np.float64), spec.res)
     expected = tabulate(domain, pdf_func(spec.strategy, bsdf, wi, path), n, spec.res, spec.ires)
     fcos = tabulate(domain, fcos_func(bsdf, wi), 1, spec.res, spec.ires)
     stat, dof, p = chi2_test(hist, expected, drjit_order(expected))
@@ -337,8 +343,9 @@ def compute(spec: PanelSpec, path_module=None) -> dict:
     second = float(np.mean(w * w))
     rel_var = second / mean_w ** 2 - 1.0 if mean_w > 0 else math.inf
     keep = np.flatnonzero(counted_np)[:spec.scatter]
+    xy = np.stack([np.asarray(xy_dr.x)[keep], np.asarray(xy_dr.y)[keep]], axis=1)
     return {"histogram": hist.astype(np.float32), "expected": expected.astype(np.float32),
-            "fcos": fcos.astype(np.float32), "scatter": xy[keep].astype(np.float32),
+            "fcos": fcos.astype(np.float32), "scatter": xy.astype(np.float32),
             "p_value": p, "chi2": stat, "dof": dof, "rel_variance": rel_var,
             "albedo": mean_w, "drawn": float(np.mean(drawn_np)),
             "in_grid": float(np.mean(counted_np)), "cos_min": domain.cos_min,
