@@ -158,7 +158,8 @@ def run_points(args, out_dir: str) -> tuple[dict, dict, list[dict]]:
                       names, list(LP.PAIRS), points, counts)
         LF.spectra(os.path.join(out_dir, f"spectrum_{spp}.png"),
                    f"Radially averaged power spectrum at {spp} spp, mean over "
-                   f"{min(width * height, LP.PointSpec('', 0).spectrum_pixels)} pixels", names, list(LP.PAIRS), power, counts)
+                   f"{min(width * height, max(8, LP.PointSpec('', 0).spectrum_points // spp))}"
+                   f" pixels", names, list(LP.PAIRS), power, counts)
         blocks += [report.image(f"{NAME}/points_{spp}.png",
                                 f"The points pixel 0 receives at {spp} spp requested (count "
                                 f"drawn in brackets), per pair of dimensions."),

@@ -17,7 +17,7 @@ from __future__ import annotations
 import sys
 import time
 
-from experiments import convergence, samplers, stability, writeup
+from experiments import convergence, lab, samplers, stability, writeup
 from experiments.lib import cli, report
 
 #: Options passed on to the sampler and stability studies when given here.
@@ -36,6 +36,9 @@ def build_parser() -> cli.Parser:
     p.add_argument("--samplers", choices=("default", "quick", "off"), default="default",
                    help="the sampler study at its own default settings, tiny (quick), "
                         "or not at all")
+    p.add_argument("--lab", choices=("default", "quick", "off"), default="default",
+                   help="the sampling lab (warps and point sets) at its own default "
+                        "settings, tiny (quick), or not at all")
     return p
 
 
@@ -69,6 +72,10 @@ def main(argv=None) -> None:
         sub = cli.parse_args(samplers.build_parser(), quick + sub_argv(args))
         sub.executor = args.executor                  # the same cluster, if any
         samplers.run(sub)
+    if args.lab != "off":
+        lab.run(lab.parse([a for k in ("variant", "seed", "out")
+                           for a in (f"--{k}", str(getattr(args, k)))]
+                          + (["--quick"] if args.lab == "quick" else [])))
     if args.stability != "off":
         sub = stability.parse(sub_argv(args, (("methods", "--methods"),))
                               + (["--quick"] if args.stability == "quick" else []))

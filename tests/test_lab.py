@@ -217,3 +217,28 @@ def test_dimension_meaning():
         np.mean([LP.centered_discrepancy(np.random.default_rng(i).random((64, 2)))
                  for i in range(400)]), rel=0.1)
     assert math.isclose(LW.significance(1), 0.01)
+
+
+def test_run_all_runs_the_lab(tmp_path, monkeypatch):
+    """run_all --lab quick: the lab's section is in the report (the other studies stubbed)."""
+    from experiments import run_all
+    for module in (run_all.convergence, run_all.writeup, run_all.samplers, run_all.stability):
+        monkeypatch.setattr(module, "run", lambda args: None)
+    out = tmp_path / "r"
+    run_all.main(["--lab", "quick", "--samplers", "off", "--stability", "off", "--seed", "4",
+                  "--out", str(out)])
+    section = json.load(open(out / "lab" / "section.json"))
+    assert section["settings"]["seed"] == 4 and section["settings"]["quick"] is True
+    assert 'id="lab"' in (out / "index.html").read_text()
+    assert run_all.build_parser().parse_args(["--lab", "off"]).lab == "off"
+
+
+def test_help_lists_the_usual_options():
+    import subprocess
+    import sys
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    proc = subprocess.run([sys.executable, "-m", "experiments.lab", "--help"], cwd=root,
+                          capture_output=True, text=True)
+    assert proc.returncode == 0
+    for option in ("--out", "--variant", "--seed", "--samples", "--quick"):
+        assert option in proc.stdout

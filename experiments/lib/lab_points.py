@@ -47,7 +47,7 @@ PAIRS = ((0, 1), (2, 3), (10, 11), (30, 31), (1, 2))
 COUNTS = (64, 256)
 #: Samplers of the sampler study (experiments.samplers), as Mitsuba dicts.
 NATIVE = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler")
-VERSION = 3
+VERSION = 4
 
 
 def samplers() -> list[str]:
@@ -145,15 +145,16 @@ def periodogram(points: np.ndarray, k_max: int) -> np.ndarray:
     The sum factors as sum_j e_x(j, k_x) e_y(j, k_y): one real matrix product of
     [cos | sin] of both coordinates gives its real and imaginary parts. Only
     k_x >= 0 is computed; P(-k) = P(k) gives the rest."""
-    x = np.asarray(points, np.float64)
-    kx = np.arange(0, k_max + 1)
-    ky = np.arange(-k_max, k_max + 1)
-    ax = 2.0 * np.pi * x[..., 0, None] * kx
-    ay = 2.0 * np.pi * x[..., 1, None] * ky
-    # float32 products: the spectrum is for display and averages, 1e-5 is plenty
-    a = np.concatenate([np.cos(ax), np.sin(ax)], axis=-1).astype(np.float32)
-    b = np.concatenate([np.cos(ay), np.sin(ay)], axis=-1).astype(np.float32)
-    m = np.matmul(np.ascontiguousarray(np.swapaxes(a, -1, -2)), b)
+    # float32 throughout: the spectrum is for display and averages (errors ~1e-5);
+    # einsum, not a threaded BLAS matmul, whose threads stall on a busy machine
+    x = np.asarray(points, np.float32)
+    kx = np.arange(0, k_max + 1, dtype=np.float32)
+    ky = np.arange(-k_max, k_max + 1, dtype=np.float32)
+    ax = np.float32(2.0 * np.pi) * x[..., 0, None] * kx
+    ay = np.float32(2.0 * np.pi) * x[..., 1, None] * ky
+    a = np.concatenate([np.cos(ax), np.sin(ax)], axis=-1)        # (..., N, 2 (K + 1))
+    b = np.concatenate([np.cos(ay), np.sin(ay)], axis=-1)        # (..., N, 2 (2K + 1))
+    m = np.einsum("...nk,...nl->...kl", a, b)
     nx, ny = len(kx), len(ky)
     re = m[..., :nx, :ny] - m[..., nx:, ny:]
     im = m[..., :nx, ny:] + m[..., nx:, :ny]
@@ -208,7 +209,7 @@ class PointSpec:
     k_max: float = 1.5      # frequencies up to k_max * sqrt(count) (a stratified set's
                             # dip lies below sqrt(count))
     cd_pixels: int = 16     # pixels whose discrepancy is computed (O(N^2) each)
-    spectrum_pixels: int = 32   # pixels whose spectra are averaged
+    spectrum_points: int = 2048  # spectra averaged over this many points' pixels (>= 8)
     scatter_pixel: int = 0
 
     def key(self) -> str:
@@ -233,7 +234,8 @@ def compute(spec: PointSpec) -> dict:
         tag = f"{a}_{b}"
         out[f"scatter_{tag}"] = pair[0, spec.scatter_pixel].astype(np.float32)
         out[f"cd_{tag}"] = centered_discrepancy(pair[:, :spec.cd_pixels]).ravel()
-        freqs, power, joint = power_spectrum(pair[:, :spec.spectrum_pixels],
+        sets = max(8, spec.spectrum_points // count)
+        freqs, power, joint = power_spectrum(pair[:, :sets],
                                              int(math.ceil(spec.k_max * math.sqrt(count))))
         out[f"power_{tag}"] = power
         out[f"joint_{tag}"] = joint
