@@ -227,7 +227,9 @@ def run(args) -> None:
         report.text("Warps: " + " ".join(warp_sentences))] + point_blocks + [
         wide, report.text("Point sets: " + " ".join(point_sentences))]
     settings = {"samples per warp panel": args.samples, "seed": args.seed,
-                "warp grid": "101 x 101 cells, 16 x 16 trapezoid points per cell",
+                "warp grid": f"{LW.PanelSpec.res} x {LW.PanelSpec.res} cells, "
+                             f"{LW.PanelSpec.ires} x {LW.PanelSpec.ires} trapezoid points "
+                             f"per cell",
                 "BSDFs": "; ".join(label for label, _ in args.config.bsdfs),
                 "incidences (deg)": ", ".join(f"{i:g}" for i in args.config.incidences),
                 "point sets": f"{args.config.pixels[0]}x{args.config.pixels[1]} pixels, "

@@ -25,7 +25,11 @@ Numbers per point set (a pair of dimensions of one pixel's points):
 as ``scipy.stats.qmc.discrepancy(method="CD")``) and :func:`power_spectrum`
 (pbrt-v4's ``pspec``: the periodogram |sum_j exp(-2 pi i k . x_j)|^2 / N on
 the integer frequencies k in [-K, K]^2, radially averaged; 1 everywhere for
-independent points, near 0 at low frequencies for well-stratified ones).
+independent points, near 0 at low frequencies for well-stratified ones) and
+:func:`joint_power` (the periodogram's mean at low frequencies off the axes:
+below 1 only where the two dimensions are stratified jointly, which the
+discrepancy, dominated by the 1-D projections, hardly tells from a Latin
+hypercube).
 """
 from __future__ import annotations
 
@@ -266,6 +270,8 @@ def random_expectation(count: int, d: int = 2) -> float:
 #: Ratio of a pair's discrepancy to independent points' expectation above which
 #: the lab says the pair has lost its stratification.
 LOST = 0.5
+#: Joint low-frequency power (see joint_power) below which a pair is stratified in 2-D.
+JOINT = 0.8
 
 
 def conclude(cd: dict, joint: dict, counts: dict, spp: int) -> list[str]:
@@ -286,23 +292,32 @@ def conclude(cd: dict, joint: dict, counts: dict, spp: int) -> list[str]:
     out = []
     halton = [s for s in names if s.startswith("halton:") and s != "halton:none"]
     native = [s for s in names if not s.startswith("halton") and s != "independent"]
-    for s in halton:
+    def kinds(s):
+        """Pairs stratified jointly (2-D), only through each coordinate (1-D), or lost."""
+        two = [p for p in pairs if ratio(s, p) < LOST and joint[(s, p)] < JOINT]
+        one = [p for p in pairs if ratio(s, p) < LOST and p not in two]
         lost = [p for p in pairs if ratio(s, p) >= LOST]
-        kept = [p for p in pairs if ratio(s, p) < LOST]
+        parts = [f"{label} in {', '.join(map(str, ps))}" for label, ps in
+                 (("jointly (2-D)", two), ("only per coordinate (1-D)", one)) if ps]
+        text = "stratified " + "; ".join(parts) if parts else "stratified in no pair"
+        if lost:
+            text += f"; lost in {', '.join(map(str, lost))}"
+        return text
+
+    for s in halton + native:
         out.append(
-            f"At {spp} spp {s}'s discrepancy over that of independent points is "
-            f"{fmt(pairs, lambda p: ratio(s, p))}: it keeps its stratification in "
-            f"{', '.join(map(str, kept)) or 'no pair'}"
-            + (f" and loses it in {', '.join(map(str, lost))} (ratio {LOST} or more)"
-               if lost else "") + f"; joint low-frequency power {fmt(pairs, lambda p: joint[(s, p)])}.")
-    for s in native:
+            f"{s} at {spp} spp ({counts[s]} points): {kinds(s)} (discrepancy over that of "
+            f"independent points {fmt(pairs, lambda p: ratio(s, p))}; joint low-frequency "
+            f"power {fmt(pairs, lambda p: joint[(s, p)])}).")
+    if native and within and across:
+        both = [s for s in native if max(joint[(s, p)] for p in across) < JOINT]
         out.append(
-            f"{s} ({counts[s]} points): discrepancy ratio at most "
-            f"{max(ratio(s, p) for p in pairs):.2f} in every pair (each dimension's 1-D "
-            f"projection is stratified), joint low-frequency power "
-            f"{fmt(within, lambda p: joint[(s, p)])} within one next_2d call but "
-            f"{fmt(across, lambda p: joint[(s, p)])} across calls (1: no joint "
-            f"stratification, as paired at random).")
+            f"Mitsuba's samplers stratify each dimension's 1-D projection everywhere; "
+            f"jointly they stratify the two values of one next_2d call "
+            f"({', '.join(map(str, within))})"
+            + (f", and {', '.join(both)} also every pair across calls (an orthogonal array)"
+               if both else "") + f". Counts: ratio {LOST} or more is lost, joint power "
+            f"below {JOINT} is 2-D stratification.")
     nee = (2, 3)
     if nee in pairs and halton and native:
         best = min(native, key=lambda s: ratio(s, nee))
