@@ -19,7 +19,7 @@ from __future__ import annotations
 import sys
 import time
 
-from experiments import convergence, samplers, stability, writeup
+from experiments import convergence, lab, samplers, stability, writeup
 from experiments.lib import cli, report
 
 #: Options passed on to every study: always (SHARED), or when given here (FORWARDED).
@@ -44,6 +44,9 @@ def build_parser() -> cli.Parser:
     p.add_argument("--samplers", choices=("default", "quick", "off"), default="default",
                    help="the sampler study at its own default settings, tiny (quick), "
                         "or not at all")
+    p.add_argument("--lab", choices=("default", "quick", "off"), default="default",
+                   help="the sampling lab (warps and point sets) at its own default "
+                        "settings, tiny (quick), or not at all")
     return p
 
 
@@ -90,6 +93,10 @@ def main(argv=None) -> None:
         samplers.run(study_args(samplers, args, quick + sub_argv(args, samplers)))
     convergence.run(study_args(convergence, args, sub_argv(args, convergence, CONVERGENCE)))
     writeup.run(study_args(writeup, args, sub_argv(args, writeup, WRITEUP)))
+    if args.lab != "off":            # its own BSDFs and samplers: only where, how and seed
+        lab.run(lab.parse([a for k in ("variant", "seed", "out")
+                           for a in (f"--{k}", str(getattr(args, k)))]
+                          + (["--quick"] if args.lab == "quick" else [])))
     if args.stability != "off":
         stability.run(study_args(stability, args, sub_argv(args, stability) + (
             ["--quick"] if args.stability == "quick" else [])))

@@ -441,7 +441,8 @@ def test_run_all_report_lists_every_produced_file_and_reruns_resume(tmp_path, co
     out = tmp_path / "r"
     argv = TINY + ["--spp", "2", "--time-budget", "0.02", "--short-spp", "2",
                    "--halton-spp", "2", "--methods", "uniform,cosine,bsdf,bsdf+nee,path",
-                   "--out", str(out), "--stability", "quick", "--samplers", "quick"]
+                   "--out", str(out), "--stability", "quick", "--samplers", "quick",
+                   "--lab", "quick", "--repeats", "2"]
     run_all.main(argv)
     assert count_jobs
     errors = (out / "convergence" / "errors.csv").read_text()
@@ -461,7 +462,8 @@ def test_run_all_report_lists_every_produced_file_and_reruns_resume(tmp_path, co
     assert stored and not any(f.startswith(store.STORE_DIR + "/") for f in links)
     assert f"holds the {stored} finished render jobs" in page
     sections = [s["name"] for s in report.read_sections(str(out))]
-    assert sections == ["convergence", "writeup", "samplers", "stability", "run_all"]
+    assert sections == ["convergence", "writeup", "samplers", "lab", "stability", "run_all"]
+    assert not any("/cache/" in f or f.startswith("cache/") for f in files)
     eff = (out / "convergence" / "efficiency.md").read_text()
     assert "| bsdf+nee |" in eff and "| path |" in eff
     # the sub-studies honour the options given to run_all (here only --resolution)

@@ -134,14 +134,19 @@ def read_sections(out: str) -> list[dict]:
 PAGE_FILES = ("index.html",) + viewers.ASSETS
 
 
+#: Folders of intermediate data that a rerun reuses (not results).
+CACHE_DIR = "cache"
+
+
 def produced_files(out: str) -> list[str]:
     """Every result file under ``out`` (relative paths): not the page, its viewer's
     scripts and data (``viewer-data/``), the job store (``store/``, summarised by
-    :func:`store_summary`), nor temporaries."""
+    :func:`store_summary`), caches (any ``cache/`` folder: built-in scenes, the lab's
+    finished panels), nor temporaries."""
     found = []
     skip = {viewers.DATA_DIR, store.STORE_DIR}
     for root, dirs, names in os.walk(out):
-        dirs[:] = sorted(d for d in dirs if not d.startswith(".") and
+        dirs[:] = sorted(d for d in dirs if not d.startswith(".") and d != CACHE_DIR and
                          os.path.relpath(os.path.join(root, d), out) not in skip)
         for name in sorted(names):
             rel = os.path.relpath(os.path.join(root, name), out)

@@ -1,0 +1,353 @@
+"""The sampling lab's point sets: what each sampler gives one pixel, as a render draws it.
+
+:func:`draw` drives a sampler as Mitsuba's render loop does in a JIT variant:
+``set_sample_count(spp)`` (Mitsuba's samplers round some counts up: the count
+actually drawn is ``sample_count()`` afterwards), ``set_samples_per_wavefront``
+(C++ samplers only: Mitsuba's C++ render loop calls it, a Python sampler
+never sees that call), ``seed(seed, width * height * spp)``, then the calls a
+path tracer makes in their order, lane ``l`` being sample ``l % spp`` of pixel
+``l // spp``. The tests compare these points with what an instrumented
+``mi.render`` receives.
+
+"Dimension k" is the k-th float a sample draws, counting 2 per ``next_2d``
+(as Mitsuba's samplers count calls, and the bundled ``halton`` counts
+dimensions: dimension k there is the radical inverse in the k-th prime base).
+:data:`PATTERN` is ``vr_path`` with next-event estimation (``bsdf+nee``, the
+sampler study's base method): the camera's ``next_2d`` (film position in the
+pixel; dimensions 0, 1), then per bounce ``next_2d`` (emitter sample),
+``next_1d`` (BSDF lobe choice), ``next_2d`` (direction) and ``next_1d``
+(Russian roulette): 6 dimensions per bounce, bounce b starting at 2 + 6 b.
+Every lane draws every call (masked lanes too), so dimension k is the same
+call in every lane.
+
+Numbers per point set (a pair of dimensions of one pixel's points):
+:func:`centered_discrepancy` (Hickernell's centered L2 discrepancy, squared,
+as ``scipy.stats.qmc.discrepancy(method="CD")``) and :func:`power_spectrum`
+(pbrt-v4's ``pspec``: the periodogram |sum_j exp(-2 pi i k . x_j)|^2 / N on
+the integer frequencies k in [-K, K]^2, radially averaged; 1 everywhere for
+independent points, near 0 at low frequencies for well-stratified ones) and
+:func:`joint_power` (the periodogram's mean at low frequencies off the axes:
+below 1 only where the two dimensions are stratified jointly, which the
+discrepancy, dominated by the 1-D projections, hardly tells from a Latin
+hypercube).
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+#: The calls of one sample, in order: ("2d", what) or ("1d", what).
+CAMERA = (("2d", "camera: film position"),)
+BOUNCE = (("2d", "emitter sample (NEE)"), ("1d", "BSDF lobe choice"),
+          ("2d", "BSDF direction"), ("1d", "Russian roulette"))
+BOUNCES = 5
+PATTERN = CAMERA + BOUNCE * BOUNCES
+#: The dimension pairs the lab shows; (1, 2) crosses two calls on purpose.
+PAIRS = ((0, 1), (2, 3), (10, 11), (30, 31), (1, 2))
+COUNTS = (64, 256)
+#: Samplers of the sampler study (experiments.samplers), as Mitsuba dicts.
+NATIVE = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler")
+VERSION = 4
+
+
+def samplers() -> list[str]:
+    from integrators.qmc import RANDOMIZATIONS
+    return list(NATIVE) + [f"halton:{r}" for r in RANDOMIZATIONS]
+
+
+def sampler_dict(name: str, spp: int) -> dict:
+    kind, _, randomization = name.partition(":")
+    d = {"type": kind, "sample_count": spp}
+    if randomization:
+        d["randomization"] = randomization
+    return d
+
+
+def dimensions(pattern=PATTERN) -> list[tuple[int, str, int]]:
+    """(call index, what, component) of every dimension of ``pattern``."""
+    dims = []
+    for call, (kind, what) in enumerate(pattern):
+        for component in range(2 if kind == "2d" else 1):
+            dims.append((call, what, component))
+    return dims
+
+
+def describe_pair(a: int, b: int, pattern=PATTERN) -> str:
+    """What a pair of dimensions is in ``vr_path`` (bsdf+nee)."""
+    dims = dimensions(pattern)
+
+    def where(call):
+        if call < len(CAMERA):
+            return ""
+        return f" (bounce {(call - len(CAMERA)) // len(BOUNCE) + 1})"
+
+    def one(k):
+        call, what, comp = dims[k]
+        axis = f" {'xy'[comp]}" if pattern[call][0] == "2d" else ""
+        return f"{what}{axis}{where(call)}"
+    if dims[a][0] == dims[b][0]:
+        return f"one next_2d: {dims[a][1]}{where(dims[a][0])}"
+    return f"two calls: {one(a)} / {one(b)}"
+
+
+def is_python_sampler(sampler) -> bool:
+    """A sampler class defined in Python (C++ calls to it are not all forwarded)."""
+    return not type(sampler).__module__.startswith("mitsuba")
+
+
+def draw(name: str, spp: int, seed: int, width: int, height: int, pattern=PATTERN):
+    """(points (pixels, count, dims) float64, count drawn): every sample of every pixel
+    of a width x height render of ``spp`` samples, driven as ``mi.render`` drives it."""
+    import drjit as dr
+    import mitsuba as mi
+    sampler = mi.load_dict(sampler_dict(name, spp))
+    sampler.set_sample_count(spp)
+    count = sampler.sample_count()
+    lanes = width * height * count
+    if not is_python_sampler(sampler):
+        sampler.set_samples_per_wavefront(count)
+    sampler.seed(seed, lanes)
+    values = []
+    for kind, _ in pattern:
+        if kind == "2d":
+            p = sampler.next_2d()
+            values += [p.x, p.y]
+        else:
+            values.append(sampler.next_1d())
+    dr.eval(values)
+    pts = np.stack([np.asarray(v, np.float64) for v in values], axis=1)
+    return pts.reshape(width * height, count, len(values)), count
+
+
+# ------------------------------------------------------------------ numbers
+
+def centered_discrepancy(points: np.ndarray) -> np.ndarray:
+    """Squared centered L2 discrepancy (Hickernell 1998) of point sets ``points``
+    (..., N, d) in [0, 1]^d, as scipy.stats.qmc.discrepancy(method="CD")."""
+    x = np.asarray(points, np.float64)
+    n, d = x.shape[-2], x.shape[-1]
+    c = np.abs(x - 0.5)
+    term1 = (13.0 / 12.0) ** d
+    term2 = np.prod(1.0 + 0.5 * c - 0.5 * c * c, axis=-1).sum(axis=-1) * (2.0 / n)
+    term3 = None
+    for k in range(d):       # one (..., N, N) factor per dimension
+        ck, xk = c[..., k], x[..., k]
+        factor = 1.0 + 0.5 * (ck[..., :, None] + ck[..., None, :]) \
+            - 0.5 * np.abs(xk[..., :, None] - xk[..., None, :])
+        term3 = factor if term3 is None else term3 * factor
+    return term1 - term2 + term3.sum(axis=(-1, -2)) / n ** 2
+
+
+def periodogram(points: np.ndarray, k_max: int) -> np.ndarray:
+    """|sum_j exp(-2 pi i k . x_j)|^2 / N for k in [-k_max, k_max]^2, of point sets
+    ``points`` (..., N, 2): (..., 2 k_max + 1, 2 k_max + 1), axis -2 is k_x.
+
+    The sum factors as sum_j e_x(j, k_x) e_y(j, k_y): one real matrix product of
+    [cos | sin] of both coordinates gives its real and imaginary parts. Only
+    k_x >= 0 is computed; P(-k) = P(k) gives the rest."""
+    # float32 throughout: the spectrum is for display and averages (errors ~1e-5);
+    # einsum, not a threaded BLAS matmul, whose threads stall on a busy machine
+    x = np.asarray(points, np.float32)
+    kx = np.arange(0, k_max + 1, dtype=np.float32)
+    ky = np.arange(-k_max, k_max + 1, dtype=np.float32)
+    ax = np.float32(2.0 * np.pi) * x[..., 0, None] * kx
+    ay = np.float32(2.0 * np.pi) * x[..., 1, None] * ky
+    a = np.concatenate([np.cos(ax), np.sin(ax)], axis=-1)        # (..., N, 2 (K + 1))
+    b = np.concatenate([np.cos(ay), np.sin(ay)], axis=-1)        # (..., N, 2 (2K + 1))
+    m = np.einsum("...nk,...nl->...kl", a, b)
+    nx, ny = len(kx), len(ky)
+    re = m[..., :nx, :ny] - m[..., nx:, ny:]
+    im = m[..., :nx, ny:] + m[..., nx:, :ny]
+    half = (re.astype(np.float64) ** 2 + im.astype(np.float64) ** 2) / x.shape[-2]
+    # k_x < 0: P(-k_x, k_y) = P(k_x, -k_y)
+    neg = half[..., :0:-1, ::-1]
+    return np.concatenate([neg, half], axis=-2)
+
+
+def radial_average(spectrum: np.ndarray, k_max: int) -> tuple[np.ndarray, np.ndarray]:
+    """(frequencies 1..k_max, mean of ``spectrum`` over |k| in [f - 0.5, f + 0.5))."""
+    k = np.arange(-k_max, k_max + 1)
+    r = np.sqrt(k[:, None] ** 2 + k[None, :] ** 2)
+    bins = np.rint(r).astype(int)
+    freqs = np.arange(1, k_max + 1)
+    flat = spectrum.reshape(-1, spectrum.shape[-2] * spectrum.shape[-1])
+    out = np.stack([flat[:, (bins == f).ravel()].mean(axis=1) for f in freqs], axis=1)
+    return freqs, out.reshape(spectrum.shape[:-2] + (len(freqs),))
+
+
+def power_spectrum(points: np.ndarray, k_max: int) -> tuple[np.ndarray, np.ndarray, float]:
+    """Radially averaged power spectrum of point sets (..., N, 2), averaged over
+    every leading axis (pixels, randomizations): (frequencies, power, joint power),
+    see :func:`joint_power`."""
+    p = periodogram(points, k_max)
+    p = p.reshape((-1,) + p.shape[-2:]).mean(axis=0)
+    freqs, power = radial_average(p, k_max)
+    return freqs, power, joint_power(p, k_max, points.shape[-2])
+
+
+def joint_power(mean_periodogram: np.ndarray, k_max: int, n: int) -> float:
+    """Mean power at the low frequencies off the axes: 0 < |k_x|, 0 < |k_y|, |k| <=
+    sqrt(N) / 2. 1-D stratification of either coordinate (a Latin hypercube, two
+    stratified calls paired at random) lowers only the axes k_x = 0 or k_y = 0;
+    this number falls below 1 only where the pair is stratified jointly."""
+    k = np.arange(-k_max, k_max + 1)
+    kx, ky = np.meshgrid(k, k, indexing="ij")
+    radius = max(1.0, math.sqrt(n) / 2.0)
+    sel = (kx != 0) & (ky != 0) & (kx ** 2 + ky ** 2 <= radius ** 2)
+    return float(mean_periodogram[sel].mean())
+
+
+# --------------------------------------------------------------- a point set
+
+@dataclass(frozen=True)
+class PointSpec:
+    sampler: str
+    spp: int
+    seeds: tuple = (0,)
+    width: int = 8
+    height: int = 8
+    k_max: float = 1.5      # frequencies up to k_max * sqrt(count) (a stratified set's
+                            # dip lies below sqrt(count))
+    cd_pixels: int = 16     # pixels whose discrepancy is computed (O(N^2) each)
+    spectrum_points: int = 2048  # spectra averaged over this many points' pixels (>= 8)
+    scatter_pixel: int = 0
+
+    def key(self) -> str:
+        text = json.dumps({"v": VERSION, **self.__dict__, "pattern": PATTERN, "pairs": PAIRS},
+                          sort_keys=True, default=list)
+        slug = self.sampler.replace(":", "-")
+        return f"{slug}-{self.spp}-{hashlib.sha1(text.encode()).hexdigest()[:10]}"
+
+
+def compute(spec: PointSpec) -> dict:
+    """Per pair: the scatter (the points of one pixel, first seed), the discrepancy of
+    every pixel and seed, and the power spectrum averaged over them."""
+    sets = []
+    count = None
+    for seed in spec.seeds:
+        pts, count = draw(spec.sampler, spec.spp, seed, spec.width, spec.height)
+        sets.append(pts)
+    pts = np.stack(sets)                         # (seeds, pixels, count, dims)
+    out = {"count": count}
+    for a, b in PAIRS:
+        pair = pts[..., [a, b]]
+        tag = f"{a}_{b}"
+        out[f"scatter_{tag}"] = pair[0, spec.scatter_pixel].astype(np.float32)
+        out[f"cd_{tag}"] = centered_discrepancy(pair[:, :spec.cd_pixels]).ravel()
+        sets = max(8, spec.spectrum_points // count)
+        freqs, power, joint = power_spectrum(pair[:, :sets],
+                                             int(math.ceil(spec.k_max * math.sqrt(count))))
+        out[f"power_{tag}"] = power
+        out[f"joint_{tag}"] = joint
+        out["freqs"] = freqs
+    return out
+
+
+def cached(spec: PointSpec, cache_dir: str) -> dict:
+    """:func:`compute`, or the result an earlier run stored for the same settings."""
+    import os
+    from . import store
+    path = os.path.join(cache_dir, spec.key() + ".npz")
+    data = store.read_npz(path)
+    if data is not None:
+        data["count"] = int(data["count"])
+        return data
+    result = compute(spec)
+    store.write_npz(path, **{k: np.asarray(v) for k, v in result.items()})
+    return result
+
+
+def random_expectation(count: int, d: int = 2) -> float:
+    """E[squared CD] of ``count`` independent uniform points in d dimensions:
+    ((5/4)^d - (13/12)^d) / count (the kernel's mean on the diagonal minus its mean)."""
+    return ((5.0 / 4.0) ** d - (13.0 / 12.0) ** d) / count
+
+
+#: Ratio of a pair's discrepancy to independent points' expectation above which
+#: the lab says the pair has lost its stratification.
+LOST = 0.5
+#: Joint low-frequency power (see joint_power) below which a pair is stratified in 2-D.
+JOINT = 0.8
+
+
+def conclude(cd: dict, joint: dict, counts: dict, spp: int) -> list[str]:
+    """Sentences from ``cd[(sampler, pair)]`` (mean squared CD) and ``joint[(sampler,
+    pair)]`` (:func:`joint_power`) at ``spp`` requested (``counts[sampler]`` drawn):
+    which pairs each sampler stratifies, which halton loses, and what that means for
+    the sampler study."""
+    def ratio(s, pair):
+        return cd[(s, pair)] / random_expectation(counts[s])
+
+    def fmt(pairs_, f, digits=2):
+        return ", ".join(f"({a},{b}) {f(p):.{digits}f}" for p in pairs_ for a, b in [p])
+
+    names = list(dict.fromkeys(s for s, _ in cd))
+    pairs = sorted({p for _, p in cd}, key=PAIRS.index)
+    within = [p for p in pairs if describe_pair(*p).startswith("one next_2d")]
+    across = [p for p in pairs if p not in within]
+    out = []
+    halton = [s for s in names if s.startswith("halton:") and s != "halton:none"]
+    native = [s for s in names if not s.startswith("halton") and s != "independent"]
+    def kinds(s):
+        """Pairs stratified jointly (2-D), only through each coordinate (1-D), or lost."""
+        two = [p for p in pairs if ratio(s, p) < LOST and joint[(s, p)] < JOINT]
+        one = [p for p in pairs if ratio(s, p) < LOST and p not in two]
+        lost = [p for p in pairs if ratio(s, p) >= LOST]
+        parts = [f"{label} in {', '.join(map(str, ps))}" for label, ps in
+                 (("jointly (2-D)", two), ("only per coordinate (1-D)", one)) if ps]
+        text = "stratified " + "; ".join(parts) if parts else "stratified in no pair"
+        if lost:
+            text += f"; lost in {', '.join(map(str, lost))}"
+        return text
+
+    for s in halton + native:
+        out.append(
+            f"{s} at {spp} spp ({counts[s]} points): {kinds(s)} (discrepancy over that of "
+            f"independent points {fmt(pairs, lambda p: ratio(s, p))}; joint low-frequency "
+            f"power {fmt(pairs, lambda p: joint[(s, p)])}).")
+    if native and within and across:
+        both = [s for s in native if max(joint[(s, p)] for p in across) < JOINT]
+        out.append(
+            f"Mitsuba's samplers stratify each dimension's 1-D projection everywhere; "
+            f"jointly they stratify the two values of one next_2d call "
+            f"({', '.join(map(str, within))})"
+            + (f", and {', '.join(both)} also every pair across calls (an orthogonal array)"
+               if both else "") + f". Counts: ratio {LOST} or more is lost, joint power "
+            f"below {JOINT} is 2-D stratification.")
+    nee = (2, 3)
+    if nee in pairs and halton and native:
+        best = min(native, key=lambda s: ratio(s, nee))
+        h = min(halton, key=lambda s: ratio(s, nee))
+        less = ratio(h, nee) > ratio(best, nee)
+        out.append(
+            f"What it means for the sampler study: dims (2,3) are the first bounce's emitter "
+            f"sample, which sets the direct light that dominates the error at max_depth 2; "
+            f"there {h} reaches {ratio(h, nee):.3f} of independent's discrepancy and "
+            f"{best} {ratio(best, nee):.3f} (joint power {joint[(h, nee)]:.2f} against "
+            f"{joint[(best, nee)]:.2f}), so halton stratifies the NEE sample "
+            f"{'less' if less else 'more'} than the best native sampler"
+            + (", in line with the sampler study's finding that halton trails the best "
+               "native sampler in MSE at depth 2." if less else "."))
+        deep = [p for p in ((10, 11), (30, 31)) if p in pairs]
+        if deep:
+            grow = {s: max(ratio(s, p) for p in deep) for s in halton + native}
+            out.append(
+                f"Deeper bounces ({', '.join(map(str, deep))}, which matter only at larger "
+                f"max_depth): halton's ratio rises to "
+                f"{', '.join(f'{grow[s]:.2f} ({s})' for s in halton)} (its bases, "
+                f"{', '.join(str(b) for b in _bases(deep))}, are large against {spp} "
+                f"samples: a base-b dimension is stratified only once the count reaches b), "
+                f"while the native samplers stay at "
+                f"{', '.join(f'{grow[s]:.2f} ({s})' for s in native)}; so at depth 8 halton's "
+                f"extra bounces are sampled little better than by independent points.")
+    return out
+
+
+def _bases(pairs_) -> list[int]:
+    from integrators import qmc
+    primes = qmc._first_primes(64)
+    return sorted({int(primes[k]) for p in pairs_ for k in p})

@@ -1,0 +1,428 @@
+"""The sampling lab's warp panels: each ``vr_path`` strategy as a warp on one BSDF.
+
+A panel is one strategy (``integrators.choices.STRATEGIES``) on one BSDF at
+one incidence angle. Everything comes from the plugin itself:
+``integrators.path.sample_direction`` draws the directions (through
+``dr.dispatch``, as the render loop does) and ``integrators.path.direction_pdf``
+is the density the strategy reports; nothing here re-derives a density.
+
+The grid is the equal-area (Lambert cylindrical) projection of the sphere:
+x = phi in [-pi, pi], y = cos(theta) in [-1, 1], so equal areas in the
+picture are equal solid angles (d omega = d phi d cos theta). On it a panel
+holds:
+
+- ``histogram``: weighted counts of ``samples`` directions (weight 0 for
+  draws the strategy did not make, e.g. a failed BSDF sample);
+- ``expected``: the strategy's density integrated over every cell, times
+  ``samples`` (tabulated by ``mitsuba.chi2.ChiSquareTest.tabulate_pdf``, the
+  trapezoid rule with ``ires`` x ``ires`` points per cell);
+- ``fcos``: the integrand f * cos integrated over every cell (same rule);
+- ``p_value``: Pearson's chi-square test of ``histogram`` against
+  ``expected``, cells with expected count below 5 pooled in increasing order
+  of expected count as ``mitsuba.chi2`` does (computed here in numpy; the
+  tests check it equals ``ChiSquareTest``'s for the same seed and grid);
+- ``max_z``: the largest standardized residual (histogram - expected) /
+  sqrt(expected) over the cells: about 4-5 for a correct density at this grid
+  size, far more where the reported density is wrong;
+- ``rel_variance``: Var[w] / E[w]^2 of the per-sample weight w = f cos / pdf
+  (the ``weight`` the render loop multiplies its throughput by, mean over RGB),
+  estimated from the same samples: the relative variance of a one-sample
+  estimate of the BSDF's albedo, which sets how many samples a bounce needs.
+
+The uniform variates are Mitsuba's chi-square test's own (TEA-hashed PCG32
+streams, see :func:`variates`), so a panel and ``ChiSquareTest`` with the same
+seed draw the same directions.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+#: Pool threshold of the chi-square test (expected count per cell), as mitsuba.chi2.
+POOL_THRESHOLD = 5.0
+#: Incidence angles of the lab (degrees from the normal).
+INCIDENCES = (0.0, 60.0, 85.0)
+#: The BSDFs of the lab: (label, Mitsuba dict). Phong with the bundled scene's
+#: glossy sphere's specular reflectance (0.7) and a small diffuse part.
+BSDFS = tuple(
+    [(f"phong n={n:g}", {"type": "phong", "diffuse_reflectance": 0.2,
+                         "specular_reflectance": 0.7, "exponent": float(n)})
+     for n in (1, 10, 100, 1000)]
+    + [("roughconductor a=0.1", {"type": "roughconductor", "alpha": 0.1}),
+       ("roughdielectric a=0.3", {"type": "roughdielectric", "alpha": 0.3, "int_ior": 1.5})])
+#: Version of the panel computation; part of every cache key.
+VERSION = 1
+#: Phong exponents from which a panel's grid is a cap about the lobe (see domain_for).
+CAP_EXPONENT = 100
+CAP_LOBE_WIDTHS = 12.0
+
+
+@dataclass(frozen=True)
+class PanelSpec:
+    """One panel: a strategy on one BSDF at one incidence, and the grid."""
+    bsdf_label: str
+    bsdf: dict
+    strategy: str
+    incidence_deg: float
+    samples: int = 1_000_000
+    seed: int = 0
+    res: int = 101          # cells along each axis of the equal-area grid
+    ires: int = 16          # integration points per cell and axis (>= 2)
+    scatter: int = 3000     # directions kept for the scatter plot
+
+    def key(self) -> str:
+        """Cache key: a hash of every setting (and of VERSION)."""
+        text = json.dumps({"v": VERSION, "bsdf": self.bsdf, "strategy": self.strategy,
+                           "incidence": self.incidence_deg, "samples": self.samples,
+                           "seed": self.seed, "res": self.res, "ires": self.ires,
+                           "scatter": self.scatter}, sort_keys=True)
+        slug = f"{self.bsdf_label}-{self.strategy}-{self.incidence_deg:g}".replace(" ", "_")
+        slug = "".join(c if c.isalnum() or c in "-_." else "_" for c in slug)
+        return f"{slug}-{hashlib.sha1(text.encode()).hexdigest()[:10]}"
+
+
+def plan(strategies, samples: int, seed: int, bsdfs=BSDFS, incidences=INCIDENCES,
+         **grid) -> list[PanelSpec]:
+    """Every (BSDF, incidence, strategy) panel, each with its own seed (correlated
+    p-values otherwise: every panel would draw the same variates)."""
+    specs = []
+    for label, bsdf in bsdfs:
+        for inc in incidences:
+            for strategy in strategies:
+                specs.append(PanelSpec(label, bsdf, strategy, float(inc), samples,
+                                       seed * 7919 + len(specs), **grid))
+    return specs
+
+
+# ------------------------------------------------------------------ domain
+
+class EqualAreaDomain:
+    """mitsuba.chi2 domain: (phi, cos alpha) about ``axis``, cos alpha in
+    [``cos_min``, 1], square grid (aspect 1); y grows towards the axis. The
+    default is the whole sphere about the normal (y = cos theta)."""
+
+    def __init__(self, axis=(0.0, 0.0, 1.0), cos_min: float = -1.0):
+        self.axis = tuple(float(a) for a in axis)
+        self.cos_min = float(cos_min)
+
+    def _frame(self):
+        import drjit as dr
+        import mitsuba as mi
+        return mi.Frame3f(dr.normalize(mi.Vector3f(*self.axis)))
+
+    def bounds(self):
+        import mitsuba as mi
+        return mi.ScalarBoundingBox2f([-math.pi, self.cos_min], [math.pi, 1.0])
+
+    def aspect(self):
+        return 1.0
+
+    def map_forward(self, p):
+        import drjit as dr
+        import mitsuba as mi
+        sin_t = dr.safe_sqrt(1.0 - dr.square(p.y))
+        sin_p, cos_p = dr.sincos(p.x)
+        return self._frame().to_world(mi.Vector3f(cos_p * sin_t, sin_p * sin_t, p.y))
+
+    def map_backward(self, v):
+        import drjit as dr
+        import mitsuba as mi
+        local = self._frame().to_local(v)
+        return mi.Vector2f(dr.atan2(local.y, local.x), dr.clip(local.z, self.cos_min, 1.0))
+
+    def inside(self, v):
+        """Directions inside the domain (all of them for the whole sphere)."""
+        return self._frame().to_local(v).z >= self.cos_min
+
+    def describe(self) -> str:
+        if self.cos_min <= -1.0:
+            return "whole sphere, (phi, cos theta)"
+        return (f"cap of half-angle {math.degrees(math.acos(self.cos_min)):.1f} deg about the "
+                f"mirror direction, (phi, cos alpha)")
+
+
+def domain_for(spec: "PanelSpec") -> EqualAreaDomain:
+    """The grid of a panel: the whole sphere, except for Phong lobes of exponent
+    >= CAP_EXPONENT, which would fall into a row or two of cells of a sphere
+    grid (the tabulated density is then not accurate enough for 10^6 samples):
+    for those a cap of CAP_LOBE_WIDTHS lobe widths about the mirror direction
+    (as tests/_chi2.py's CapDomain)."""
+    n = spec.bsdf.get("exponent") if spec.bsdf.get("type") == "phong" else None
+    if n is None or n < CAP_EXPONENT:
+        return EqualAreaDomain()
+    t = math.radians(spec.incidence_deg)
+    return EqualAreaDomain((-math.sin(t), 0.0, math.cos(t)),
+                           max(-1.0, 1.0 - CAP_LOBE_WIDTHS / (n + 1.0)))
+
+
+# ----------------------------------------------------------- the plugin
+
+def incident(incidence_deg: float):
+    """Local incident direction in the xz plane, ``incidence_deg`` from the normal."""
+    import mitsuba as mi
+    t = math.radians(incidence_deg)
+    return mi.Vector3f(math.sin(t), 0.0, math.cos(t))
+
+
+def interaction(wi, n: int):
+    """``n`` surface interactions with local incident direction ``wi``, z-up frame."""
+    import drjit as dr
+    import mitsuba as mi
+    si = dr.zeros(mi.SurfaceInteraction3f, n)
+    si.wi = wi
+    si.uv = mi.Point2f(0.5, 0.5)
+    si.sh_frame = mi.Frame3f(mi.Vector3f(0, 0, 1))
+    si.n = mi.Normal3f(0, 0, 1)
+    return si
+
+
+def variates(count: int, seed: int, dim: int = 3):
+    """The uniform variates mitsuba.chi2.ChiSquareTest draws for ``seed``: one
+    PCG32 stream per sample, state and sequence hashed by TEA from the index."""
+    import drjit as dr
+    import mitsuba as mi
+    idx = dr.arange(mi.UInt64, count)
+    v0, v1 = mi.sample_tea_32(idx, seed)
+    rng = mi.PCG32(initstate=v0, initseq=v1)
+    out = mi.Vector3f() if dim == 3 else getattr(mi, f"Vector{dim}f")()
+    for i in range(dim):
+        out[i] = rng.next_float32() if mi.Float is mi.Float32 else rng.next_float64()
+    return out
+
+
+def sample_func(strategy: str, bsdf, wi, domain=None, path_module=None):
+    """``u -> (wo, weight)`` for mitsuba.chi2: ``vr_path``'s own direction sampling,
+    weight 1 where a direction was drawn (inside ``domain``), 0 elsewhere (parked
+    at the domain's axis)."""
+    import drjit as dr
+    import mitsuba as mi
+    path = path_module or _path()
+    domain = domain or EqualAreaDomain()
+    ctx = mi.BSDFContext()
+    ptr = mi.BSDFPtr(bsdf)
+    axis = dr.normalize(mi.Vector3f(*domain.axis))
+
+    def sample(u):
+        ds = path.sample_direction(strategy, ptr, ctx, interaction(wi, dr.width(u)), u.x,
+                                   mi.Point2f(u.y, u.z))
+        counted = (ds.pdf > 0) & domain.inside(ds.wo)
+        return dr.select(counted, ds.wo, axis), dr.select(counted, 1.0, 0.0)
+    return sample
+
+
+def pdf_func(strategy: str, bsdf, wi, path_module=None):
+    """``wo -> density`` reported by the strategy (``direction_pdf``)."""
+    import drjit as dr
+    import mitsuba as mi
+    path = path_module or _path()
+    ctx = mi.BSDFContext()
+
+    def pdf(wo):
+        return path.direction_pdf(strategy, bsdf, ctx, interaction(wi, dr.width(wo)), wo)
+    return pdf
+
+
+def fcos_func(bsdf, wi):
+    """``wo -> f * cos`` (``bsdf.eval``, mean over RGB)."""
+    import drjit as dr
+    import mitsuba as mi
+    ctx = mi.BSDFContext()
+
+    def fcos(wo):
+        value = bsdf.eval(ctx, interaction(wi, dr.width(wo)), wo)
+        return dr.mean(mi.unpolarized_spectrum(value))
+    return fcos
+
+
+def _path():
+    import integrators.path
+    return integrators.path
+
+
+def tabulate(domain, func, samples: int, res: int, ires: int) -> np.ndarray:
+    """Integral of ``func`` over every cell of ``domain``'s grid, times ``samples``,
+    (res, res), rows in increasing cos: mitsuba.chi2's own trapezoid tabulation."""
+    import mitsuba as mi
+    test = mi.chi2.ChiSquareTest(domain=domain, sample_func=None, pdf_func=func,
+                                 sample_dim=3, sample_count=samples, res=res, ires=ires)
+    test.tabulate_pdf()
+    return np.asarray(test.pdf, np.float64).reshape(res, res)
+
+
+def cell_index(domain, xy, res: int):
+    """Cell of every equal-area point ``xy`` (mi.Vector2f) on ``domain``'s (res, res)
+    grid, row-major (mi.UInt32), computed as mitsuba.chi2 bins its samples: in
+    float32, cell = floor(normalized position * res), clamped."""
+    import drjit as dr
+    import mitsuba as mi
+    bounds = domain.bounds()
+    c = (xy - bounds.min) / bounds.extents()
+    c = mi.Vector2u(dr.clip(c * mi.Vector2f(res), 0, mi.Vector2f(res - 1)))
+    return c.x + c.y * res
+
+
+def histogram(cells: np.ndarray, weights: np.ndarray, res: int) -> np.ndarray:
+    """Weighted counts per cell (``cells`` from :func:`cell_index`), (res, res)."""
+    flat = np.bincount(np.asarray(cells, np.int64), weights=weights, minlength=res * res)
+    return flat.reshape(res, res)
+
+
+def chi2_test(observed: np.ndarray, expected: np.ndarray, order=None) -> tuple[float, int, float]:
+    """Pearson's chi-square statistic, degrees of freedom and p-value of ``observed``
+    against ``expected`` counts. Cells are taken in increasing expected count
+    (``order``: that permutation, else a stable argsort); cells below
+    POOL_THRESHOLD are pooled into groups until a group exceeds it, as
+    mitsuba.chi2. A sample in a cell of expected count 0 gives p = 0."""
+    from scipy import stats
+    obs = np.asarray(observed, np.float64).ravel()
+    exp = np.asarray(expected, np.float64).ravel()
+    if np.any((exp == 0) & (obs != 0)):
+        return math.inf, 0, 0.0
+    order = np.argsort(exp, kind="stable") if order is None else np.asarray(order)
+    obs, exp = obs[order], exp[order]
+    high = exp >= POOL_THRESHOLD
+    stat = float(np.sum((obs[high] - exp[high]) ** 2 / exp[high]))
+    dof = int(np.count_nonzero(high))
+    low = ~high & ((obs != 0) | (exp != 0))
+    pooled_obs = pooled_exp = 0.0
+    for o, e in zip(obs[low], exp[low]):
+        pooled_obs += o
+        pooled_exp += e
+        if pooled_exp > POOL_THRESHOLD:
+            stat += (pooled_obs - pooled_exp) ** 2 / pooled_exp
+            pooled_obs = pooled_exp = 0.0
+            dof += 1
+    dof -= 1
+    if dof < 1:
+        return stat, dof, 0.0
+    return stat, dof, float(stats.chi2.sf(stat, dof))
+
+
+def drjit_order(expected: np.ndarray) -> np.ndarray:
+    """The cell order mitsuba.chi2 uses (``dr.argsort`` of the expected counts):
+    ties among pooled cells are then grouped exactly as there."""
+    import drjit as dr
+    import mitsuba as mi
+    return np.asarray(dr.argsort(mi.Float(np.asarray(expected, np.float32).ravel())))
+
+
+# ----------------------------------------------------------------- panel
+
+def compute(spec: PanelSpec, path_module=None) -> dict:
+    """Every array and number of one panel (see the module docs)."""
+    import drjit as dr
+    import mitsuba as mi
+    path = path_module or _path()
+    bsdf = mi.load_dict(spec.bsdf)
+    wi = incident(spec.incidence_deg)
+    u = variates(spec.samples, spec.seed)
+    n = spec.samples
+    ctx = mi.BSDFContext()
+    ds = path.sample_direction(spec.strategy, mi.BSDFPtr(bsdf), ctx, interaction(wi, n),
+                               u.x, mi.Point2f(u.y, u.z))
+    drawn = ds.pdf > 0
+    domain = domain_for(spec)
+    wo = dr.select(drawn, ds.wo, mi.Vector3f(0, 0, 1))
+    counted = drawn & domain.inside(wo)
+    weight = dr.select(drawn, dr.mean(mi.unpolarized_spectrum(ds.weight)), 0.0)
+    xy_dr = domain.map_backward(wo)
+    cells = cell_index(domain, xy_dr, spec.res)
+    dr.eval(xy_dr, cells, weight, drawn, counted)
+    drawn_np = np.asarray(drawn)
+    counted_np = np.asarray(counted)
+    w = np.asarray(weight, np.float64)
+    hist = histogram(np.asarray(cells), counted_np.astype(np.float64), spec.res)
+    expected = tabulate(domain, pdf_func(spec.strategy, bsdf, wi, path), n, spec.res, spec.ires)
+    fcos = tabulate(domain, fcos_func(bsdf, wi), 1, spec.res, spec.ires)
+    stat, dof, p = chi2_test(hist, expected, drjit_order(expected))
+    mean_w = float(np.mean(w))
+    second = float(np.mean(w * w))
+    rel_var = second / mean_w ** 2 - 1.0 if mean_w > 0 else math.inf
+    keep = np.flatnonzero(counted_np)[:spec.scatter]
+    xy = np.stack([np.asarray(xy_dr.x)[keep], np.asarray(xy_dr.y)[keep]], axis=1)
+    return {"histogram": hist.astype(np.float32), "expected": expected.astype(np.float32),
+            "fcos": fcos.astype(np.float32), "scatter": xy.astype(np.float32),
+            "p_value": p, "chi2": stat, "dof": dof, "rel_variance": rel_var,
+            "albedo": mean_w, "drawn": float(np.mean(drawn_np)),
+            "in_grid": float(np.mean(counted_np)), "cos_min": domain.cos_min,
+            "max_weight": float(np.max(w)) if n else 0.0,
+            "max_z": float(np.max(np.abs(hist - expected) / np.sqrt(np.maximum(expected, 1.0))))}
+
+
+SCALARS = ("p_value", "chi2", "dof", "rel_variance", "albedo", "drawn", "in_grid", "cos_min",
+           "max_weight", "max_z")
+
+
+def cached(spec: PanelSpec, cache_dir: str) -> dict:
+    """:func:`compute`, or the panel stored under ``cache_dir`` by an earlier run with
+    the same settings (written atomically, so an interrupted run loses only the
+    panel it was computing)."""
+    import os
+    from . import store
+    path = os.path.join(cache_dir, spec.key() + ".npz")
+    data = store.read_npz(path)
+    if data is not None:
+        return {k: (float(v) if k in SCALARS else v) for k, v in data.items()}
+    panel = compute(spec)
+    store.write_npz(path, **{k: np.asarray(v) for k, v in panel.items()})
+    return panel
+
+
+#: Relative variance of the weight above which the lab says it explodes: one
+#: bounce then needs that many samples for a 100% relative error (one sample of
+#: a perfectly matched strategy has 0), and a path multiplies the factors.
+EXPLODES = 10.0
+
+
+def significance(panels: int, level: float = 0.01) -> float:
+    """Sidak-corrected significance level for ``panels`` tests at family level ``level``."""
+    return 1.0 - (1.0 - level) ** (1.0 / max(1, panels))
+
+
+def conclude(rows: list[dict]) -> list[str]:
+    """Sentences from the panel rows (dicts with bsdf, incidence_deg, strategy,
+    p_value, rel_variance): do the densities hold, and where does the weight's
+    relative variance explode."""
+    alpha = significance(len(rows))
+    failed = [r for r in rows if not r["p_value"] >= alpha]
+    lowest = min(rows, key=lambda r: r["p_value"])
+    out = []
+    if failed:
+        out.append(f"{len(failed)} of {len(rows)} panels reject the strategy's density at 1% "
+                   f"(Sidak over the panels: p < {alpha:.1e}): " + "; ".join(
+                       f"{r['strategy']} on {r['bsdf']} at {r['incidence_deg']:g} deg "
+                       f"(p = {r['p_value']:.1e})" for r in failed) + ".")
+    else:
+        out.append(f"Every one of the {len(rows)} panels accepts the strategy's density at 1% "
+                   f"(Sidak over the panels: p >= {alpha:.1e}; lowest p = "
+                   f"{lowest['p_value']:.3g}, {lowest['strategy']} on {lowest['bsdf']} at "
+                   f"{lowest['incidence_deg']:g} deg): the directions vr_path draws follow the "
+                   f"density it weights them by.")
+    strategies = list(dict.fromkeys(r["strategy"] for r in rows))
+    for s in strategies:
+        mine = [r for r in rows if r["strategy"] == s]
+        bad = [r for r in mine if r["rel_variance"] > EXPLODES]
+        worst = max(mine, key=lambda r: r["rel_variance"])
+        where = sorted({r["bsdf"] for r in bad})
+        out.append(f"{s}: Var[w]/E[w]^2 above {EXPLODES:g} in {len(bad)} of {len(mine)} "
+                   f"configurations" + (f" ({', '.join(where)})" if where else "")
+                   + f"; largest {worst['rel_variance']:.3g} ({worst['bsdf']} at "
+                   f"{worst['incidence_deg']:g} deg).")
+    by = {}
+    for r in rows:
+        by.setdefault((r["bsdf"], r["incidence_deg"]), {})[r["strategy"]] = r["rel_variance"]
+    wins = {}
+    for cfg, vals in by.items():
+        best = min(vals, key=vals.get)
+        wins[best] = wins.get(best, 0) + 1
+    out.append("Lowest relative variance per configuration: " + ", ".join(
+        f"{s} in {n}" for s, n in sorted(wins.items(), key=lambda kv: -kv[1]))
+        + f" of {len(by)}. Where a strategy's relative variance explodes, a bounce needs that "
+          f"many times more samples for the same error, and over several bounces the factors "
+          f"multiply: these are the configurations where the stability study sees that "
+          f"strategy's images stay dark with fireflies.")
+    return out
