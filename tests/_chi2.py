@@ -16,23 +16,14 @@ import math
 import drjit as dr
 import mitsuba as mi
 
+from experiments.lib.lab_warps import interaction  # noqa: F401  (one definition)
+
 SIGNIFICANCE = 0.01
 
 
 def incident(cos_theta: float) -> mi.Vector3f:
     """Local incident direction in the xz plane with cos(theta) = ``cos_theta``."""
     return mi.Vector3f(math.sqrt(max(0.0, 1 - cos_theta ** 2)), 0.0, cos_theta)
-
-
-def interaction(wi, n: int) -> mi.SurfaceInteraction3f:
-    """``n`` surface interactions with local incident direction ``wi``, a z-up frame
-    and uv (0.5, 0.5), for calling a BSDF outside a render."""
-    si = dr.zeros(mi.SurfaceInteraction3f, n)
-    si.wi = wi
-    si.uv = mi.Point2f(0.5, 0.5)
-    si.sh_frame = mi.Frame3f(mi.Vector3f(0, 0, 1))
-    si.n = mi.Normal3f(0, 0, 1)
-    return si
 
 
 def cap_cos_min(exponent: float, lobe_widths: float = 12.0) -> float:

@@ -273,30 +273,20 @@ def histogram(cells: np.ndarray, weights: np.ndarray, res: int) -> np.ndarray:
 
 def chi2_test(observed: np.ndarray, expected: np.ndarray, order=None) -> tuple[float, int, float]:
     """Pearson's chi-square statistic, degrees of freedom and p-value of ``observed``
-    against ``expected`` counts. Cells are taken in increasing expected count
-    (``order``: that permutation, else a stable argsort); cells below
-    POOL_THRESHOLD are pooled into groups until a group exceeds it, as
-    mitsuba.chi2. A sample in a cell of expected count 0 gives p = 0."""
+    against ``expected`` counts, as mitsuba.chi2.ChiSquareTest.run computes them: cells
+    in increasing expected count (``order``: that permutation, else :func:`drjit_order`),
+    low cells pooled by Mitsuba's own ``mi.math.chi2`` (threshold POOL_THRESHOLD). A
+    sample in a cell of expected count 0 gives p = 0."""
+    import mitsuba as mi
     from scipy import stats
     obs = np.asarray(observed, np.float64).ravel()
     exp = np.asarray(expected, np.float64).ravel()
     if np.any((exp == 0) & (obs != 0)):
         return math.inf, 0, 0.0
-    order = np.argsort(exp, kind="stable") if order is None else np.asarray(order)
-    obs, exp = obs[order], exp[order]
-    high = exp >= POOL_THRESHOLD
-    stat = float(np.sum((obs[high] - exp[high]) ** 2 / exp[high]))
-    dof = int(np.count_nonzero(high))
-    low = ~high & ((obs != 0) | (exp != 0))
-    pooled_obs = pooled_exp = 0.0
-    for o, e in zip(obs[low], exp[low]):
-        pooled_obs += o
-        pooled_exp += e
-        if pooled_exp > POOL_THRESHOLD:
-            stat += (pooled_obs - pooled_exp) ** 2 / pooled_exp
-            pooled_obs = pooled_exp = 0.0
-            dof += 1
-    dof -= 1
+    order = drjit_order(exp) if order is None else np.asarray(order)
+    stat, dof, _, _ = mi.math.chi2(mi.Float64(obs[order]), mi.Float64(exp[order]),
+                                   POOL_THRESHOLD)
+    stat, dof = float(stat[0] if hasattr(stat, "__len__") else stat), int(dof)
     if dof < 1:
         return stat, dof, 0.0
     return stat, dof, float(stats.chi2.sf(stat, dof))
