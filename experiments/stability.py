@@ -23,7 +23,7 @@ from experiments.lib.sweeps import BREAK_FACTOR, NAME, NORMAL, QUICK, REGISTRY, 
 
 ORDER = 40
 QUICK_DEFAULTS = {"resolution": (32, 16), "spp": 4, "reference_spp": 16}
-#: Independent repeats of every sweep render (each at --spp), for the intervals.
+#: Independent repeats of every sweep render, for the intervals (--spp split over them).
 REPEATS = 2
 #: The sweeps' shared state under its former name (tests/test_experiments.py builds it).
 Sweeps = Context
@@ -41,8 +41,10 @@ def build_parser() -> cli.Parser:
     p.add_argument("--sweeps", type=sweep_list, default=",".join(REGISTRY),
                    help=f"comma-separated sweeps to run: {', '.join(REGISTRY)}")
     p.add_argument("--repeats", type=cli.positive_int, default=REPEATS, metavar="R",
-                   help="independent randomizations of every sweep render (each at --spp); "
-                        "errors are means over them with 95%% intervals (1: no interval)")
+                   help="independent randomizations of every sweep render: --spp (and the "
+                        "Halton ladder's 64) is split over them, so each repeat renders "
+                        "spp / R; errors are means over them with 95%% intervals (1: no "
+                        "interval, and today's single renders)")
     return p
 
 
@@ -114,10 +116,10 @@ def run(args) -> None:
     blocks += outliers.blocks
     notes += outliers.notes
     blocks.append(report.text("Closing note, per sweep: " + " ".join(notes)))
-    strategies = REGISTRY["light"].methods(ctx)[:-1]
     settings = {"scene": args.scene, "resolution": f"{ctx.width}x{ctx.height}", "spp": args.spp,
-                "repeats": ctx.repeats, "sweeps": ", ".join(args.sweeps), "quick": args.quick,
-                "strategies (light, halton sweeps)": ", ".join(strategies),
+                "repeats": ctx.repeats, "spp per repeat": ctx.spp,
+                "halton spp per repeat": ctx.halton_spp, "sweeps": ", ".join(args.sweeps), "quick": args.quick,
+                "strategies (light, halton sweeps)": ", ".join(ctx.strategies),
                 "path settings": args.depth.describe(),
                 "halton sweep max_depth": ", ".join(map(str, ctx.halton_depths)),
                 "variant": args.variant, "seed": args.seed,

@@ -80,16 +80,28 @@ def direction_sampling_stats(bsdf, cos_theta_i: float, strategy: str, n: int,
     Var[w] / E[w]^2 (the cost of one unit of relative error) and the number
     of non-finite weights.
     """
+    return direction_sampling_table(bsdf, [cos_theta_i], strategy, n, [seed])[0][0]
+
+
+def direction_sampling_table(bsdf, cosines, strategy: str, n: int, seeds) -> list[list[dict]]:
+    """:func:`direction_sampling_stats` at every incidence cosine and seed, in one call of
+    the plugin (one kernel): ``[angle][seed]``. The ``n`` samples of a seed are the same
+    at every angle, and the same as a single call with that seed draws."""
     check_strategy(strategy)
-    rng = np.random.default_rng(seed)
-    u = rng.random((3, n))
-    s = math.sqrt(max(0.0, 1.0 - cos_theta_i ** 2))
-    si = dr.zeros(mi.SurfaceInteraction3f, n)
-    si.wi = mi.Vector3f(s, 0.0, cos_theta_i)
+    u = np.concatenate([np.random.default_rng(seed).random((3, n)) for seed in seeds], axis=1)
+    cos = np.repeat(np.asarray(cosines, np.float64), n * len(seeds))
+    u = np.tile(u, len(cosines))
+    sin = np.sqrt(np.maximum(0.0, 1.0 - cos ** 2))
+    si = dr.zeros(mi.SurfaceInteraction3f, cos.size)
+    si.wi = mi.Vector3f(mi.Float(sin), 0.0, mi.Float(cos))
     si.uv = mi.Point2f(0.5, 0.5)
     ds = _sample_direction()(strategy, bsdf, mi.BSDFContext(), si, mi.Float(u[0]),
                              mi.Point2f(u[1], u[2]))
-    w = luminance(np.array(ds.weight).T)
+    w = luminance(np.array(ds.weight).T).reshape(len(cosines), len(seeds), n)
+    return [[_weight_stats(block) for block in per_angle] for per_angle in w]
+
+
+def _weight_stats(w: np.ndarray) -> dict:
     finite = np.isfinite(w)
     mean = float(w[finite].mean()) if finite.any() else float("nan")
     return {"albedo": mean, "wasted": float(np.mean(w == 0)),

@@ -133,6 +133,18 @@ def ratio(a, b) -> stats.Estimate:
     return stats.ratio_interval([list(a)], [list(b)])
 
 
+def per_repeat(spp: int, repeats: int) -> int:
+    """Samples per pixel of each of ``repeats`` runs sharing a budget of ``spp``."""
+    return max(1, round(spp / repeats))
+
+
+def budget(spp: int, repeats: int) -> str:
+    """'32 spp' or '16 spp x 2 independent repeats (budget split over the repeats)'."""
+    if repeats == 1:
+        return f"{spp} spp (one run)"
+    return f"{spp} spp x {repeats} independent repeats (the --spp budget split over them)"
+
+
 def label(method: str) -> str:
     return method.replace("+nee", " + NEE")
 
@@ -208,6 +220,11 @@ class Context:
         self.out = args.out
         self.width, self.height = args.resolution
         self.repeats = max(1, int(getattr(args, "repeats", 1) or 1))
+        #: samples per pixel of each repeat: --spp (and the Halton ladder's top) is the budget
+        #: per point and method, split over the repeats (the same total cost for any R)
+        self.spp = per_repeat(args.spp, self.repeats)
+        self.halton_spp = per_repeat(config.halton_spp, self.repeats)
+        self.grazing_samples = per_repeat(config.grazing_samples, self.repeats)
         self.outliers = Outliers()
         #: strategies of --methods (their vr_path strategy; path has none)
         self.strategies = list(dict.fromkeys(m.strategy for m in args.method_objs
@@ -215,19 +232,27 @@ class Context:
         self.scene_dir = os.path.join(self.out, NAME, "scenes")
         high = args.depth.max_depth
         self.halton_depths = [2, high if high is not None and (high > 2 or high == -1) else 8]
+        self._probe = None
 
     def path(self, name: str) -> str:
         return os.path.join(self.out, NAME, name)
+
+    def probe(self):
+        """The scene loaded for probing its surfaces (loaded once per run)."""
+        if self._probe is None:
+            from ..scene_probes import probe_scene
+            self._probe = probe_scene(self.args.scene, self.width, self.height)
+        return self._probe
 
     def depth(self, max_depth: int) -> Depth:
         d = self.args.depth
         return Depth(max_depth, d.rr_depth, d.hide_emitters)
 
     def point(self, sweep: str, x, info, methods, extra=None) -> SweepPoint:
-        """A point rendered once per method and repeat at --spp (key ``stability/<sweep>/
+        """A point rendered once per method and repeat at :attr:`spp` (key ``stability/<sweep>/
         <x>/<method>[/r<r>]``), with its reference."""
         jobs = {m: [[self.st.job(repeat_prefix(f"{NAME}/{sweep}/{x:g}/{m}", r), m,
-                                 self.args.spp, info=info, timing_group=f"{NAME}/{sweep}")]
+                                 self.spp, info=info, timing_group=f"{NAME}/{sweep}")]
                     for r in range(self.repeats)] for m in methods}
         return SweepPoint(x, info, self.st.reference_jobs(info), jobs, dict(extra or {}))
 

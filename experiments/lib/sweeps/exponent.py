@@ -13,10 +13,10 @@ from dataclasses import dataclass
 
 from .. import metrics, report, stats
 from ..methods import scene_variant, strategies
-from ..scene_probes import phong_mask, probe_scene
+from ..scene_probes import phong_mask
 from . import charts
 from .base import (BREAK_FACTOR, NAME, Context, Run, SweepPoint, SweepReport, basis, below,
-                   exceeds, g, mean_interval, onset, ratio, worst)
+                   budget, exceeds, g, mean_interval, onset, ratio, worst)
 
 
 @dataclass(frozen=True)
@@ -132,13 +132,13 @@ class ExponentSweep:
                 for n in ctx.cfg.exponents]
 
     def measure(self, ctx: Context, points: list[SweepPoint]) -> ExponentData:
-        mask = phong_mask(probe_scene(ctx.args.scene, ctx.width, ctx.height))
+        mask = phong_mask(ctx.probe())
         runs = {m: [] for m in self.methods()}
         for p in points:
             ref = ctx.st.reference(p.ref_jobs)[0]
             for m, reps in p.jobs.items():
                 runs[m].append([ctx.read_run(jobs, m, ref, mask)[0] for jobs in reps])
-        return ExponentData([p.x for p in points], runs, ctx.args.spp, int(mask.sum()),
+        return ExponentData([p.x for p in points], runs, ctx.spp, int(mask.sum()),
                             int(mask.size))
 
     analyse = staticmethod(analyse)
@@ -156,7 +156,7 @@ class ExponentSweep:
             for i, x in enumerate(xs):
                 e, e_all, s = res.relmse[m][i], res.relmse_all[m][i], res.seconds[m][i]
                 peak, fireflies, nonfinite = res.outliers[m][i]
-                rows.append([g(x), m, a.spp, res.repeats, g(e.value), g(e.lo), g(e.hi),
+                rows.append([g(x), m, ctx.spp, res.repeats, g(e.value), g(e.lo), g(e.hi),
                              g(e_all.value), g(e_all.lo), g(e_all.hi), round(s, 3),
                              g(e.value * s), g(peak), fireflies, nonfinite])
                 summary.append({"sweep": self.name, "x": x, "method": m, "repeats": res.repeats,
@@ -166,7 +166,7 @@ class ExponentSweep:
             report.text(
                 f"1. Phong exponent of the glossy object from {g(xs[0])} to {g(xs[-1])}, every "
                 f"vr_path strategy ({', '.join(res.methods)}) without NEE (as in the writeup), "
-                f"{a.spp} spp x {res.repeats} independent repeats each, against a "
+                f"{budget(ctx.spp, res.repeats)} each, against a "
                 f"{a.reference_spp}-spp reference per exponent; errors are means over the "
                 f"repeats with {stats.LEVEL:.0%} intervals."),
             report.image(f"{NAME}/exponent.png", "relMSE on the Phong pixels, and relMSE x "

@@ -2,7 +2,7 @@
 
 At each incidence angle and exponent, every ``vr_path`` strategy
 (``integrators.choices.STRATEGIES``) draws directions with the plugin's own
-``sample_direction`` (:func:`~..scene_probes.direction_sampling_stats`),
+``sample_direction`` (:func:`~..scene_probes.direction_sampling_table`),
 R independent sample sets each. A wasted sample has zero weight; efficiency
 is the inverse relative variance per sample (the cost per sample is the same)
 relative to normal incidence, with its interval over the repeats.
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 from .. import metrics, report, stats
 from .. import plan as P
-from ..scene_probes import direction_sampling_stats, first_hit_sampling, phong_bsdf, probe_scene
+from ..scene_probes import direction_sampling_table, first_hit_sampling, phong_bsdf
 from . import charts
 from .base import NAME, Context, Skip, SweepPoint, SweepReport, basis, below, g, onset
 
@@ -103,15 +103,14 @@ class GrazingSweep:
 
     def plan(self, ctx: Context) -> list[SweepPoint]:
         """One point per exponent, nothing to render (the samples are drawn in measure)."""
-        scene = probe_scene(ctx.args.scene, ctx.width, ctx.height)
-        if phong_bsdf(scene)[0] is None:
+        if phong_bsdf(ctx.probe())[0] is None:
             raise Skip("the scene has no phong BSDF")
         return [SweepPoint(n, ctx.args.info, [], {}) for n in ctx.cfg.grazing_exponents]
 
     def measure(self, ctx: Context, points: list[SweepPoint]) -> GrazingData:
         import mitsuba as mi
         cfg, seed = ctx.cfg, ctx.args.seed
-        scene = probe_scene(ctx.args.scene, ctx.width, ctx.height)
+        scene = ctx.probe()
         bsdf, shape = phong_bsdf(scene)
         params = mi.traverse(bsdf)
         scene_n = float(params["exponent"][0])
@@ -123,9 +122,9 @@ class GrazingSweep:
                 # repeat 0 keeps the single run's seed; repeat r draws an independent set
                 seeds = [seed] + [P.derive_seed(seed, NAME, self.name, r)
                                   for r in range(1, ctx.repeats)]
-                out[(s, p.x)] = [[direction_sampling_stats(bsdf, math.cos(math.radians(t)), s,
-                                                           cfg.grazing_samples, k)
-                                  for k in seeds] for t in cfg.angles]
+                out[(s, p.x)] = direction_sampling_table(
+                    bsdf, [math.cos(math.radians(t)) for t in cfg.angles], s,
+                    ctx.grazing_samples, seeds)
         params["exponent"] = scene_n
         params.update()
         cos_i, zero = first_hit_sampling(scene, bsdf, shape, seed=seed)
@@ -133,7 +132,7 @@ class GrazingSweep:
         hits = {"exponent": scene_n, "grazing_share": float(grazing.mean()),
                 "wasted_all": float(zero.mean()),
                 "wasted_grazing": float(zero[grazing].mean()) if grazing.any() else 0.0}
-        return GrazingData(list(cfg.angles), out, cfg.grazing_samples, hits)
+        return GrazingData(list(cfg.angles), out, ctx.grazing_samples, hits)
 
     analyse = staticmethod(analyse)
 
@@ -156,7 +155,7 @@ class GrazingSweep:
             report.text(
                 f"3. Grazing incidence on the scene's Phong material (exponents "
                 f"{', '.join(g(n) for n in exps)}): at each incidence angle "
-                f"{ctx.cfg.grazing_samples} directions x {res.repeats} independent repeats are "
+                f"{ctx.grazing_samples} directions x {res.repeats} independent repeats are "
                 f"drawn by each vr_path strategy ({', '.join(self.strategies())}) with the "
                 f"plugin's own sample_direction, weighted by f cos / pdf, estimating the "
                 f"directional albedo. A wasted sample has zero weight (lobe sampling: below "

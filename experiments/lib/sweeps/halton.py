@@ -1,7 +1,7 @@
 """Sweep 4: Halton without and with randomization, at max_depth 2 and a high depth.
 
 Per depth, the strategy alone (independent sampling) and ``STRATEGY+halton:R``
-for every randomization R render progressively to ``halton_spp`` (a ladder of
+for every randomization R render progressively to ``halton_spp`` / R (a ladder of
 jobs per repeat; the Halton passes continue one sequence), R repeats each
 with their own seeds (scrambles). The analysis gives relMSE against spp with
 intervals, fitted slopes, where plain Halton ('none') becomes worse than
@@ -85,8 +85,9 @@ def analyse(data: HaltonData) -> HaltonResult:
                 + f" ({basis(repeats)}"
                 + ("; 'none' is deterministic: its repeats are identical" if identical else "")
                 + "). "
-                + " ".join(stats.verdict(m, indep, ratio(err_of[indep][-1], err_of[m][-1]),
-                                         "accurate") + f" at {last} spp." for m in rand)
+                + " ".join(f"At {last} spp, " + stats.verdict(
+                    m, indep, ratio(err_of[indep][-1], err_of[m][-1]), "accurate") + "."
+                           for m in [none] + rand)
                 + f" Neighbour-pixel error correlation: none {ln[none].corr:.2f}, "
                 + ", ".join(f"{m.split(':')[-1]} {ln[m].corr:.2f}" for m in rand)
                 + f", independent {ln[indep].corr:.2f}.")
@@ -102,7 +103,7 @@ class HaltonSweep:
         return [strategy] + [f"{strategy}+halton:{r}" for r in RANDOMIZATIONS]
 
     def plan(self, ctx: Context) -> list[SweepPoint]:
-        targets = P.doubling_targets(ctx.cfg.halton_spp)
+        targets = P.doubling_targets(ctx.halton_spp)
         points = []
         for d in ctx.halton_depths:
             depth = ctx.depth(d)

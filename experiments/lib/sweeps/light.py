@@ -14,7 +14,7 @@ from .. import metrics, report, stats
 from ..methods import scene_defaults, scene_variant
 from . import charts
 from .base import (BREAK_FACTOR, NAME, Context, Run, Skip, SweepPoint, SweepReport, basis,
-                   exceeds, g, label, mean_interval, ratio, onset, worst)
+                   budget, exceeds, g, label, mean_interval, ratio, onset, worst)
 
 
 @dataclass(frozen=True)
@@ -117,7 +117,7 @@ class LightSweep:
             for m, reps in p.jobs.items():
                 runs[m].append([ctx.read_run(jobs, m, ref)[0] for jobs in reps])
         first = points[0].extra
-        return LightData([p.x for p in points], runs, methods[-1], ctx.args.spp,
+        return LightData([p.x for p in points], runs, methods[-1], ctx.spp,
                          [p.extra["radiance"] for p in points], first["size0"], first["rad0"])
 
     analyse = staticmethod(analyse)
@@ -136,7 +136,7 @@ class LightSweep:
                 e, s = res.relmse[m][i], res.seconds[m][i]
                 peak, fireflies, nonfinite = res.outliers[m][i]
                 radiance = res.radiance[i] if res.radiance else float("nan")
-                rows.append([g(x), g(radiance), label(m), a.spp, res.repeats, g(e.value), g(e.lo),
+                rows.append([g(x), g(radiance), label(m), ctx.spp, res.repeats, g(e.value), g(e.lo),
                              g(e.hi), round(s, 3), g(e.value * s), g(peak), fireflies,
                              nonfinite])
                 summary.append({"sweep": self.name, "x": x, "method": m, "repeats": res.repeats,
@@ -146,7 +146,7 @@ class LightSweep:
                 f"2. Light size from the whole ceiling (half edge {g(xs[0])}) to a tiny patch "
                 f"({g(xs[-1])}) at constant power (radiance x size^2 fixed): direction "
                 f"sampling alone must hit the light; {label(nee)} samples it directly. "
-                f"{a.spp} spp x {res.repeats} independent repeats each; errors are means over "
+                f"{budget(ctx.spp, res.repeats)} each; errors are means over "
                 f"the repeats with {stats.LEVEL:.0%} intervals."),
             report.image(f"{NAME}/light.png", "relMSE and relMSE x time against the light "
                          "size (x axis reversed: smaller lights to the right; bands: 95% "
