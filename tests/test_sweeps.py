@@ -213,6 +213,12 @@ def test_halton_none_is_worse_than_independent_from_n_spp():
     assert "none 0.80" in text
 
 
+def test_halton_none_worse_only_at_low_spp_is_not_called_an_onset():
+    res = halton.analyse(halton_data([2.0, 1.0, 0.01, 0.005, 0.002, 0.001, 0.0005]))
+    assert res.worse_at[2] == [1, 2]
+    assert "worse than independent sampling at 1, 2 spp only" in res.sentences[0]
+
+
 def test_halton_none_never_worse_negative_control():
     res = halton.analyse(halton_data([0.5 / n for n in SPP]))
     assert res.worse_from[2] is None

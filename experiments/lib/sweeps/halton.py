@@ -48,6 +48,7 @@ class HaltonResult:
     worse_from: dict          # depth -> first spp where 'none' is worse than independent
     sentences: list
     images: dict = field(default_factory=dict)
+    worse_at: dict = field(default_factory=dict)   # depth -> every such spp
 
 
 def plain(strategy: str) -> str:
@@ -56,7 +57,7 @@ def plain(strategy: str) -> str:
 
 def analyse(data: HaltonData) -> HaltonResult:
     """Pure: intervals per ladder step, slopes, the onset, and sentences."""
-    s, lines, worse, sentences, repeats = data.strategy, {}, {}, [], 1
+    s, lines, worse, worse_at, sentences, repeats = data.strategy, {}, {}, {}, [], 1
     for d, by_method in data.curves.items():
         lines[d] = {}
         for m, reps in by_method.items():
@@ -72,7 +73,8 @@ def analyse(data: HaltonData) -> HaltonResult:
         err_of = {m: [[rep[i][2] for rep in by_method[m]] for i in range(len(ln[m].spp))]
                   for m in by_method}
         rat = [ratio(a, b) for a, b in zip(err_of[none], err_of[indep])]
-        worse[d] = metrics.first_where(ln[none].spp, [exceeds(q, 1.0) for q in rat])
+        worse_at[d] = [n for n, q in zip(ln[none].spp, rat) if exceeds(q, 1.0)]
+        worse[d] = worse_at[d][0] if worse_at[d] else None
         rand = [m for m in ln if m not in (none, indep)]
         identical = repeats > 1 and len(set(err_of[none][-1])) == 1
         last = ln[indep].spp[-1]
@@ -81,7 +83,7 @@ def analyse(data: HaltonData) -> HaltonResult:
                 + ", ".join(f"{m.split(':')[-1]} {ln[m].relmse[-1].text()} (slope "
                             f"{g(ln[m].slope)})" for m in rand)
                 + f", independent {ln[indep].relmse[-1].text()}; 'none' is worse than "
-                  f"independent sampling " + onset("", worse[d], lambda n: f"{n} spp")
+                  f"independent sampling " + _where(worse_at[d], ln[none].spp)
                 + f" ({basis(repeats)}"
                 + ("; 'none' is deterministic: its repeats are identical" if identical else "")
                 + "). "
@@ -92,7 +94,17 @@ def analyse(data: HaltonData) -> HaltonResult:
                 + ", ".join(f"{m.split(':')[-1]} {ln[m].corr:.2f}" for m in rand)
                 + f", independent {ln[indep].corr:.2f}.")
         sentences.append(text)
-    return HaltonResult(s, repeats, lines, worse, sentences, dict(data.images))
+    return HaltonResult(s, repeats, lines, worse, sentences, dict(data.images), worse_at)
+
+
+def _where(at: list, spp: list) -> str:
+    """'from N spp' when it holds from N to the end of the ladder, 'at N, M spp only'
+    when it stops holding, 'nowhere in the sweep' when it never holds."""
+    if not at:
+        return onset("", None, str)
+    if at == spp[spp.index(at[0]):]:
+        return f"from {at[0]} spp"
+    return f"at {', '.join(map(str, at))} spp only"
 
 
 class HaltonSweep:
