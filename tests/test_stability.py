@@ -4,6 +4,7 @@ Statistical checks state their margin: sample means are compared within 5
 standard errors (a false failure has probability < 1e-6 per check), and the
 zero correlation of independent noise within 5 / sqrt(n).
 """
+import csv
 import json
 import math
 import os
@@ -18,6 +19,8 @@ from experiments import stability
 from experiments.lib import methods as M
 from experiments.lib import metrics
 from experiments.lib import scene_probes as SP
+from experiments.lib import sweeps as SW
+from integrators.choices import STRATEGIES
 
 CBOX = scene_path("cbox.xml")
 
@@ -101,21 +104,90 @@ def test_lambertian_is_sampled_perfectly_and_lobe_sampling_wastes_samples_at_gra
 
 @pytest.mark.parametrize("cos_i", [1.0, 0.5, 0.1])
 def test_strategies_estimate_the_same_albedo(cos_i):
-    """Unbiased: bsdf, cosine and uniform agree within 5 combined standard errors."""
+    """Unbiased: every vr_path strategy agrees with bsdf within 5 combined standard errors."""
     bsdf = phong(0.3, 0.5, 20.0)
     n = 2 ** 16
     stats = {s: SP.direction_sampling_stats(bsdf, cos_i, s, n, seed=i)
-             for i, s in enumerate(("bsdf", "cosine", "uniform"))}
+             for i, s in enumerate(STRATEGIES)}
     se = {s: st["albedo"] * math.sqrt(st["relvar"] / n) for s, st in stats.items()}
-    for s in ("cosine", "uniform"):
+    for s in STRATEGIES:
         diff = abs(stats[s]["albedo"] - stats["bsdf"]["albedo"])
-        assert diff < 5 * math.hypot(se[s], se["bsdf"]), (s, stats)
+        assert diff < 5 * math.hypot(se[s], se["bsdf"]) + 1e-12, (s, stats)
+        assert stats[s]["nonfinite"] == 0
+
+
+@pytest.mark.parametrize("strategy", STRATEGIES)
+def test_direction_sampling_stats_measure_the_plugins_own_sample_direction(strategy):
+    """The statistics are those of integrators.path.sample_direction's weights (the function
+    vr_path calls), not of a copy of the strategies."""
+    import drjit as dr
+    from integrators.path import sample_direction
+    bsdf = phong(0.2, 0.6, 200.0)
+    n, cos_i, seed = 4096, math.cos(math.radians(70)), 3
+    st = SP.direction_sampling_stats(bsdf, cos_i, strategy, n, seed)
+    u = np.random.default_rng(seed).random((3, n))
+    si = dr.zeros(mi.SurfaceInteraction3f, n)
+    si.wi = mi.Vector3f(math.sqrt(1 - cos_i ** 2), 0.0, cos_i)
+    si.uv = mi.Point2f(0.5, 0.5)
+    ds = sample_direction(strategy, bsdf, mi.BSDFContext(), si, mi.Float(u[0]),
+                          mi.Point2f(u[1], u[2]))
+    w = metrics.luminance(np.array(ds.weight).T)
+    assert st["albedo"] == pytest.approx(w.mean(), rel=1e-12)
+    assert st["wasted"] == np.mean(w == 0)
+    assert st["relvar"] == pytest.approx(w.var() / w.mean() ** 2, rel=1e-9)
+
+
+def test_mis_wastes_fewer_samples_than_lobe_sampling_at_grazing():
+    """mis draws a quarter of its samples from the cosine lobe, which never falls below the
+    horizon: at 89 degrees it wastes about 3/4 of bsdf's share (binomial margins > 5 SE)."""
+    glossy = phong(0.1, 0.8, 1000.0)
+    n, c = 2 ** 14, math.cos(math.radians(89))
+    lobe = SP.direction_sampling_stats(glossy, c, "bsdf", n)
+    mis = SP.direction_sampling_stats(glossy, c, "mis", n, seed=1)
+    assert lobe["wasted"] > 0.1
+    assert mis["wasted"] == pytest.approx(0.75 * lobe["wasted"], abs=5 * 0.5 / math.sqrt(n))
+
+
+def test_unknown_strategy_raises_and_names_the_valid_ones():
+    with pytest.raises(ValueError) as exc:
+        SP.direction_sampling_stats(phong(0.5, 0.0, 1.0), 1.0, "bogus", 16)
+    for s in STRATEGIES:
+        assert s in str(exc.value)
 
 
 def test_first_where_and_ratio():
     assert metrics.first_where([1, 10, 100], [False, True, True]) == 10
     assert metrics.first_where([1, 10], [False, False]) is None
     assert metrics.ratio(1.0, 0.0) == math.inf and metrics.ratio(3.0, 2.0) == 1.5
+
+
+# ----------------------------------------------------------------- plans
+
+def test_every_sweep_plans_points_of_one_shape_with_independent_repeats(tmp_path):
+    args = stability.parse(["--quick", "--repeats", "3", "--out", str(tmp_path / "r")])
+    ctx = SW.Context(args, args.config)
+    plans, skipped = stability.plan(ctx, SW.SWEEPS)
+    assert set(plans) == set(SW.SWEEPS) and not skipped
+    for name, points in plans.items():
+        assert points and all(isinstance(p, SW.SweepPoint) for p in points), name
+        for p in points:
+            for method, runs in p.jobs.items():
+                assert len(runs) == 3                              # one run per repeat
+                seeds = [run[0].seed for run in runs]
+                assert len(set(seeds)) == 3, (name, method)        # independent repeats
+    p = plans["exponent"][0]
+    # repeat 0 keeps the single run's key prefix (results stored before repeats are reused)
+    assert p.jobs["bsdf"][0][0].key.startswith("stability/exponent/1/bsdf-")
+    assert p.jobs["bsdf"][1][0].key.startswith("stability/exponent/1/bsdf/r1-")
+    single = stability.parse(["--quick", "--repeats", "1", "--out", str(tmp_path / "r")])
+    one = stability.plan(SW.Context(single, single.config), ["exponent"])[0]["exponent"]
+    (job,), = one[0].jobs["bsdf"]
+    assert job.spp == single.spp == 4                   # one repeat: the whole --spp
+    assert job.seed == p.jobs["bsdf"][0][0].seed        # the same seed as repeat 0
+    assert job.key.rsplit("-", 1)[0] == p.jobs["bsdf"][0][0].key.rsplit("-", 1)[0]
+    # the --spp budget is split over the repeats (the same total cost for any R)
+    assert p.jobs["bsdf"][0][0].spp == round(4 / 3) and ctx.spp == 1
+    assert plans["grazing"][0].all_jobs() == []                  # measured, not rendered
 
 
 # ----------------------------------------------------------------- end to end
@@ -132,7 +204,7 @@ def test_stability_quick_end_to_end(tmp_path, capsys):
     settings = json.loads((out / "stability" / "section.json").read_text())["settings"]
     assert settings["resolution"] == "24x12" and settings["spp"] == 4     # quick, not 32
     section = json.loads((out / "stability" / "section.json").read_text())
-    assert section["order"] > 20                       # after convergence and the writeup
+    assert section["settings"]["repeats"] == stability.REPEATS >= 2
     images = [b["src"] for b in section["blocks"] if b["kind"] == "image"]
     assert {"stability/exponent.png", "stability/light.png", "stability/grazing.png",
             "stability/halton_crops.png"} <= set(images)
@@ -153,6 +225,31 @@ def test_stability_quick_end_to_end(tmp_path, capsys):
         assert f",{strategy}," in table
     if "mis" in M.strategies():
         assert "relMSE(mis) / min(relMSE(cosine), relMSE(bsdf))" in notes
+    # every comparison carries its interval over the repeats: lo <= value <= hi
+    for name, value in (("exponent", "relmse_phong"), ("exponent", "relmse_all"),
+                        ("light", "relmse"), ("halton", "relmse"),
+                        ("grazing", "efficiency_vs_normal")):
+        rows = list(csv.DictReader(open(out / "stability" / f"{name}.csv")))
+        assert rows, name
+        for r in rows:
+            assert int(r["repeats"]) == stability.REPEATS
+            v, lo, hi = (float(r[value + k]) for k in ("", "_lo", "_hi"))
+            assert lo <= v * (1 + 1e-9) and v <= hi * (1 + 1e-9), (name, r)
+        md = (out / "stability" / f"{name}.md").read_text()
+        assert f"{value}_lo" in md and f"{value}_hi" in md
+    assert summary["repeats"] == stability.REPEATS
+    relmse_rows = [r for r in summary["rows"] if "relmse" in r]
+    assert {r["sweep"] for r in relmse_rows} == {"exponent", "light", "halton"}
+    for r in relmse_rows:
+        assert r["relmse_lo"] <= r["relmse"] * (1 + 1e-9) <= r["relmse_hi"] * (1 + 1e-9)
+    # grazing measures every strategy the plugin defines (mis too)
+    grazing = (out / "stability" / "grazing.csv").read_text()
+    for strategy in STRATEGIES:
+        assert f",{strategy}," in grazing
+    # the store holds both repeats: repeat 0 under the single run's prefix, repeat 1 under /r1
+    point = out / "store" / "stability" / "exponent" / "1"
+    assert len(list(point.glob("bsdf-*.npz"))) == 1
+    assert len(list((point / "bsdf").glob("r1-*.npz"))) == 1
     closing = [b["text"] for b in section["blocks"] if b["kind"] == "text"][-1]
     assert closing.startswith("Closing note")
     page = (out / "index.html").read_text()

@@ -4,7 +4,8 @@
 * :func:`phong_mask`: which pixels see a ``phong`` surface first;
 * :func:`phong_bsdf`: the scene's first ``phong`` BSDF and its shape;
 * :func:`direction_sampling_stats`: per-sample statistics of estimating the
-  directional albedo of a BSDF with one strategy at one incidence angle;
+  directional albedo of a BSDF with one ``vr_path`` strategy (drawn by the
+  plugin's own ``sample_direction``) at one incidence angle;
 * :func:`first_hit_sampling`: incidence angles of the camera's first hits on
   the Phong object and which of the BSDF's samples there have zero weight.
 """
@@ -53,45 +54,67 @@ def phong_mask(scene) -> np.ndarray:
     return mask.reshape(height, width)
 
 
+def _sample_direction():
+    """The plugin's own strategies (imported late: the plugin module needs a variant)."""
+    from integrators.path import sample_direction
+    return sample_direction
+
+
+def check_strategy(strategy: str) -> str:
+    from integrators.choices import STRATEGIES
+    if strategy not in STRATEGIES:
+        raise ValueError(f"unknown strategy '{strategy}': choose from {', '.join(STRATEGIES)}")
+    return strategy
+
+
 def direction_sampling_stats(bsdf, cos_theta_i: float, strategy: str, n: int,
                              seed: int = 0) -> dict:
     """Per-sample statistics of estimating the directional albedo at one incidence angle.
 
-    ``strategy`` as in ``vr_path``: ``bsdf`` (the plugin's ``sample``),
-    ``cosine`` or ``uniform`` (hemisphere warps weighted by ``eval / pdf``).
-    Returns the albedo estimate, the fraction of samples with zero weight
-    (wasted: below the horizon or outside the lobe) and the relative variance
-    per sample Var[w] / E[w]^2 (the cost of one unit of relative error).
+    ``strategy``: any ``vr_path`` strategy (``integrators.choices.STRATEGIES``),
+    drawn by the plugin itself (``integrators.path.sample_direction``, the
+    function ``vr_path`` calls at every vertex), whose weight is
+    ``f cos / pdf``; another name raises ValueError. Returns the albedo
+    estimate, the fraction of samples with zero weight (wasted: below the
+    horizon or outside the lobe), the relative variance per sample
+    Var[w] / E[w]^2 (the cost of one unit of relative error) and the number
+    of non-finite weights.
     """
-    rng = np.random.default_rng(seed)
-    u = rng.random((3, n))
-    s = math.sqrt(max(0.0, 1.0 - cos_theta_i ** 2))
-    si = dr.zeros(mi.SurfaceInteraction3f, n)
-    si.wi = mi.Vector3f(s, 0.0, cos_theta_i)
+    return direction_sampling_table(bsdf, [cos_theta_i], strategy, n, [seed])[0][0]
+
+
+def direction_sampling_table(bsdf, cosines, strategy: str, n: int, seeds) -> list[list[dict]]:
+    """:func:`direction_sampling_stats` at every incidence cosine and seed, in one call of
+    the plugin (one kernel): ``[angle][seed]``. The ``n`` samples of a seed are the same
+    at every angle, and the same as a single call with that seed draws."""
+    check_strategy(strategy)
+    u = np.concatenate([np.random.default_rng(seed).random((3, n)) for seed in seeds], axis=1)
+    cos = np.repeat(np.asarray(cosines, np.float64), n * len(seeds))
+    u = np.tile(u, len(cosines))
+    sin = np.sqrt(np.maximum(0.0, 1.0 - cos ** 2))
+    si = dr.zeros(mi.SurfaceInteraction3f, cos.size)
+    si.wi = mi.Vector3f(mi.Float(sin), 0.0, mi.Float(cos))
     si.uv = mi.Point2f(0.5, 0.5)
-    ctx = mi.BSDFContext()
-    if strategy == "bsdf":
-        _, weight = bsdf.sample(ctx, si, mi.Float(u[0]), mi.Point2f(u[1], u[2]))
-    else:
-        sample2 = mi.Point2f(u[1], u[2])
-        if strategy == "cosine":
-            wo = mi.warp.square_to_cosine_hemisphere(sample2)
-            pdf = mi.warp.square_to_cosine_hemisphere_pdf(wo)
-        else:
-            wo = mi.warp.square_to_uniform_hemisphere(sample2)
-            pdf = mi.warp.square_to_uniform_hemisphere_pdf(wo)
-        weight = bsdf.eval(ctx, si, wo) / dr.maximum(pdf, 1e-20)
-    w = luminance(np.array(weight).T)
-    mean = float(w.mean())
+    ds = _sample_direction()(strategy, bsdf, mi.BSDFContext(), si, mi.Float(u[0]),
+                             mi.Point2f(u[1], u[2]))
+    w = luminance(np.array(ds.weight).T).reshape(len(cosines), len(seeds), n)
+    return [[_weight_stats(block) for block in per_angle] for per_angle in w]
+
+
+def _weight_stats(w: np.ndarray) -> dict:
+    finite = np.isfinite(w)
+    mean = float(w[finite].mean()) if finite.any() else float("nan")
     return {"albedo": mean, "wasted": float(np.mean(w == 0)),
-            "relvar": float(w.var() / mean ** 2) if mean > 0 else float("inf"),
-            "nonfinite": int(np.count_nonzero(~np.isfinite(w)))}
+            "relvar": float(w[finite].var() / mean ** 2) if mean > 0 else float("inf"),
+            "nonfinite": int(np.count_nonzero(~finite))}
 
 
-
-def first_hit_sampling(scene, bsdf, shape, k: int = 16, seed: int = 0):
+def first_hit_sampling(scene, bsdf, shape, k: int = 16, seed: int = 0,
+                       strategy: str = "bsdf"):
     """Cosines of incidence of the camera's first hits on ``shape`` (``k`` rays through each
-    pixel centre), and per hit whether ``bsdf.sample`` there returned zero weight."""
+    pixel centre), and per hit whether the plugin's ``strategy`` (lobe sampling by default)
+    drew a zero-weight sample there."""
+    check_strategy(strategy)
     sensor = scene.sensors()[0]
     w, h = sensor.film().crop_size()
     idx = dr.arange(mi.UInt32, w * h * k) // k
@@ -101,6 +124,7 @@ def first_hit_sampling(scene, bsdf, shape, k: int = 16, seed: int = 0):
     hit = si.is_valid() & (si.shape == mi.ShapePtr(shape))
     rng = np.random.default_rng(seed)
     u = rng.random((3, w * h * k))
-    _, weight = bsdf.sample(mi.BSDFContext(), si, mi.Float(u[0]), mi.Point2f(u[1], u[2]), hit)
+    ds = _sample_direction()(strategy, bsdf, mi.BSDFContext(), si, mi.Float(u[0]),
+                             mi.Point2f(u[1], u[2]), hit)
     hit_np = np.array(hit)
-    return np.array(si.wi.z)[hit_np], (np.array(weight) == 0).all(axis=0)[hit_np]
+    return np.array(si.wi.z)[hit_np], (np.array(ds.weight) == 0).all(axis=0)[hit_np]

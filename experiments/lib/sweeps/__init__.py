@@ -1,0 +1,31 @@
+"""The stability sweeps: where each sampling method breaks down (one module per sweep).
+
+Each sweep follows the protocol of :class:`.base.Sweep`: ``plan`` (typed
+:class:`.base.SweepPoint` jobs), ``measure`` (numbers from the store),
+``analyse`` (pure, tested on synthetic numbers in ``tests/test_sweeps.py``),
+``report`` (charts with interval bands, tables with ``*_lo``/``*_hi``
+columns, prose). :data:`REGISTRY` lists them all; ``experiments.stability``
+offers exactly these as ``--sweeps``.
+
+* :mod:`.exponent`: the Phong exponent of the glossy object, every ``vr_path`` strategy;
+* :mod:`.light`: the light's size at constant power, with and without NEE;
+* :mod:`.grazing`: grazing incidence on the scene's Phong material (no rendering);
+* :mod:`.halton`: Halton without and with randomization at low and high depth.
+
+Sweep points are scene variants (:func:`~..methods.scene_variant`) written to
+``<out>/stability/scenes``. Outliers (largest pixel, fireflies, NaN/Inf) are
+counted over every render (:class:`.base.Outliers`).
+"""
+from __future__ import annotations
+
+from . import exponent, grazing, halton, light
+from .base import (BREAK_FACTOR, NAME, NORMAL, QUICK, Config, Context, Outliers, Skip, Sweep,
+                   SweepPoint, SweepReport)
+
+#: Every stability sweep by name, in report order.
+REGISTRY: dict[str, Sweep] = {s.name: s for s in (exponent.SWEEP, light.SWEEP, grazing.SWEEP,
+                                                  halton.SWEEP)}
+SWEEPS = tuple(REGISTRY)
+
+__all__ = ["BREAK_FACTOR", "NAME", "NORMAL", "QUICK", "REGISTRY", "SWEEPS", "Config", "Context",
+           "Outliers", "Skip", "Sweep", "SweepPoint", "SweepReport"]

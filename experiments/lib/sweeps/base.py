@@ -1,0 +1,267 @@
+"""What every stability sweep shares: the protocol, the plan's shape, the context, outliers.
+
+A sweep (one module each, listed in :data:`experiments.lib.sweeps.REGISTRY`)
+is an object with four steps, data flowing one way::
+
+    plan(ctx)            -> list[SweepPoint]   render jobs as data (nothing rendered)
+    measure(ctx, points) -> measurements        numbers read from the store (per repeat)
+    analyse(measured)    -> result dataclass    pure: numbers in, numbers and sentences out
+    report(ctx, result)  -> SweepReport         charts, tables, prose
+
+``analyse`` takes and returns plain numbers, so tests feed it synthetic
+measurements whose conclusion is known (``tests/test_sweeps.py``).
+
+Every comparison is measured over R independent randomizations (``--repeats``):
+each (point, method) has R runs whose seeds derive from the repeat index
+(job key prefix ``.../r{r}``; repeat 0 keeps the prefix of a single run, so
+results stored before repeats existed are reused). Errors are means over the
+repeats with a 95% interval (:mod:`experiments.lib.stats`); a breakdown or a
+difference is claimed only where the interval says so (:func:`exceeds`).
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+from .. import metrics, report, stats
+from .. import plan as P
+from ..methods import Depth, SceneInfo
+from ..study import Study
+
+NAME = "stability"
+#: relMSE ratio at which a method counts as broken down against the robust one.
+BREAK_FACTOR = 10.0
+g = "{:.3g}".format
+
+
+@dataclass(frozen=True)
+class Config:
+    exponents: tuple
+    light_sizes: tuple
+    angles: tuple             # incidence angles (degrees) of the grazing sweep
+    grazing_exponents: tuple
+    grazing_samples: int
+    halton_spp: int
+
+
+NORMAL = Config((1, 10, 100, 1000, 10000), (2, 1, 0.5, 0.2, 0.05, 0.02),
+                (0, 30, 60, 75, 80, 85, 88, 89), (10, 100, 1000), 2 ** 16, 64)
+QUICK = Config((1, 10000), (2, 0.02), (0, 60, 89), (10, 1000), 2 ** 12, 2)
+
+
+# ------------------------------------------------------------------ the plan
+
+@dataclass(frozen=True)
+class SweepPoint:
+    """One point of a sweep: the swept value, its scene, its reference and, per method,
+    R runs (one per repeat), each a ladder of jobs whose accumulation is the run's image
+    (one job, except in progressive sweeps)."""
+    x: float
+    info: SceneInfo | None
+    ref_jobs: list
+    jobs: dict[str, list[list[P.Job]]]
+    extra: dict = field(default_factory=dict)     # e.g. the light's radiance, the depth
+
+    def all_jobs(self) -> list[P.Job]:
+        return [j for runs in self.jobs.values() for run in runs for j in run]
+
+
+class Skip(Exception):
+    """The scene lacks what a sweep varies (its message: the missing parameter(s))."""
+
+
+@dataclass
+class SweepReport:
+    blocks: list[dict]
+    notes: list[str]                                  # closing-note sentences
+    rows: list[dict] = field(default_factory=list)    # summary.json rows (with *_lo/_hi)
+
+
+class Sweep(Protocol):
+    name: str
+
+    def plan(self, ctx: "Context") -> list[SweepPoint]: ...
+
+    def measure(self, ctx: "Context", points: list[SweepPoint]): ...
+
+    def analyse(self, measured): ...
+
+    def report(self, ctx: "Context", result) -> SweepReport: ...
+
+
+# ------------------------------------------------------------------ helpers
+
+def onset(quantity: str, value, fmt) -> str:
+    """'from <quantity> <value>' for the first sweep point where a condition holds, or
+    'nowhere in the sweep' when it never does."""
+    if value is None:
+        return "nowhere in the sweep"
+    return " ".join(p for p in ("from", quantity, fmt(value)) if p)
+
+
+def exceeds(est: stats.Estimate, threshold: float) -> bool:
+    """Is the quantity above ``threshold``? With an interval: its lower bound is; with
+    one run (no interval): the point estimate is (the prose then says so)."""
+    return est.lo > threshold if est.known else est.value > threshold
+
+
+def below(est: stats.Estimate, threshold: float) -> bool:
+    """Is the quantity below ``threshold`` (upper bound, or the point estimate)?"""
+    return est.hi < threshold if est.known else est.value < threshold
+
+
+def basis(repeats: int) -> str:
+    """How the onsets of a sweep were decided, for the prose."""
+    if repeats > 1:
+        return (f"decided on the {stats.LEVEL:.0%} interval over {repeats} repeats")
+    return "one run: no interval, decided on the point estimate alone"
+
+
+def mean_interval(values) -> stats.Estimate:
+    """:func:`stats.mean_interval`, but an all-zero or empty list gives 0 (no log)."""
+    values = [float(v) for v in values]
+    if values and all(v == 0 for v in values):
+        return stats.Estimate(0.0, 0.0, 0.0, len(values))
+    return stats.mean_interval(values)
+
+
+def ratio(a, b) -> stats.Estimate:
+    """mean(a) / mean(b) over repeats, with its interval."""
+    return stats.ratio_interval([list(a)], [list(b)])
+
+
+def per_repeat(spp: int, repeats: int) -> int:
+    """Samples per pixel of each of ``repeats`` runs sharing a budget of ``spp``."""
+    return max(1, round(spp / repeats))
+
+
+def budget(spp: int, repeats: int) -> str:
+    """'32 spp' or '16 spp x 2 independent repeats (budget split over the repeats)'."""
+    if repeats == 1:
+        return f"{spp} spp (one run)"
+    return f"{spp} spp x {repeats} independent repeats (the --spp budget split over them)"
+
+
+def label(method: str) -> str:
+    return method.replace("+nee", " + NEE")
+
+
+def repeat_prefix(prefix: str, r: int) -> str:
+    """Job key prefix of repeat ``r`` (repeat 0: the single run's prefix)."""
+    return prefix if r == 0 else f"{prefix}/r{r}"
+
+
+class Outliers:
+    """Largest pixel, fireflies and non-finite pixels per method over every sweep render."""
+
+    def __init__(self):
+        self.rows: dict[str, dict] = {}
+
+    def add(self, label: str, image, reference) -> dict:
+        o = metrics.outliers(image, reference)
+        r = self.rows.setdefault(label, {"images": 0, "max": 0.0, "fireflies": 0,
+                                         "nonfinite": 0})
+        r["images"] += 1
+        r["max"] = max(r["max"], o["max"])
+        r["fireflies"] += o["fireflies"]
+        r["nonfinite"] += o["nonfinite"]
+        return o
+
+    def report(self, out: str) -> SweepReport:
+        rows = [[k, v["images"], g(v["max"]), v["fireflies"], v["nonfinite"]]
+                for k, v in self.rows.items()]
+        total_nan = sum(v["nonfinite"] for v in self.rows.values())
+        worst = max(self.rows.items(), key=lambda kv: kv[1]["fireflies"], default=None)
+        sentence = (f"Outliers over all sweep renders: {total_nan} NaN/Inf pixels in total"
+                    + (f"; most fireflies: {worst[0]} ({worst[1]['fireflies']} in "
+                       f"{worst[1]['images']} images, largest pixel {g(worst[1]['max'])})"
+                       if worst else "") + ".")
+        table = report.write_table(
+            out, f"{NAME}/outliers", ["method", "images", "largest pixel", "fireflies",
+                                      "NaN/Inf pixels"], rows,
+            f"5. Outliers per method over every sweep render (every repeat). Firefly: a pixel "
+            f"whose luminance error exceeds the image's median error by "
+            f"{metrics.FIREFLY_MADS:g} median absolute deviations. NaN/Inf: non-finite pixels "
+            f"of the accumulated image (one non-finite sample makes its pixel non-finite).")
+        return SweepReport([table, report.text(sentence)], [sentence])
+
+
+@dataclass(frozen=True)
+class Run:
+    """One repeat of one method at one point, as numbers."""
+    relmse: float            # whole image
+    relmse_mask: float       # on the mask's pixels (the whole image without a mask)
+    level: float             # mean of the image / mean of the reference (on the mask)
+    seconds: float           # warm render time
+    max: float = 0.0         # largest pixel value
+    fireflies: int = 0
+    nonfinite: int = 0       # NaN/Inf pixels
+
+
+def worst(runs: list[Run]) -> tuple:
+    """(largest pixel, fireflies, NaN/Inf pixels) over the repeats of one point."""
+    return (max(r.max for r in runs), sum(r.fireflies for r in runs),
+            sum(r.nonfinite for r in runs))
+
+
+# ------------------------------------------------------------------ the context
+
+class Context:
+    """What the sweeps of one run share: the arguments, the :class:`~.study.Study` (store,
+    executor), the strategies of --methods, the Halton depths, the repeats, the outliers."""
+
+    def __init__(self, args, config: Config):
+        self.args = args
+        self.cfg = config
+        self.st = Study(args)
+        self.out = args.out
+        self.width, self.height = args.resolution
+        self.repeats = max(1, int(getattr(args, "repeats", 1) or 1))
+        #: samples per pixel of each repeat: --spp (and the Halton ladder's top) is the budget
+        #: per point and method, split over the repeats (the same total cost for any R)
+        self.spp = per_repeat(args.spp, self.repeats)
+        self.halton_spp = per_repeat(config.halton_spp, self.repeats)
+        self.grazing_samples = per_repeat(config.grazing_samples, self.repeats)
+        self.outliers = Outliers()
+        #: strategies of --methods (their vr_path strategy; path has none)
+        self.strategies = list(dict.fromkeys(m.strategy for m in args.method_objs
+                                             if m.strategy is not None)) or ["bsdf"]
+        self.scene_dir = os.path.join(self.out, NAME, "scenes")
+        high = args.depth.max_depth
+        self.halton_depths = [2, high if high is not None and (high > 2 or high == -1) else 8]
+        self._probe = None
+
+    def path(self, name: str) -> str:
+        return os.path.join(self.out, NAME, name)
+
+    def probe(self):
+        """The scene loaded for probing its surfaces (loaded once per run)."""
+        if self._probe is None:
+            from ..scene_probes import probe_scene
+            self._probe = probe_scene(self.args.scene, self.width, self.height)
+        return self._probe
+
+    def depth(self, max_depth: int) -> Depth:
+        d = self.args.depth
+        return Depth(max_depth, d.rr_depth, d.hide_emitters)
+
+    def point(self, sweep: str, x, info, methods, extra=None) -> SweepPoint:
+        """A point rendered once per method and repeat at :attr:`spp` (key ``stability/<sweep>/
+        <x>/<method>[/r<r>]``), with its reference."""
+        jobs = {m: [[self.st.job(repeat_prefix(f"{NAME}/{sweep}/{x:g}/{m}", r), m,
+                                 self.spp, info=info, timing_group=f"{NAME}/{sweep}")]
+                    for r in range(self.repeats)] for m in methods}
+        return SweepPoint(x, info, self.st.reference_jobs(info), jobs, dict(extra or {}))
+
+    def read_run(self, jobs: list[P.Job], method: str, ref, mask=None) -> tuple[Run, np.ndarray]:
+        """The numbers of one run (its jobs accumulated) and its image; counts outliers."""
+        image = P.accumulate(self.st.store, jobs)[-1].mean
+        o = self.outliers.add(label(method), image, ref)
+        sel = mask if mask is not None else np.ones(image.shape[:2], bool)
+        level = metrics.ratio(float(np.mean(image[sel])), float(np.mean(ref[sel])))
+        secs = sum(self.st.store.get(j.key).seconds for j in jobs)
+        return Run(metrics.relmse(image, ref), metrics.relmse(image, ref, mask), level, secs,
+                   o["max"], o["fireflies"], o["nonfinite"]), image

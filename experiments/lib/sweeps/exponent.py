@@ -1,0 +1,181 @@
+"""Sweep 1: the Phong exponent of the glossy object, every ``vr_path`` strategy, no NEE.
+
+Per exponent, each strategy renders R repeats at --spp; errors are relMSE on
+the pixels that see the Phong surface first (:func:`~..scene_probes.phong_mask`).
+The analysis compares lobe sampling (``bsdf``) with ``cosine`` and ``uniform``:
+where it pays off (efficiency at least 2x), where it is less efficient, and
+where the hemisphere strategies explode (relMSE ratio above ``BREAK_FACTOR``,
+on the interval's lower bound); and ``mis`` against the better of the two.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .. import metrics, report, stats
+from ..methods import scene_variant, strategies
+from ..scene_probes import phong_mask
+from . import charts
+from .base import (BREAK_FACTOR, NAME, Context, Run, SweepPoint, SweepReport, basis, below,
+                   budget, exceeds, g, mean_interval, onset, ratio, worst)
+
+
+@dataclass(frozen=True)
+class ExponentData:
+    """What the renders measured: ``runs[method][point][repeat]``."""
+    xs: list
+    runs: dict[str, list[list[Run]]]
+    spp: int
+    mask_pixels: int = 0
+    pixels: int = 0
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """Lobe sampling (bsdf) against one hemisphere strategy over the sweep."""
+    other: str
+    efficiency: list          # Estimate per point: efficiency of bsdf / of other
+    relmse_ratio: list        # Estimate per point: relMSE of other / of bsdf
+    pays_from: float | None   # first exponent where bsdf is at least 2x as efficient
+    worse_at: list            # exponents where bsdf is less efficient than other
+    explodes_from: float | None   # first exponent where relMSE ratio > BREAK_FACTOR
+    level_last: float         # other's mean image level at the last exponent (1 = right)
+
+
+@dataclass(frozen=True)
+class ExponentResult:
+    xs: list
+    methods: list
+    repeats: int
+    relmse: dict              # method -> Estimate per point (Phong pixels)
+    relmse_all: dict          # method -> Estimate per point (whole image)
+    seconds: dict             # method -> mean seconds per point
+    outliers: dict            # method -> (largest pixel, fireflies, NaN/Inf) per point
+    comparisons: list
+    mis: list | None          # Estimate per point: relMSE(mis) / min(cosine, bsdf)
+    sentences: list
+
+
+def analyse(data: ExponentData) -> ExponentResult:
+    """Pure: intervals, onsets and sentences from the measured numbers."""
+    xs, runs = list(data.xs), data.runs
+    repeats = min(len(r) for per in runs.values() for r in per)
+    err = {m: [[r.relmse_mask for r in rs] for rs in per] for m, per in runs.items()}
+    secs = {m: [[r.seconds for r in rs] for rs in per] for m, per in runs.items()}
+    relmse = {m: [mean_interval(v) for v in e] for m, e in err.items()}
+    relmse_all = {m: [mean_interval([r.relmse for r in rs]) for rs in per]
+                  for m, per in runs.items()}
+    seconds = {m: [sum(v) / len(v) for v in s] for m, s in secs.items()}
+    peaks = {m: [worst(rs) for rs in per] for m, per in runs.items()}
+    sentences, comparisons = [], []
+    if data.pixels:
+        sentences.append(f"{data.mask_pixels} of {data.pixels} pixels see a Phong surface "
+                         f"first; the errors are measured on them (full-image relMSE in the "
+                         f"table).")
+    how = basis(repeats)
+    if "bsdf" in runs:
+        for other in [k for k in ("cosine", "uniform") if k in runs]:
+            eff = [stats.efficiency_ratio(eb, sb, eo, so) for eb, sb, eo, so
+                   in zip(err["bsdf"], secs["bsdf"], err[other], secs[other])]
+            rat = [ratio(eo, eb) for eo, eb in zip(err[other], err["bsdf"])]
+            c = Comparison(other, eff, rat,
+                           metrics.first_where(xs, [exceeds(e, 2.0) for e in eff]),
+                           [x for x, e in zip(xs, eff) if below(e, 1.0)],
+                           metrics.first_where(xs, [exceeds(q, BREAK_FACTOR) for q in rat]),
+                           sum(r.level for r in runs[other][-1]) / len(runs[other][-1]))
+            comparisons.append(c)
+            sentences.append(_comparison_sentence(c, xs, data.spp, how))
+    mis = None
+    if {"mis", "cosine", "bsdf"} <= set(runs):
+        mis = []
+        for em, ec, eb in zip(err["mis"], err["cosine"], err["bsdf"]):
+            best = ec if sum(ec) <= sum(eb) else eb
+            mis.append(ratio(em, best))
+        sentences.append(
+            "Exponent sweep, mis against the better of cosine and bsdf: relMSE(mis) / "
+            "min(relMSE(cosine), relMSE(bsdf)) = "
+            + ", ".join(f"{q.text()} at exponent {g(x)}" for x, q in zip(xs, mis))
+            + f" (at most {g(max(q.value for q in mis))}; 1 would match the better strategy "
+              f"everywhere).")
+    return ExponentResult(xs, list(runs), repeats, relmse, relmse_all, seconds, peaks,
+                          comparisons, mis, sentences)
+
+
+def _comparison_sentence(c: Comparison, xs, spp: int, how: str) -> str:
+    other, last = c.other, c.relmse_ratio[-1]
+    level = c.level_last
+    why = (f" (the narrow lobe is rarely hit: the error hides in rare, huge samples that a "
+           f"{spp}-spp image mostly lacks)" if level < 0.9 else
+           " (a few huge samples dominate)" if level > 1.1 else "")
+    return (f"Exponent sweep, bsdf (lobe) vs {other}: lobe sampling pays off (efficiency "
+            f"1/(relMSE x time) at least 2x {other}'s) " + onset("exponent", c.pays_from, g)
+            + (f"; it is less efficient than {other} at exponent "
+               f"{', '.join(g(x) for x in c.worse_at)}" if c.worse_at else
+               f"; it is never less efficient than {other}")
+            + f". {other} sampling explodes (relMSE > {BREAK_FACTOR:g}x lobe sampling's) "
+            + onset("exponent", c.explodes_from, g)
+            + f"; at exponent {g(xs[-1])} its relMSE is {last.text()}x lobe sampling's and "
+              f"its Phong pixels average {level:.0%} of the reference{why}. At exponent "
+              f"{g(xs[-1])}, " + stats.verdict("bsdf", other, c.efficiency[-1]) + f" ({how}).")
+
+
+class ExponentSweep:
+    name = "exponent"
+
+    def methods(self) -> list[str]:
+        """Every vr_path strategy (the list the plugin defines), no NEE, as in the writeup."""
+        return list(strategies())
+
+    def plan(self, ctx: Context) -> list[SweepPoint]:
+        info = ctx.args.info
+        return [ctx.point(self.name, n, scene_variant(info, ctx.scene_dir, f"exponent-{n:g}",
+                                                      {"exponent": float(n)}), self.methods())
+                for n in ctx.cfg.exponents]
+
+    def measure(self, ctx: Context, points: list[SweepPoint]) -> ExponentData:
+        mask = phong_mask(ctx.probe())
+        runs = {m: [] for m in self.methods()}
+        for p in points:
+            ref = ctx.st.reference(p.ref_jobs)[0]
+            for m, reps in p.jobs.items():
+                runs[m].append([ctx.read_run(jobs, m, ref, mask)[0] for jobs in reps])
+        return ExponentData([p.x for p in points], runs, ctx.spp, int(mask.sum()),
+                            int(mask.size))
+
+    analyse = staticmethod(analyse)
+
+    def report(self, ctx: Context, res: ExponentResult) -> SweepReport:
+        a, xs = ctx.args, res.xs
+        charts.sweep_chart(ctx.path("exponent.png"), "Phong exponent of the glossy object", xs,
+                           {m: (res.relmse[m], res.seconds[m]) for m in res.methods},
+                           "relMSE on the Phong pixels", "Exponent")
+        header = ["exponent", "method", "spp", "repeats", "relmse_phong", "relmse_phong_lo",
+                  "relmse_phong_hi", "relmse_all", "relmse_all_lo", "relmse_all_hi", "seconds",
+                  "relmse_x_s", "max_pixel", "fireflies", "nonfinite_px"]
+        rows, summary = [], []
+        for m in res.methods:
+            for i, x in enumerate(xs):
+                e, e_all, s = res.relmse[m][i], res.relmse_all[m][i], res.seconds[m][i]
+                peak, fireflies, nonfinite = res.outliers[m][i]
+                rows.append([g(x), m, ctx.spp, res.repeats, g(e.value), g(e.lo), g(e.hi),
+                             g(e_all.value), g(e_all.lo), g(e_all.hi), round(s, 3),
+                             g(e.value * s), g(peak), fireflies, nonfinite])
+                summary.append({"sweep": self.name, "x": x, "method": m, "repeats": res.repeats,
+                                **e.fields("relmse"), "seconds": s})
+        rows.sort(key=lambda r: (float(r[0]), res.methods.index(r[1])))
+        blocks = [
+            report.text(
+                f"1. Phong exponent of the glossy object from {g(xs[0])} to {g(xs[-1])}, every "
+                f"vr_path strategy ({', '.join(res.methods)}) without NEE (as in the writeup), "
+                f"{budget(ctx.spp, res.repeats)} each, against a "
+                f"{a.reference_spp}-spp reference per exponent; errors are means over the "
+                f"repeats with {stats.LEVEL:.0%} intervals."),
+            report.image(f"{NAME}/exponent.png", "relMSE on the Phong pixels, and relMSE x "
+                         "render time, against the exponent (log-log; bands: 95% intervals)."),
+            report.text("\n\n".join(res.sentences)),
+            report.write_table(ctx.out, f"{NAME}/exponent", header, rows, "Exponent sweep",
+                               collapsed=True)]
+        notes = [s for s in res.sentences if s.startswith("Exponent sweep")]
+        return SweepReport(blocks, notes, summary)
+
+
+SWEEP = ExponentSweep()

@@ -1,0 +1,160 @@
+"""Sweep 2: the size of the light at constant power, with and without next-event estimation.
+
+Each strategy of --methods renders the scene with the light shrunk from the
+whole ceiling to a tiny patch (radiance x size^2 fixed), R repeats each; the
+NEE method (``bsdf+nee``, or the first strategy's) samples the light directly.
+A method without NEE breaks down where its relMSE exceeds ``BREAK_FACTOR`` x
+the NEE method's (on the interval's lower bound).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .. import metrics, report, stats
+from ..methods import scene_defaults, scene_variant
+from . import charts
+from .base import (BREAK_FACTOR, NAME, Context, Run, Skip, SweepPoint, SweepReport, basis,
+                   budget, exceeds, g, label, mean_interval, ratio, onset, worst)
+
+
+@dataclass(frozen=True)
+class LightData:
+    """``runs[method][point][repeat]``; the last method is the NEE one."""
+    xs: list
+    runs: dict[str, list[list[Run]]]
+    nee: str
+    spp: int
+    radiance: list = ()
+    size0: float = 2.0
+    rad0: float = 1.0
+
+
+@dataclass(frozen=True)
+class LightComparison:
+    method: str
+    ratio: list               # Estimate per point: relMSE(method) / relMSE(NEE)
+    breaks_from: float | None     # first size where the ratio exceeds BREAK_FACTOR
+    growth: object            # Estimate: relMSE at the last size / at the first
+    efficiency_last: object   # Estimate: efficiency of NEE / of method at the last size
+
+
+@dataclass(frozen=True)
+class LightResult:
+    xs: list
+    methods: list
+    nee: str
+    repeats: int
+    relmse: dict              # method -> Estimate per point
+    seconds: dict             # method -> mean seconds per point
+    outliers: dict            # method -> (largest pixel, fireflies, NaN/Inf) per point
+    comparisons: list
+    nee_change: object        # Estimate: NEE's relMSE at the last size / at the first
+    sentences: list
+    radiance: list = ()       # the light's radiance per point
+
+
+def analyse(data: LightData) -> LightResult:
+    """Pure: intervals, breakdown sizes and sentences from the measured numbers."""
+    xs, runs, nee = list(data.xs), data.runs, data.nee
+    repeats = min(len(r) for per in runs.values() for r in per)
+    err = {m: [[r.relmse for r in rs] for rs in per] for m, per in runs.items()}
+    secs = {m: [[r.seconds for r in rs] for rs in per] for m, per in runs.items()}
+    relmse = {m: [mean_interval(v) for v in e] for m, e in err.items()}
+    seconds = {m: [sum(v) / len(v) for v in s] for m, s in secs.items()}
+    how = basis(repeats)
+    comparisons, sentences = [], []
+    for m in [k for k in runs if k != nee]:
+        rat = [ratio(a, b) for a, b in zip(err[m], err[nee])]
+        c = LightComparison(m, rat, metrics.first_where(xs, [exceeds(q, BREAK_FACTOR)
+                                                              for q in rat]),
+                            ratio(err[m][-1], err[m][0]),
+                            stats.efficiency_ratio(err[nee][-1], secs[nee][-1], err[m][-1],
+                                                   secs[m][-1]))
+        comparisons.append(c)
+        sentences.append(
+            f"Light sweep, {m} without NEE: relMSE exceeds {BREAK_FACTOR:g}x {label(nee)}'s "
+            + onset("light size", c.breaks_from, g)
+            + f"; it grows {c.growth.text()}x from size {g(xs[0])} to {g(xs[-1])} (at "
+              f"{g(xs[-1])}: {rat[-1].text()}x {label(nee)}). At size {g(xs[-1])}, "
+            + stats.verdict(label(nee), m, c.efficiency_last) + f" ({how}).")
+    change = ratio(err[nee][-1], err[nee][0])
+    holds = not exceeds(change, BREAK_FACTOR)
+    sentences.append(f"Light sweep, {label(nee)}: relMSE changes {change.text()}x from size "
+                     f"{g(xs[0])} to {g(xs[-1])}: next-event estimation + MIS "
+                     + ("holds." if holds else f"degrades too (more than {BREAK_FACTOR:g}x)."))
+    return LightResult(xs, list(runs), nee, repeats, relmse, seconds,
+                       {m: [worst(rs) for rs in per] for m, per in runs.items()},
+                       comparisons, change, sentences, list(data.radiance))
+
+
+class LightSweep:
+    name = "light"
+
+    def methods(self, ctx: Context) -> list[str]:
+        nee = ("bsdf" if "bsdf" in ctx.strategies else ctx.strategies[0]) + "+nee"
+        return ctx.strategies + [nee]
+
+    def plan(self, ctx: Context) -> list[SweepPoint]:
+        info = ctx.args.info
+        defaults = scene_defaults(info.path)
+        if "light_size" not in defaults or "light_radiance" not in defaults:
+            raise Skip("the scene has no <default> parameter light_size, light_radiance")
+        size0, rad0 = float(defaults["light_size"]), float(defaults["light_radiance"])
+        points = []
+        for size in ctx.cfg.light_sizes:
+            radiance = rad0 * (size0 / size) ** 2
+            variant = scene_variant(info, ctx.scene_dir, f"light-{size:g}",
+                                    {"light_size": float(size), "light_radiance": radiance})
+            points.append(ctx.point(self.name, size, variant, self.methods(ctx),
+                                    {"radiance": radiance, "size0": size0, "rad0": rad0}))
+        return points
+
+    def measure(self, ctx: Context, points: list[SweepPoint]) -> LightData:
+        methods = self.methods(ctx)
+        runs = {m: [] for m in methods}
+        for p in points:
+            ref = ctx.st.reference(p.ref_jobs)[0]
+            for m, reps in p.jobs.items():
+                runs[m].append([ctx.read_run(jobs, m, ref)[0] for jobs in reps])
+        first = points[0].extra
+        return LightData([p.x for p in points], runs, methods[-1], ctx.spp,
+                         [p.extra["radiance"] for p in points], first["size0"], first["rad0"])
+
+    analyse = staticmethod(analyse)
+
+    def report(self, ctx: Context, res: LightResult) -> SweepReport:
+        a, xs, nee = ctx.args, res.xs, res.nee
+        charts.sweep_chart(ctx.path("light.png"), "light half edge (2 = whole ceiling), "
+                           "constant power", xs,
+                           {label(m): (res.relmse[m], res.seconds[m]) for m in res.methods},
+                           "relMSE", "Light size", reverse_x=True)
+        header = ["light size", "radiance", "method", "spp", "repeats", "relmse", "relmse_lo", "relmse_hi",
+                  "seconds", "relmse_x_s", "max_pixel", "fireflies", "nonfinite_px"]
+        rows, summary = [], []
+        for i, x in enumerate(xs):
+            for m in res.methods:
+                e, s = res.relmse[m][i], res.seconds[m][i]
+                peak, fireflies, nonfinite = res.outliers[m][i]
+                radiance = res.radiance[i] if res.radiance else float("nan")
+                rows.append([g(x), g(radiance), label(m), ctx.spp, res.repeats, g(e.value), g(e.lo),
+                             g(e.hi), round(s, 3), g(e.value * s), g(peak), fireflies,
+                             nonfinite])
+                summary.append({"sweep": self.name, "x": x, "method": m, "repeats": res.repeats,
+                                **e.fields("relmse"), "seconds": s})
+        blocks = [
+            report.text(
+                f"2. Light size from the whole ceiling (half edge {g(xs[0])}) to a tiny patch "
+                f"({g(xs[-1])}) at constant power (radiance x size^2 fixed): direction "
+                f"sampling alone must hit the light; {label(nee)} samples it directly. "
+                f"{budget(ctx.spp, res.repeats)} each; errors are means over "
+                f"the repeats with {stats.LEVEL:.0%} intervals."),
+            report.image(f"{NAME}/light.png", "relMSE and relMSE x time against the light "
+                         "size (x axis reversed: smaller lights to the right; bands: 95% "
+                         "intervals)."),
+            report.text("\n\n".join(res.sentences)),
+            report.write_table(ctx.out, f"{NAME}/light", header, rows, "Light-size sweep",
+                               collapsed=True)]
+        return SweepReport(blocks, list(res.sentences), summary)
+
+
+SWEEP = LightSweep()
