@@ -38,7 +38,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import statistics
 import sys
 import time
 
@@ -115,7 +114,7 @@ def measure_cost_floor(reps: int, width: int = 256, spp: int = 32) -> dict:
     original = qmc._radical_inverse_odd
     probes = ["hash", "none"] + [r for r in C.halton_randomizations() if r != "none"]
     configs = {"independent": None} | {f"halton:{r}": None for r in C.halton_randomizations()} \
-        | {f"probe:hash" if p == "hash" else f"probe:hash+{p}": p for p in probes}
+        | {"probe:hash" if p == "hash" else f"probe:hash+{p}": p for p in probes}
     scenes = {n: cornell_box(width, width, spp, "independent" if n == "independent" else "halton",
                              8, None if n == "independent" else
                              (n.split(":")[1] if p is None else "owen"))

@@ -14,7 +14,6 @@
 * Script errors: each experiment script, given each bad input, exits with code
   2 and one line on stderr, no traceback, and writes nothing.
 """
-import math
 import os
 import subprocess
 import sys

@@ -6,7 +6,6 @@ onset where it was planted, say "nowhere in the sweep" where there is none
 excludes none. Repeats are synthetic too: value x (1 + small noise), so the
 95% intervals are narrow, or two wildly different values, so they are wide.
 """
-import math
 
 import pytest
 

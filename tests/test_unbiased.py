@@ -27,7 +27,6 @@ Negative controls that must fail the same test: a strategy whose reported pdf
 is off by a direction-dependent factor, and a bias that keeps the image mean
 but moves energy between pixels (which the whole-image comparison accepts).
 """
-import math
 
 import mitsuba as mi
 import numpy as np

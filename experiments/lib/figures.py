@@ -56,28 +56,6 @@ def image_grid(path: str, images: list[list], row_labels: list[str], col_labels:
     return _save(fig, path)
 
 
-def error_plots(path: str, series: dict, metric: str) -> str:
-    """Log-log error against spp and against seconds, one line per method.
-
-    ``series[method] = (spp list, seconds list, error list)``; the legend gives
-    the least-squares convergence slope of each line.
-    """
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
-    for name, (spp, seconds, err) in series.items():
-        axes[0].loglog(spp, err, "o-", ms=3, label=f"{name} (slope {loglog_slope(spp, err):.2f})")
-        axes[1].loglog(seconds, err, "o-", ms=3,
-                       label=f"{name} (slope {loglog_slope(seconds, err):.2f})")
-    for ax, xlabel in zip(axes, ("samples per pixel", "render time (s)")):
-        ax.set_xlabel(xlabel)
-        ax.set_ylabel(metric)
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8)
-    axes[0].set_title(f"{metric} against spp")
-    axes[1].set_title(f"{metric} against time")
-    fig.tight_layout()
-    return _save(fig, path)
-
-
 def zscore_map(path: str, diff: np.ndarray, var: np.ndarray, title: str) -> str:
     """Per-pixel z-score |A - B| / sqrt(var) (largest over channels), pixels >= 2.576 marked."""
     with np.errstate(divide="ignore", invalid="ignore"):

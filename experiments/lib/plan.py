@@ -19,11 +19,11 @@ import dataclasses
 import hashlib
 import json
 
-from .jobs import MAX_LANES, Accumulator, Job, accumulate as accumulate_results, derive_seed
+from .jobs import MAX_LANES, Accumulator, Job, derive_seed
 from .methods import Depth, SceneInfo, parse_method, plugins_version
 
 __all__ = ["MAX_LANES", "Accumulator", "Job", "derive_seed", "make_job", "ladder",
-           "doubling_targets", "reference_jobs", "accumulate"]
+           "doubling_targets", "reference_jobs"]
 
 
 def make_job(prefix: str, info: SceneInfo, method: str, width: int, height: int, spp: int,
@@ -67,16 +67,6 @@ def doubling_targets(max_spp: int, factor: int = 2) -> list[int]:
         targets.append(t)
         t *= factor
     return targets + [max_spp]
-
-
-def accumulate(store, jobs: list[Job]) -> list[Accumulator]:
-    """The cumulative image after each job of ``jobs``, read from ``store``.
-
-    Kept for callers not yet moved to :meth:`.study.Study.accumulate` (or
-    :func:`.jobs.accumulate` of ``store.results(jobs)``); the planner itself
-    never reads the store.
-    """
-    return accumulate_results(store.results(jobs))
 
 
 def reference_jobs(info: SceneInfo, width: int, height: int, spp: int, method: str,

@@ -11,7 +11,6 @@
 """
 from __future__ import annotations
 
-import math
 
 import drjit as dr
 import mitsuba as mi

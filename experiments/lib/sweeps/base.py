@@ -258,7 +258,7 @@ class Context:
 
     def read_run(self, jobs: list[P.Job], method: str, ref, mask=None) -> tuple[Run, np.ndarray]:
         """The numbers of one run (its jobs accumulated) and its image; counts outliers."""
-        image = P.accumulate(self.st.store, jobs)[-1].mean
+        image = self.st.accumulate(jobs)[-1].mean
         o = self.outliers.add(label(method), image, ref)
         sel = mask if mask is not None else np.ones(image.shape[:2], bool)
         level = metrics.ratio(float(np.mean(image[sel])), float(np.mean(ref[sel])))

@@ -135,7 +135,7 @@ class HaltonSweep:
             for m, reps in p.jobs.items():
                 curves[d][m], corr[d][m] = [], []
                 for r, jobs in enumerate(reps):
-                    accs = P.accumulate(ctx.st.store, jobs)
+                    accs = ctx.st.accumulate(jobs)
                     curves[d][m].append([(a.spp, a.seconds, metrics.relmse(a.mean, ref))
                                          for a in accs])
                     image = accs[-1].mean

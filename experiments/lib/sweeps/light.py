@@ -123,7 +123,7 @@ class LightSweep:
     analyse = staticmethod(analyse)
 
     def report(self, ctx: Context, res: LightResult) -> SweepReport:
-        a, xs, nee = ctx.args, res.xs, res.nee
+        xs, nee = res.xs, res.nee
         charts.sweep_chart(ctx.path("light.png"), "light half edge (2 = whole ceiling), "
                            "constant power", xs,
                            {label(m): (res.relmse[m], res.seconds[m]) for m in res.methods},
