@@ -23,15 +23,17 @@ from experiments.lib.sweeps import BREAK_FACTOR, NAME, NORMAL, QUICK, REGISTRY, 
 
 ORDER = 40
 QUICK_DEFAULTS = {"resolution": (32, 16), "spp": 4, "reference_spp": 16}
-#: Independent repeats of every sweep render, for the intervals (--spp split over them).
-REPEATS = 2
+#: Independent repeats of every sweep render, for the intervals (--spp, and the Halton
+#: ladder's 64, are split over them: each repeat renders spp // R).
+REPEATS = 3
 #: The sweeps' shared state under its former name (tests/test_experiments.py builds it).
 Sweeps = Context
 
 
 def build_parser() -> cli.Parser:
     p = cli.common_parser("python -m experiments.stability", __doc__.split("\n")[0], spp=32,
-                          default_resolution="128x64", methods=("uniform", "cosine", "bsdf"))
+                          default_resolution="128x64", methods=("uniform", "cosine", "bsdf"),
+                          repeats=REPEATS)
     p.set_defaults(reference_spp=128)
     p.add_argument("--quick", action="store_true",
                    help=f"tiny run (for tests): fewer sweep points; resolution, --spp and "
@@ -40,11 +42,6 @@ def build_parser() -> cli.Parser:
                         f"{QUICK_DEFAULTS['reference_spp']}")
     p.add_argument("--sweeps", type=sweep_list, default=",".join(REGISTRY),
                    help=f"comma-separated sweeps to run: {', '.join(REGISTRY)}")
-    p.add_argument("--repeats", type=cli.positive_int, default=REPEATS, metavar="R",
-                   help="independent randomizations of every sweep render: --spp (and the "
-                        "Halton ladder's 64) is split over them, so each repeat renders "
-                        "spp / R; errors are means over them with 95%% intervals (1: no "
-                        "interval, and today's single renders)")
     return p
 
 

@@ -339,8 +339,10 @@ def test_local_cluster_listens_on_loopback_only(local_cluster):
 # A time budget far below one sample's time makes every equal-time job 1 spp,
 # so the job list does not depend on measured times.
 
+REPEATS = 2
 STUDY = ["--resolution", "16x8", "--spp", "4", "--reference-spp", "16",
-         "--methods", "bsdf,bsdf+halton,path", "--time-budget", "1e-9"]
+         "--methods", "bsdf,bsdf+halton,path", "--time-budget", "1e-9",
+         "--repeats", str(REPEATS)]
 
 
 def run_study(out, *extra: str) -> dict:
@@ -405,7 +407,7 @@ def test_study_on_two_workers_equals_local(local_study, tmp_path):
     print(f"largest image difference between --workers 2 and the local loop: {largest:.3g}")
     # the jobs whose times the study compares were all timed by one worker
     group = [k for k in timed_on if k.startswith(("convergence/", "equal_time/"))]
-    assert len(group) == 3 * 3 + 3
+    assert len(group) == REPEATS * (3 * 3 + 3)     # 3 methods x (1, 2, 4 spp + equal time)
     assert len({timed_on[k].address for k in group}) == 1
     # negative control: another seed changes the images (the comparison can fail)
     other = tmp_path / "seed1"

@@ -31,7 +31,11 @@ def mitsuba():
 
 
 def test_a_one_spp_warm_up_does_not_warm_a_64_spp_render(mitsuba):
-    """Negative control: the detector catches the render that compiled."""
+    """Negative control: the detector catches the render that compiled (the in-memory kernel
+    cache is emptied first: an earlier test may have compiled the same kernel; a kernel
+    loaded from the disk cache also counts as not warm)."""
+    import drjit as dr
+    dr.flush_kernel_cache()
     scene = load_scene(SCENE, 16, 8, parse_method("bsdf+nee+multijitter"), Depth(2))
     E._render(scene, False, 1, 1, 0)                       # warm-up at 1 spp (the old way)
     first = E._render(scene, False, 64, 2, 0)
@@ -50,6 +54,9 @@ def test_independent_does_not_recompile_for_a_new_count(mitsuba):
 @pytest.mark.parametrize("method", ["bsdf+nee+multijitter", "bsdf+nee+orthogonal",
                                     "bsdf+nee+halton:owen", "path+stratified"])
 def test_run_job_times_only_warm_renders(mitsuba, method):
+    import drjit as dr
+    dr.flush_kernel_cache()                 # as in a fresh process: every count compiles once
+    E._scenes.clear()
     info = read_scene(SCENE)
     jobs = P.ladder(f"timing/{method}", info, method, 16, 8, [1, 4, 16], 7, Depth(2),
                     VARIANT)

@@ -133,8 +133,9 @@ def kernels_compiled(history: list[dict]) -> int:
     """How many kernels of a Dr.Jit kernel history were compiled (or loaded from the disk
     cache) rather than found in the in-memory cache: 0 for a warm render."""
     import drjit as dr
+    # a kernel loaded from the disk cache reports cache_hit and cache_disk
     return sum(1 for k in history if k.get("type") == dr.KernelType.JIT
-               and not k.get("cache_hit", False))
+               and (not k.get("cache_hit", False) or k.get("cache_disk", False)))
 
 
 def _render(scene, continues: bool, spp: int, seed: int, offset: int):
