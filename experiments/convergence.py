@@ -26,8 +26,8 @@ NAME = "convergence"
 
 def build_parser() -> cli.Parser:
     p = cli.common_parser("python -m experiments.convergence", __doc__.split("\n")[0],
-                          spp=256, time_budget=0.5, default_resolution="128x64")
-    p.set_defaults(reference_spp=4096)
+                          spp=256, time_budget=0.25, default_resolution="128x64")
+    p.set_defaults(reference_spp=2048)
     add_arguments(p)
     return p
 

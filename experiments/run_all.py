@@ -35,7 +35,7 @@ WRITEUP = {"short_spp": "--short-spp", "halton_spp": "--halton-spp", "full": "--
 
 def build_parser() -> cli.Parser:
     p = cli.common_parser("python -m experiments.run_all", __doc__.split("\n")[0],
-                          spp=256, time_budget=0.5)
+                          spp=256, time_budget=0.25)
     convergence.add_arguments(p)
     writeup.add_arguments(p)
     p.add_argument("--stability", choices=("default", "quick", "off"), default="default",

@@ -69,7 +69,7 @@ def add_arguments(p: cli.Parser) -> None:
 def build_parser() -> cli.Parser:
     p = cli.common_parser("python -m experiments.samplers", __doc__.split("\n")[0], spp=256,
                           default_resolution="64x32", methods=("bsdf+nee",))
-    p.set_defaults(reference_spp=4096, reference_method="path+ldsampler")
+    p.set_defaults(reference_spp=2048, reference_method="path+ldsampler")
     add_arguments(p)
     return p
 
