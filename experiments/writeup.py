@@ -125,7 +125,9 @@ def short_figures(st: Study, ref, ref_var) -> list[dict]:
     for a, b, opt in pairs:
         for name in (a, b):
             wanted.setdefault(name, set()).add(getattr(args, opt))
-    ladders = {n: [_plan(st, NAME, n, t, args.resolution, 1, r)
+    # 1-spp passes in the first repeat: the spread of its passes gives the per-pixel
+    # variances of the bias check; the other repeats only enter the expected errors
+    ladders = {n: [_plan(st, NAME, n, t, args.resolution, 1 if r == 0 else 0, r)
                    for r in range(st.repeats_of(n))] for n, t in wanted.items()}
     st.run([j for reps in ladders.values() for jobs in reps for j in jobs], f"{NAME}: figures")
     repeats = {n: [_images(st, jobs) for jobs in reps] for n, reps in ladders.items()}
