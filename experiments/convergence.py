@@ -142,7 +142,8 @@ def sequences(st: Study, ladders, ref, floor) -> tuple[dict, list[dict]]:
                        [f"{t} spp" for t in targets], captions)
     for metric in series:
         figures.error_bands(os.path.join(out, NAME, f"error_{metric.lower()}.png"),
-                            series[metric], metric)
+                            {m: (spp, _means(secs), [stats.mean_interval(e) for e in err])
+                             for m, (spp, secs, err) in series[metric].items()}, metric)
     band = (f"expected over {st.repeats} repeats with {stats.LEVEL:.0%} bands; the reference's "
             f"own expected error is subtracted")
     return series, viewers + [

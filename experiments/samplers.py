@@ -222,8 +222,8 @@ def run(args) -> None:
         f"in exactly the timed configuration (a render during which a kernel compiled is "
         f"rendered again). Intervals: {stats.LEVEL:.0%}, {stats.METHOD}.")]
     for d in points:
-        bands = {s: ([p.spp for p in pts], [p.seconds for p in pts], [p.mse for p in pts])
-                 for s, pts in points[d].items()}
+        bands = {s: ([p.spp for p in pts], [sum(p.seconds) / len(p.seconds) for p in pts],
+                     [stats.mean_interval(p.mse) for p in pts]) for s, pts in points[d].items()}
         figures.error_bands(os.path.join(args.out, NAME, f"error_depth{d}.png"), bands, "MSE")
         figures.ratio_bands(os.path.join(args.out, NAME, f"efficiency_depth{d}.png"),
                             curves[d], "efficiency / independent",

@@ -69,81 +69,92 @@ def zscore_map(path: str, diff: np.ndarray, var: np.ndarray, title: str) -> str:
     return _save(fig, path)
 
 
-def sweep_chart(path: str, xlabel: str, xs: list, series: dict[str, tuple[list, list]],
-                ylabel: str, title: str, reverse_x: bool = False) -> str:
-    """Two log-log panels against the swept parameter: error, and error x render time.
+# ------------------------------------------------ lines with interval bands
 
-    ``series[label] = (errors, seconds)`` over ``xs``; non-finite points are dropped.
+def _positive(values) -> np.ndarray:
+    v = np.asarray(values, float)
+    return np.where(np.isfinite(v) & (v > 0), v, np.nan)
+
+
+def _line(ax, xs, estimates, scale=None, style="o-", label=None):
+    """A line through the estimates' values and a band between their bounds."""
+    k = np.ones(len(estimates)) if scale is None else np.asarray(scale, float)
+    value = _positive([e.value for e in estimates]) * k
+    (line,) = ax.plot(xs, value, style, ms=3, label=label)
+    lo = _positive([e.lo for e in estimates]) * k
+    hi = _positive([e.hi for e in estimates]) * k
+    if np.isfinite(lo).any():
+        ax.fill_between(xs, lo, hi, color=line.get_color(), alpha=0.2, linewidth=0)
+    return line
+
+
+def sweep_chart(path: str, xlabel: str, xs: list, series: dict, ylabel: str, title: str,
+                reverse_x: bool = False) -> str:
+    """Two log-log panels against the swept value: error, and error x mean render time.
+
+    ``series[label] = (list of Estimate per point, mean seconds per point)``.
     """
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))
-    for label, (err, secs) in series.items():
-        e, s = np.asarray(err, float), np.asarray(secs, float)
-        axes[0].loglog(xs, np.where(np.isfinite(e) & (e > 0), e, np.nan), "o-", ms=3,
-                       label=label)
-        axes[1].loglog(xs, np.where(np.isfinite(e * s) & (e > 0), e * s, np.nan), "o-", ms=3,
-                       label=label)
+    for name, (err, secs) in series.items():
+        _line(axes[0], xs, err, label=name)
+        _line(axes[1], xs, err, scale=secs, label=name)
     for ax, y in zip(axes, (ylabel, f"{ylabel} x render time (s)")):
+        ax.set_xscale("log")
+        ax.set_yscale("log")
         ax.set_xlabel(xlabel)
         ax.set_ylabel(y)
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=8)
         if reverse_x:
             ax.invert_xaxis()
-    axes[0].set_title(f"{title}: error")
+    axes[0].set_title(f"{title}: error (band: 95% interval)")
     axes[1].set_title(f"{title}: error x time (lower is more efficient)")
     fig.tight_layout()
     return _save(fig, path)
 
 
-def line_chart(path: str, panels: list[tuple[str, str, dict[str, tuple[list, list]]]],
-               xlabel: str, logy: tuple[bool, ...]) -> str:
-    """Side-by-side panels ``(title, ylabel, {label: (xs, ys)})`` with linear x."""
-    fig, axes = plt.subplots(1, len(panels), figsize=(5.5 * len(panels), 4), squeeze=False)
-    for ax, (title, ylabel, lines), log in zip(axes[0], panels, logy):
-        for label, (xs, ys) in lines.items():
-            style = "--" if "cosine" in label else ":" if "uniform" in label else "-"
-            ax.plot(xs, ys, style, marker="o", ms=3, label=label)
-        if log:
-            ax.set_yscale("log")
-        ax.set_title(title)
-        ax.set_xlabel(xlabel)
-        ax.set_ylabel(ylabel)
+STYLES = {"bsdf": "-", "cosine": "--", "uniform": ":", "mis": "-."}
+
+
+def grazing_chart(path: str, angles: list, wasted: dict, efficiency: dict) -> str:
+    """Wasted-sample fraction and efficiency against the incidence angle;
+    ``wasted[(strategy, n)]`` a list of fractions, ``efficiency[(strategy, n)]`` Estimates."""
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    for (s, n), fractions in wasted.items():
+        axes[0].plot(angles, fractions, STYLES.get(s, "-"), marker="o", ms=3,
+                     label=f"{s}, n={n:g}")
+    for (s, n), est in efficiency.items():
+        _line(axes[1], angles, est, style=STYLES.get(s, "-"), label=f"{s}, n={n:g}")
+    axes[1].set_yscale("log")
+    axes[0].set_title("Wasted samples (zero weight)")
+    axes[0].set_ylabel("fraction of samples")
+    axes[1].set_title("Efficiency relative to normal incidence (band: 95% interval)")
+    axes[1].set_ylabel("relVar(0) / relVar(angle)")
+    for ax in axes:
+        ax.set_xlabel("incidence angle (degrees from the normal)")
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=7)
+        ax.legend(fontsize=6, ncol=2)
     fig.tight_layout()
     return _save(fig, path)
 
 
-def _band(values):
-    """(mean, lo, hi) over the repeats of each point (:func:`.stats.mean_interval`)."""
-    from . import stats
-    est = [stats.mean_interval(v) for v in values]
-    return ([e.value for e in est], [e.lo if e.known else e.value for e in est],
-            [e.hi if e.known else e.value for e in est])
-
-
 def error_bands(path: str, series: dict, metric: str) -> str:
-    """Log-log expected error against spp and against seconds, one line per method, with a
-    95% band over the repeats.
-
-    ``series[method] = (spp list, [seconds per repeat] per point, [error per repeat] per
-    point)``; the legend gives the least-squares slope of the mean.
-    """
+    """Log-log expected error against spp and against mean time, one line per method with
+    its 95% interval as a band: ``series[method] = (spp list, mean seconds list, Estimate
+    list)``; the legend gives the fitted slope of each line's values."""
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
-    for name, (spp, seconds, err) in series.items():
-        mean, lo, hi = _band(err)
-        secs = [float(np.mean(s)) for s in seconds]
-        for ax, x in zip(axes, (spp, secs)):
-            line, = ax.loglog(x, mean, "o-", ms=3,
-                              label=f"{name} (slope {loglog_slope(x, mean):.2f})")
-            ax.fill_between(x, np.maximum(lo, 1e-300), hi, color=line.get_color(), alpha=0.2,
-                            linewidth=0)
+    for name, (spp, secs, err) in series.items():
+        values = [e.value for e in err]
+        _line(axes[0], spp, err, label=f"{name} (slope {loglog_slope(spp, values):.2f})")
+        _line(axes[1], secs, err, label=f"{name} (slope {loglog_slope(secs, values):.2f})")
     for ax, xlabel in zip(axes, ("samples per pixel", "render time (s)")):
+        ax.set_xscale("log")
+        ax.set_yscale("log")
         ax.set_xlabel(xlabel)
-        ax.set_ylabel(f"expected {metric}")
+        ax.set_ylabel(metric)
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=8)
-    axes[0].set_title(f"{metric} against spp (95% bands over repeats)")
+    axes[0].set_title(f"{metric} against spp (band: 95% interval)")
     axes[1].set_title(f"{metric} against time")
     fig.tight_layout()
     return _save(fig, path)
@@ -154,13 +165,9 @@ def ratio_bands(path: str, curves: dict, ylabel: str, title: str) -> str:
     interval as a band; ``curves[method] = [(spp, Estimate)]``; a dashed line at 1."""
     fig, ax = plt.subplots(figsize=(7.5, 4.5))
     for name, pts in curves.items():
-        spp = [p for p, _ in pts]
-        est = [e for _, e in pts]
-        line, = ax.semilogx(spp, [e.value for e in est], "o-", ms=3, label=name)
-        ax.fill_between(spp, [e.lo if e.known else e.value for e in est],
-                        [e.hi if e.known else e.value for e in est], color=line.get_color(),
-                        alpha=0.18, linewidth=0)
+        _line(ax, [p for p, _ in pts], [e for _, e in pts], label=name)
     ax.axhline(1.0, color="k", lw=0.8, ls="--")
+    ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("samples per pixel (rendered)")
     ax.set_ylabel(ylabel)

@@ -329,9 +329,9 @@ def conclude(cd: dict, joint: dict, counts: dict, spp: int) -> list[str]:
             f"there {h} reaches {ratio(h, nee):.3f} of independent's discrepancy and "
             f"{best} {ratio(best, nee):.3f} (joint power {joint[(h, nee)]:.2f} against "
             f"{joint[(best, nee)]:.2f}), so halton stratifies the NEE sample "
-            f"{'less' if less else 'more'} than the best native sampler"
-            + (", in line with the sampler study's finding that halton trails the best "
-               "native sampler in MSE at depth 2." if less else "."))
+            f"{'less' if less else 'more'} than the best native sampler: expect its MSE at "
+            f"max_depth 2 to be {'higher' if less else 'lower'} than {best}'s at the same "
+            f"count (the sampler study measures it, with intervals).")
         deep = [p for p in ((10, 11), (30, 31)) if p in pairs]
         if deep:
             grow = {s: max(ratio(s, p) for p in deep) for s in halton + native}

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from .. import metrics, report, stats
 from ..methods import scene_variant, strategies
 from ..scene_probes import phong_mask
-from . import charts
+from .. import figures
 from .base import (BREAK_FACTOR, NAME, Context, Run, SweepPoint, SweepReport, basis, below,
                    budget, exceeds, g, mean_interval, onset, ratio, worst)
 
@@ -145,7 +145,7 @@ class ExponentSweep:
 
     def report(self, ctx: Context, res: ExponentResult) -> SweepReport:
         a, xs = ctx.args, res.xs
-        charts.sweep_chart(ctx.path("exponent.png"), "Phong exponent of the glossy object", xs,
+        figures.sweep_chart(ctx.path("exponent.png"), "Phong exponent of the glossy object", xs,
                            {m: (res.relmse[m], res.seconds[m]) for m in res.methods},
                            "relMSE on the Phong pixels", "Exponent")
         header = ["exponent", "method", "spp", "repeats", "relmse_phong", "relmse_phong_lo",

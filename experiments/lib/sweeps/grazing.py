@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from .. import metrics, report, stats
 from .. import plan as P
 from ..scene_probes import direction_sampling_table, first_hit_sampling, phong_bsdf
-from . import charts
+from .. import figures
 from .base import NAME, Context, Skip, SweepPoint, SweepReport, basis, below, g, onset
 
 #: Strategies whose prose is in the closing note (every strategy is in the table).
@@ -137,7 +137,7 @@ class GrazingSweep:
     analyse = staticmethod(analyse)
 
     def report(self, ctx: Context, res: GrazingResult) -> SweepReport:
-        charts.grazing_chart(ctx.path("grazing.png"), res.angles,
+        figures.grazing_chart(ctx.path("grazing.png"), res.angles,
                              {(c.strategy, c.exponent): c.wasted for c in res.curves},
                              {(c.strategy, c.exponent): c.efficiency for c in res.curves})
         header = ["exponent", "strategy", "angle", "repeats", "albedo", "wasted",

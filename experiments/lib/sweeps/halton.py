@@ -15,7 +15,6 @@ from dataclasses import dataclass, field
 from .. import figures, metrics, report, stats
 from .. import plan as P
 from ..methods import RANDOMIZATIONS
-from . import charts
 from .base import (NAME, Context, SweepPoint, SweepReport, basis, exceeds, g, mean_interval,
                    onset, ratio, repeat_prefix)
 
@@ -156,7 +155,7 @@ class HaltonSweep:
         last = None
         for d in depths:
             lines = res.lines[d]
-            charts.ladder_chart(ctx.path(f"halton_depth{d}.png"),
+            figures.error_bands(ctx.path(f"halton_depth{d}.png"),
                                 {m: (ln.spp, ln.seconds, ln.relmse) for m, ln in lines.items()},
                                 "relMSE")
             ref, images = res.images[d]

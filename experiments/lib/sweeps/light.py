@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 from .. import metrics, report, stats
 from ..methods import scene_defaults, scene_variant
-from . import charts
+from .. import figures
 from .base import (BREAK_FACTOR, NAME, Context, Run, Skip, SweepPoint, SweepReport, basis,
                    budget, exceeds, g, label, mean_interval, ratio, onset, worst)
 
@@ -124,7 +124,7 @@ class LightSweep:
 
     def report(self, ctx: Context, res: LightResult) -> SweepReport:
         xs, nee = res.xs, res.nee
-        charts.sweep_chart(ctx.path("light.png"), "light half edge (2 = whole ceiling), "
+        figures.sweep_chart(ctx.path("light.png"), "light half edge (2 = whole ceiling), "
                            "constant power", xs,
                            {label(m): (res.relmse[m], res.seconds[m]) for m in res.methods},
                            "relMSE", "Light size", reverse_x=True)
