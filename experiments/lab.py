@@ -87,9 +87,13 @@ def run_warps(args, out_dir: str) -> tuple[list[dict], list[dict]]:
     for label, _ in cfg.bsdfs:
         mine = [s for s in specs if s.bsdf_label == label]
         stem = "warps_" + "".join(c if c.isalnum() else "_" for c in label)
+        tiles = []
+        for spec in mine:
+            panel = panels[spec.key()]
+            tiles.append((f"{spec.strategy:8s} {spec.incidence_deg:4g}°  p={panel['p_value']:.2g}"
+                         f"\nVar/E²={panel['rel_variance']:.3g}", panel))
         LF.warp_mosaic(os.path.join(out_dir, stem + ".png"), f"{label}: vr_path strategies",
-                       [(f"{s.strategy:8s} {s.incidence_deg:4g}°  p={panels[s.key()]['p_value']:.2g}\n"
-                         f"Var/E²={panels[s.key()]['rel_variance']:.3g}", panels[s.key()]) for s in mine])
+                       tiles)
         blocks.append(report.image(
             f"{NAME}/{stem}.png",
             f"{label}, {LW.domain_for(mine[0]).describe()} (x: azimuth, the whole sphere with "
@@ -244,7 +248,8 @@ def run(args) -> None:
     store.write_json(os.path.join(out_dir, "summary.json"),
                      {"warps": warp_rows, "warp_conclusion": warp_sentences,
                       "point_conclusion": point_sentences,
-                      "discrepancy": [{"spp": spp, "sampler": n, "pair": list(p), "discrepancy_cd": v}
+                      "discrepancy": [{"spp": spp, "sampler": n, "pair": list(p),
+                                       "discrepancy_cd": v}
                                       for (spp, n, p), v in table.items()]})
 
 

@@ -95,7 +95,8 @@ def run(args) -> None:
         f"{ctx.width}x{ctx.height} ({args.depth.describe()}). Each sweep point is the scene "
         f"with one parameter changed (the scene files are in {NAME}/scenes/); errors are relMSE "
         f"against a {args.reference_spp}-spp reference ({args.reference_method}) of the same "
-        f"point, means over {ctx.repeats} independent repeats with {stats.LEVEL:.0%} intervals "
+        f"point, the reference's own expected relMSE (from the spread of its passes) "
+        f"subtracted, means over {ctx.repeats} independent repeats with {stats.LEVEL:.0%} intervals "
         f"({stats.METHOD}). Times are warm render times on this (shared) machine. Breakdown "
         f"points and verdicts below are computed from the measurements; a difference is "
         f"claimed only where its interval excludes no difference.")]

@@ -46,7 +46,8 @@ def _colour(grid: np.ndarray, cmap: str, lo: float, hi: float, gamma: float = 1.
     return plt.get_cmap(cmap)(x ** gamma)[..., :3]
 
 
-def scatter_tile(xy: np.ndarray, cos_min: float, size: int = TILE, shift: bool = False) -> np.ndarray:
+def scatter_tile(xy: np.ndarray, cos_min: float, size: int = TILE,
+                 shift: bool = False) -> np.ndarray:
     """The directions as dark dots on white, in the panel's equal-area coordinates
     (``shift``: phi = pi in the middle, as :func:`panel_tiles` draws the grids)."""
     img = np.ones((size, size, 3))

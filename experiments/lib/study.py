@@ -79,10 +79,10 @@ class Study:
         expected MSE of the reference itself, the floor under every measured MSE)."""
         acc = self.accumulate(jobs)[-1]
         var = acc.variance_of_mean()
+        rel = var / (acc.mean ** 2 + RELMSE_EPS)     # per pixel and channel, for masked errors
         return acc.mean, {"seconds": acc.seconds, "passes": acc.passes, "spp": acc.spp,
                           "method": jobs[0].method, "mse_floor": float(np.mean(var)),
-                          "relmse_floor": float(np.mean(var / (acc.mean ** 2
-                                                               + RELMSE_EPS)))}
+                          "relmse_floor": float(np.mean(rel)), "relmse_floor_map": rel}
 
     def timed_on(self, jobs: list[Job]) -> str:
         """Which machine (host, CPU) measured the render times that each comparison of

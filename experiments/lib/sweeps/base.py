@@ -256,12 +256,19 @@ class Context:
                     for r in range(self.repeats)] for m in methods}
         return SweepPoint(x, info, self.st.reference_jobs(info), jobs, dict(extra or {}))
 
-    def read_run(self, jobs: list[P.Job], method: str, ref, mask=None) -> tuple[Run, np.ndarray]:
-        """The numbers of one run (its jobs accumulated) and its image; counts outliers."""
+    def read_run(self, jobs: list[P.Job], method: str, ref, mask=None,
+                 floor=None) -> tuple[Run, np.ndarray]:
+        """The numbers of one run (its jobs accumulated) and its image; counts outliers.
+        ``floor``: the reference's own relMSE per pixel and channel (``Study.reference``'s
+        ``relmse_floor_map``), subtracted from both errors."""
         image = self.st.accumulate(jobs)[-1].mean
         o = self.outliers.add(label(method), image, ref)
         sel = mask if mask is not None else np.ones(image.shape[:2], bool)
         level = metrics.ratio(float(np.mean(image[sel])), float(np.mean(ref[sel])))
         secs = sum(self.st.store.get(j.key).seconds for j in jobs)
-        return Run(metrics.relmse(image, ref), metrics.relmse(image, ref, mask), level, secs,
+        whole, masked = metrics.relmse(image, ref), metrics.relmse(image, ref, mask)
+        if floor is not None:
+            whole -= float(np.mean(floor))
+            masked -= float(np.mean(floor[mask] if mask is not None else floor))
+        return Run(whole, masked, level, secs,
                    o["max"], o["fireflies"], o["nonfinite"]), image

@@ -135,9 +135,10 @@ class ExponentSweep:
         mask = phong_mask(ctx.probe())
         runs = {m: [] for m in self.methods()}
         for p in points:
-            ref = ctx.st.reference(p.ref_jobs)[0]
+            ref, meta = ctx.st.reference(p.ref_jobs)
             for m, reps in p.jobs.items():
-                runs[m].append([ctx.read_run(jobs, m, ref, mask)[0] for jobs in reps])
+                runs[m].append([ctx.read_run(jobs, m, ref, mask, meta["relmse_floor_map"])[0]
+                               for jobs in reps])
         return ExponentData([p.x for p in points], runs, ctx.spp, int(mask.sum()),
                             int(mask.size))
 

@@ -129,13 +129,14 @@ class HaltonSweep:
         curves, corr, images = {}, {}, {}
         for p in points:
             d = p.x
-            ref = ctx.st.reference(p.ref_jobs)[0]
+            ref, meta = ctx.st.reference(p.ref_jobs)
             curves[d], corr[d], images[d] = {}, {}, (ref, [])
             for m, reps in p.jobs.items():
                 curves[d][m], corr[d][m] = [], []
                 for r, jobs in enumerate(reps):
                     accs = ctx.st.accumulate(jobs)
-                    curves[d][m].append([(a.spp, a.seconds, metrics.relmse(a.mean, ref))
+                    curves[d][m].append([(a.spp, a.seconds, metrics.relmse(a.mean, ref)
+                                          - meta["relmse_floor"])
                                          for a in accs])
                     image = accs[-1].mean
                     ctx.outliers.add(m, image, ref)

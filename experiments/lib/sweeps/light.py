@@ -113,9 +113,10 @@ class LightSweep:
         methods = self.methods(ctx)
         runs = {m: [] for m in methods}
         for p in points:
-            ref = ctx.st.reference(p.ref_jobs)[0]
+            ref, meta = ctx.st.reference(p.ref_jobs)
             for m, reps in p.jobs.items():
-                runs[m].append([ctx.read_run(jobs, m, ref)[0] for jobs in reps])
+                runs[m].append([ctx.read_run(jobs, m, ref, floor=meta["relmse_floor_map"])[0]
+                               for jobs in reps])
         first = points[0].extra
         return LightData([p.x for p in points], runs, methods[-1], ctx.spp,
                          [p.extra["radiance"] for p in points], first["size0"], first["rad0"])
