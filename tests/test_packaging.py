@@ -61,7 +61,7 @@ def require_build_tools() -> None:
         version = metadata.version("setuptools")
     except metadata.PackageNotFoundError:
         pytest.fail("setuptools is not installed: pip install -e '.[test]'")
-    assert _version(version) >= (64,), f"setuptools {version} < 64: pip install -e '.[test]'"
+    assert _version(version) >= (77,), f"setuptools {version} < 77: pip install -e '.[test]'"
     try:
         import setuptools.command.bdist_wheel  # noqa: F401  (setuptools >= 70.1)
     except ImportError:
