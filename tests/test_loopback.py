@@ -45,7 +45,7 @@ def is_loopback(host: str) -> bool:
 
 
 def _version_like(line: str, start: int) -> bool:
-    """A dotted quad that is part of a version (``v1.2.3.4``, ``==1.2.3.4``)."""
+    """A dotted quad right after "v" or "=": part of a version string, not an address."""
     return line[max(0, start - 1):start] in ("v", "=")
 
 
@@ -56,7 +56,7 @@ def line_problems(line: str) -> list[str]:
         try:
             address = ipaddress.ip_address(text)
         except ValueError:
-            continue                     # not an address (e.g. 300.1.2.3)
+            continue                     # not an address (an octet above 255)
         if not address.is_loopback and not _version_like(line, m.start(1)):
             found.append(f"IPv4 address {text}")
     for m in IPV6.finditer(line):
