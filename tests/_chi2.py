@@ -16,7 +16,10 @@ import math
 import drjit as dr
 import mitsuba as mi
 
-from experiments.lib.lab_warps import interaction  # noqa: F401  (one definition)
+# One definition of the chi-square grid and the interaction, shared with the lab: a cap
+# (phi, cos alpha) about an axis, the whole sphere for cos_min = -1.
+from experiments.lib.lab_warps import EqualAreaDomain as CapDomain  # noqa: F401
+from experiments.lib.lab_warps import cap_cos_min, interaction  # noqa: F401
 
 SIGNIFICANCE = 0.01
 
@@ -24,40 +27,6 @@ SIGNIFICANCE = 0.01
 def incident(cos_theta: float) -> mi.Vector3f:
     """Local incident direction in the xz plane with cos(theta) = ``cos_theta``."""
     return mi.Vector3f(math.sqrt(max(0.0, 1 - cos_theta ** 2)), 0.0, cos_theta)
-
-
-def cap_cos_min(exponent: float, lobe_widths: float = 12.0) -> float:
-    """cos of the cap's half-angle: 1 - lobe_widths / (n + 1), at least -1."""
-    return max(-1.0, 1.0 - lobe_widths / (exponent + 1.0))
-
-
-class CapDomain:
-    """(phi, cos alpha) about ``axis``, cos alpha in [cos_min, 1]."""
-
-    def __init__(self, axis, cos_min):
-        self.axis = mi.Vector3f(*axis)
-        self.frame = mi.Frame3f(dr.normalize(self.axis))
-        self.cos_min = cos_min
-
-    def bounds(self):
-        return mi.ScalarBoundingBox2f([-dr.pi, self.cos_min], [dr.pi, 1.0])
-
-    def aspect(self):
-        return 1.0
-
-    def map_forward(self, p):
-        sin_a = dr.safe_sqrt(1.0 - dr.square(p.y))
-        sin_phi, cos_phi = dr.sincos(p.x)
-        return self.frame.to_world(mi.Vector3f(cos_phi * sin_a, sin_phi * sin_a, p.y))
-
-    def map_backward(self, v):
-        local = self.frame.to_local(v)
-        return mi.Vector2f(dr.atan2(local.y, local.x), dr.clip(local.z, self.cos_min, 1.0))
-
-    def restrict(self, v, weight):
-        """Zero the weight of (and park) samples that fall outside the cap."""
-        inside = self.frame.to_local(v).z >= self.cos_min
-        return dr.select(inside, v, dr.normalize(self.axis)), dr.select(inside, weight, 0.0)
 
 
 def run_chi2(domain, sample, pdf, sample_dim, monkeypatch, tmp_path, test_count=1,

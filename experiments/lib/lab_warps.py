@@ -138,6 +138,15 @@ class EqualAreaDomain:
         """Directions inside the domain (all of them for the whole sphere)."""
         return self._frame().to_local(v).z >= self.cos_min
 
+    def restrict(self, v, weight):
+        """Zero the weight of (and park at the axis) the directions outside the domain, so
+        that histogram and density both integrate to the mass inside it."""
+        import drjit as dr
+        import mitsuba as mi
+        inside = self.inside(v)
+        return (dr.select(inside, v, dr.normalize(mi.Vector3f(*self.axis))),
+                dr.select(inside, weight, 0.0))
+
     def describe(self) -> str:
         if self.cos_min <= -1.0:
             return "whole sphere, (phi, cos theta)"
@@ -155,8 +164,13 @@ def domain_for(spec: "PanelSpec") -> EqualAreaDomain:
     if n is None or n < CAP_EXPONENT:
         return EqualAreaDomain()
     t = math.radians(spec.incidence_deg)
-    return EqualAreaDomain((-math.sin(t), 0.0, math.cos(t)),
-                           max(-1.0, 1.0 - CAP_LOBE_WIDTHS / (n + 1.0)))
+    return EqualAreaDomain((-math.sin(t), 0.0, math.cos(t)), cap_cos_min(n))
+
+
+def cap_cos_min(exponent: float, lobe_widths: float = CAP_LOBE_WIDTHS) -> float:
+    """cos of the half-angle of a cap ``lobe_widths`` Phong lobe widths wide:
+    1 - lobe_widths / (n + 1), at least -1 (the whole sphere)."""
+    return max(-1.0, 1.0 - lobe_widths / (exponent + 1.0))
 
 
 # ----------------------------------------------------------- the plugin
@@ -204,13 +218,12 @@ def sample_func(strategy: str, bsdf, wi, domain=None, path_module=None):
     domain = domain or EqualAreaDomain()
     ctx = mi.BSDFContext()
     ptr = mi.BSDFPtr(bsdf)
-    axis = dr.normalize(mi.Vector3f(*domain.axis))
 
     def sample(u):
         ds = path.sample_direction(strategy, ptr, ctx, interaction(wi, dr.width(u)), u.x,
                                    mi.Point2f(u.y, u.z))
-        counted = (ds.pdf > 0) & domain.inside(ds.wo)
-        return dr.select(counted, ds.wo, axis), dr.select(counted, 1.0, 0.0)
+        wo = dr.select(ds.pdf > 0, ds.wo, dr.normalize(mi.Vector3f(*domain.axis)))
+        return domain.restrict(wo, dr.select(ds.pdf > 0, 1.0, 0.0))
     return sample
 
 
