@@ -91,11 +91,6 @@ def plan_equal_time(st: Study, ladders: dict[str, list[list[P.Job]]]) -> dict[st
     return jobs
 
 
-def _per_repeat(st: Study, values: list) -> tuple:
-    """Values of the repeats rendered; a deterministic method's one run for every repeat."""
-    return tuple(values) * (st.repeats if len(values) == 1 else 1)
-
-
 def sequences(st: Study, ladders, ref, floor) -> tuple[dict, list[dict]]:
     """Expected errors along every ladder; returns ({metric: {method: (spp, [seconds per
     repeat], [errors per repeat])}}, report blocks). Images: the first repeat."""
@@ -103,18 +98,18 @@ def sequences(st: Study, ladders, ref, floor) -> tuple[dict, list[dict]]:
     table, series, grid, captions = [], {"MSE": {}, "relMSE": {}, "FLIP": {}}, [], []
     viewers, notes = [], []
     for m, reps in ladders.items():
-        per_repeat = [st.accumulate(jobs) for jobs in reps]
+        runs = [st.accumulate(jobs) for jobs in reps]
         grid.append([]), captions.append([]), notes.append([])
         spp, secs, mse, rel, flip = [], [], [], [], []
-        for i, accs in enumerate(zip(*per_repeat)):
+        for i, accs in enumerate(zip(*runs)):
             first = accs[0]
             stem = os.path.join(out, NAME, m, f"spp{first.spp:05d}")
             store.write_image(stem, first.mean)
             spp.append(first.spp)
-            secs.append(_per_repeat(st, [a.seconds for a in accs]))
-            mse.append(_per_repeat(st, [metrics.mse(a.mean, ref) - floor["mse_floor"]
+            secs.append(st.per_repeat([a.seconds for a in accs]))
+            mse.append(st.per_repeat([metrics.mse(a.mean, ref) - floor["mse_floor"]
                                         for a in accs]))
-            rel.append(_per_repeat(st, [metrics.relmse(a.mean, ref) - floor["relmse_floor"]
+            rel.append(st.per_repeat([metrics.relmse(a.mean, ref) - floor["relmse_floor"]
                                         for a in accs]))
             flip.append((metrics.flip_mean(first.mean, ref),))     # the image shown
             e_mse, e_rel = (stats.mean_interval(v[-1]) for v in (mse, rel))
@@ -202,9 +197,9 @@ def equal_time(st: Study, jobs: dict[str, list], ref, floor) -> tuple[dict, list
         results = [st.store.get(j.key) for j in reps]
         image = results[0].image.astype(float)
         store.write_image(os.path.join(st.out, "equal_time", m), image)
-        mse = _per_repeat(st, [metrics.mse(r.image.astype(float), ref) - floor["mse_floor"]
+        mse = st.per_repeat([metrics.mse(r.image.astype(float), ref) - floor["mse_floor"]
                                for r in results])
-        secs = _per_repeat(st, [r.seconds for r in results])
+        secs = st.per_repeat([r.seconds for r in results])
         result[m] = (results[0].spp, secs, mse)
         e = stats.mean_interval(mse)
         images.append(image)

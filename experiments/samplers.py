@@ -141,12 +141,11 @@ def analyse(st: Study, refs: dict, ladders: dict) -> tuple[list[SS.Row], dict, d
             for i, target in enumerate(reps[0]):
                 results = [st.store.get(rep[i].key) for rep in reps]
                 images = [r.image.astype(float) for r in results]
-                fill = st.repeats if len(reps) == 1 else 1
                 pts.append(SS.Point(
-                    results[0].spp, tuple(timing(st, r) for r in results) * fill,
-                    tuple(metrics.mse(im, ref) - meta["mse_floor"] for im in images) * fill,
-                    tuple(metrics.relmse(im, ref) - meta["relmse_floor"] for im in images)
-                    * fill, target.spp))
+                    results[0].spp, st.per_repeat(timing(st, r) for r in results),
+                    st.per_repeat(metrics.mse(im, ref) - meta["mse_floor"] for im in images),
+                    st.per_repeat(metrics.relmse(im, ref) - meta["relmse_floor"]
+                                  for im in images), target.spp))
             points[d][s] = pts
     return SS.table(points, st.width * st.height), points, floors
 

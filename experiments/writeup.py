@@ -137,8 +137,8 @@ def short_figures(st: Study, ref, ref_var) -> list[dict]:
         spp = getattr(args, opt)
         # expected MSE over the repeats, the reference's own subtracted (a deterministic
         # method's one run stands for every repeat)
-        mse = {n: [metrics.mse(r[spp].mean, ref) - ref_floor for r in repeats[n]]
-               * (st.repeats if len(repeats[n]) == 1 else 1) for n in (a, b)}
+        mse = {n: st.per_repeat(metrics.mse(r[spp].mean, ref) - ref_floor for r in repeats[n])
+               for n in (a, b)}
         var_ratio = stats.ratio_interval([mse[b]], [mse[a]])
         rmse_ratio = stats.Estimate(*(math.sqrt(x) if x > 0 else float("nan") for x in
                                       (var_ratio.value, var_ratio.lo, var_ratio.hi)),

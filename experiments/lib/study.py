@@ -49,6 +49,12 @@ class Study:
         deterministic method (plain Halton: every run gives the same image)."""
         return 1 if parse_method(method).deterministic else self.repeats
 
+    def per_repeat(self, values) -> tuple:
+        """Per-repeat values as a tuple of :attr:`repeats` entries: a deterministic method's
+        one run (see :meth:`repeats_of`) stands for every repeat, its error has no spread."""
+        values = tuple(values)
+        return values * self.repeats if len(values) == 1 else values
+
     def job(self, prefix: str, method: str, spp: int, info: SceneInfo | None = None,
             depth: Depth | None = None, **options) -> Job:
         """One job at this study's resolution, seed derived from the base seed and prefix."""
