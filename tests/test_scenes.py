@@ -1,0 +1,227 @@
+"""The bundled scene suite (``scenes/suite/``): every scene is listed, loads the way the
+suite loads it, says in its header what it isolates and which methods should win there
+in patterns that name real methods, and the furnace's exact value is right."""
+import fnmatch
+import math
+import os
+import re
+import xml.etree.ElementTree as ET
+
+import mitsuba as mi
+import numpy as np
+import pytest
+from scipy import stats
+
+import scenes
+from conftest import SCENES
+from integrators.choices import STRATEGIES
+
+#: Every suite scene, as names for scenes.path().
+SUITE = scenes.suite_names()
+#: The suite's default method names (experiments' grammar: STRATEGY[+nee][+SAMPLER],
+#: ``path`` for Mitsuba's path tracer): every vr_path strategy with and without NEE,
+#: bsdf+nee with a sampler, and path.
+METHODS = (list(STRATEGIES) + [f"{s}+nee" for s in STRATEGIES]
+           + ["bsdf+nee+independent", "path"])
+#: The $ parameters every suite scene declares with a <default> (the suite sets them).
+PARAMETERS = ("width", "height", "spp", "max_depth", "strategy", "emitter_sampling",
+              "sampler")
+#: Family-wise level of the furnace's agreement test (Sidak over its comparisons).
+ALPHA = 1e-4
+
+
+def defaults(file: str) -> dict:
+    """The file's own <default name=... value=...> entries (not those of its includes)."""
+    return {d.get("name"): d.get("value") for d in ET.parse(file).getroot().iter("default")}
+
+
+def problems(text: str, source: str = "<scene>") -> list:
+    """What is wrong with a scene's suite header (``text``: the scene file): nothing,
+    or one line per problem (no header, a malformed one, a pattern that names no
+    default method, a method that the header both favours and puts under ``over``)."""
+    try:
+        header = scenes.parse_header(text, source)
+    except ValueError as error:
+        return [str(error)]
+    if header is None:
+        return [f"{source}: no suite header"]
+    found = []
+    for key in ("favours", "over"):
+        patterns = getattr(header, key)
+        if not patterns:
+            found.append(f"{source}: '{key}' lists no pattern")
+        for pattern in patterns:
+            if not fnmatch.filter(METHODS, pattern):
+                found.append(f"{source}: {key} pattern {pattern!r} matches no method "
+                             f"(methods: {', '.join(METHODS)})")
+    favoured = {m for p in header.favours for m in fnmatch.filter(METHODS, p)}
+    beaten = {m for p in header.over for m in fnmatch.filter(METHODS, p)}
+    if favoured & beaten:
+        found.append(f"{source}: {', '.join(sorted(favoured & beaten))} both favoured and over")
+    return found
+
+
+def read(name: str) -> str:
+    with open(scenes.path(name), encoding="utf-8") as f:
+        return f.read()
+
+
+# ------------------------------------------------------------------ listing
+
+def test_every_suite_file_is_listed_in_a_stable_order():
+    on_disk = sorted(f"suite/{n}" for n in os.listdir(os.path.join(SCENES, "suite"))
+                     if n.endswith(".xml"))
+    assert SUITE == on_disk
+    assert len(SUITE) >= 9                      # the writeup's box and at least 8 new scenes
+    assert "suite/cbox.xml" in SUITE and "suite/furnace.xml" in SUITE
+    assert scenes.suite() == [scenes.path(n) for n in SUITE]
+    for name, file in zip(SUITE, scenes.suite()):
+        assert os.path.samefile(file, os.path.join(SCENES, *name.split("/")))
+
+
+def test_unknown_scene_is_named_with_the_choices():
+    with pytest.raises(FileNotFoundError, match=r"suite/nope\.xml.*suite/cbox\.xml"):
+        scenes.path("suite/nope.xml")
+
+
+# ------------------------------------------------------------------ headers
+
+@pytest.mark.parametrize("name", SUITE)
+def test_header_is_complete_and_names_real_methods(name):
+    assert problems(read(name), name) == []
+    header = scenes.header(scenes.path(name))
+    assert all(getattr(header, key).strip() for key in ("isolates", "hypothesis"))
+
+
+GOOD = """<!--
+suite:
+  isolates: a thing
+  hypothesis: bsdf wins
+  favours: bsdf*
+  over: uniform, cosine
+-->
+<scene version="3.0.0"/>
+"""
+
+
+def test_header_check_accepts_a_good_header():
+    assert problems(GOOD) == []
+    header = scenes.parse_header(GOOD)
+    assert header.favours == ("bsdf*",) and header.over == ("uniform", "cosine")
+    assert header.exact is None
+
+
+@pytest.mark.parametrize("broken, message", [
+    (GOOD.replace("  over: uniform, cosine\n", ""), "lacks over"),
+    (GOOD.replace("  isolates: a thing\n", ""), "lacks isolates"),
+    (GOOD.replace("bsdf*", "bsfd*"), "'bsfd\\*' matches no method"),
+    (GOOD.replace("uniform, cosine", "uniform, halton"), "'halton' matches no method"),
+    (GOOD.replace("uniform, cosine", "uniform, bsdf+nee"), "both favoured and over"),
+    (GOOD.replace("  over:", "  under:"), "unknown suite header key 'under'"),
+    (GOOD.replace("  over: uniform, cosine", "  over: uniform\n  over: cosine"), "twice"),
+    (GOOD.replace("  over: uniform, cosine", "  over:"), "'over' is empty"),
+    (GOOD.replace("-->", "  exact: two\n-->"), "'exact' is 'two'"),
+    (GOOD.replace("  isolates: a thing", "isolates a thing"), "not an indented"),
+    (GOOD.replace("suite:\n", ""), "no suite header"),
+])
+def test_header_check_catches(broken, message):
+    """Negative controls: each defect is reported by the same check the scenes pass."""
+    found = problems(broken)
+    assert found, broken
+    assert any(re.search(message, p) for p in found), found
+
+
+def test_only_the_furnace_claims_an_exact_value():
+    exact = [n for n in SUITE if scenes.header(scenes.path(n)).exact is not None]
+    assert exact == ["suite/furnace.xml"]
+
+
+# ------------------------------------------------------------------ loading
+
+@pytest.mark.parametrize("name", SUITE)
+def test_loads_with_its_defaults_and_with_overrides(name):
+    file = scenes.path(name)
+    own = defaults(file)
+    assert set(PARAMETERS) <= set(own), sorted(set(PARAMETERS) - set(own))
+
+    scene = mi.load_file(file)
+    sensor = scene.sensors()[0]
+    assert tuple(sensor.film().size()) == (int(own["width"]), int(own["height"]))
+    assert sensor.sampler().sample_count() == int(own["spp"])
+    integrator = scene.integrator()
+    assert type(integrator).__name__ == "VRPathIntegrator"
+    assert integrator.max_depth == int(own["max_depth"])
+    assert integrator.strategy == own["strategy"]
+    assert int(own["width"]) * int(own["height"]) <= 64 * 64      # cheap by default
+
+    scene = mi.load_file(file, width=10, height=6, spp=3, max_depth=3, strategy="cosine",
+                         emitter_sampling=True)
+    sensor = scene.sensors()[0]
+    assert tuple(sensor.film().size()) == (10, 6)
+    assert sensor.sampler().sample_count() == 3
+    assert (scene.integrator().max_depth, scene.integrator().strategy,
+            scene.integrator().emitter_sampling) == (3, "cosine", True)
+
+
+@pytest.mark.parametrize("name", SUITE)
+def test_renders_with_vr_path_and_with_mitsubas_path_swapped_in(name):
+    """At the scene's own max_depth, both integrators give a finite image that is not black."""
+    scene = mi.load_file(scenes.path(name), width=16, height=12, spp=4)
+    path = mi.load_dict({"type": "path", "max_depth": scene.integrator().max_depth})
+    for integrator in (scene.integrator(), path):
+        img = np.array(mi.render(scene, integrator=integrator, seed=1))
+        assert img.shape == (12, 16, 3)
+        assert np.all(np.isfinite(img)) and img.mean() > 0, (name, integrator)
+
+
+def test_the_suites_box_is_cbox_xml_at_the_suites_defaults():
+    """suite/cbox.xml includes ../cbox.xml: the same shapes and emitters, its own
+    defaults win over cbox.xml's, and cbox.xml's own parameters still pass through."""
+    box, own = mi.load_file(os.path.join(SCENES, "cbox.xml")), mi.load_file(
+        scenes.path("suite/cbox.xml"))
+    ids = sorted(s.id() for s in own.shapes())       # (Mitsuba merges the white walls)
+    assert ids == sorted(s.id() for s in box.shapes())
+    assert {"light", "diffuse_sphere", "glossy_sphere", "left", "right"} <= set(ids)
+    assert own.bbox() == box.bbox()
+    outer = defaults(scenes.path("suite/cbox.xml"))
+    assert tuple(own.sensors()[0].film().size()) == (int(outer["width"]), int(outer["height"]))
+    assert tuple(box.sensors()[0].film().size()) != tuple(own.sensors()[0].film().size())
+    narrow = mi.load_file(scenes.path("suite/cbox.xml"), light_size=0.2)
+    light = [s for s in narrow.shapes() if s.id() == "light"][0]
+    assert math.isclose(light.surface_area()[0], 0.4 * 0.4, rel_tol=1e-4)
+
+
+# ------------------------------------------------------------------ furnace
+
+def furnace_agrees(file: str, exact: float, **params) -> bool:
+    """Does a render with Mitsuba's path agree with ``exact`` everywhere? Per channel:
+    the image mean, and the mean of each 4 x 4 pixel block, against ``exact`` with a
+    standard error from the pixels' spread (independent sampler, box filter: the
+    pixels are independent estimates of one value); Sidak over every comparison."""
+    scene = mi.load_file(file, width=16, height=16, spp=32, **params)
+    path = mi.load_dict({"type": "path", "max_depth": -1})
+    img = np.array(mi.render(scene, integrator=path, seed=7), dtype=np.float64)
+    blocks = img.reshape(4, 4, 4, 4, 3).transpose(0, 2, 1, 3, 4).reshape(16, 16, 3)
+    groups = [img.reshape(-1, 3)] + list(blocks)               # (pixels, channels) each
+    level = 1 - (1 - ALPHA) ** (1 / (len(groups) * 3))
+    for values in groups:
+        se = values.std(axis=0, ddof=1) / math.sqrt(len(values))
+        t = np.abs(values.mean(axis=0) - exact) / np.maximum(se, 1e-12)
+        if np.any(t > stats.t.ppf(1 - level / 2, len(values) - 1)):
+            return False
+    return True
+
+
+def test_furnace_exact_value_is_its_own_le_over_one_minus_rho():
+    file = scenes.path("suite/furnace.xml")
+    own = defaults(file)
+    exact = float(own["radiance"]) / (1 - float(own["albedo"]))
+    assert scenes.header(file).exact == pytest.approx(exact, rel=1e-6)
+    assert int(own["max_depth"]) == -1                          # the exact value needs it
+    assert furnace_agrees(file, exact)
+
+
+def test_furnace_check_sees_a_wrong_albedo():
+    """Negative control: a 4% error (albedo 0.52 rendered, 0.5's value claimed) fails."""
+    file = scenes.path("suite/furnace.xml")
+    assert not furnace_agrees(file, scenes.header(file).exact, albedo=0.52)
