@@ -6,6 +6,10 @@ Usage::
     mi.set_variant("llvm_ad_rgb")
     import integrators        # registers vr_path, phong and halton for this variant
 
+``integrators.register_strategy(name, strategy)`` adds a direction-sampling strategy
+that ``vr_path``'s ``strategy`` parameter then takes by name (see
+:mod:`integrators.strategies`; usable before a variant is set).
+
 Importing registers every plugin for the current Mitsuba variant. A later
 ``mi.set_variant(...)`` to another JIT variant (``llvm_*``, ``cuda_*``)
 registers them there too. Imported before any variant is set, the package
@@ -31,10 +35,14 @@ _llvm.configure()
 
 import mitsuba as mi  # noqa: E402  (must come after choosing libLLVM)
 
-__all__ = ["register", "PLUGIN_MODULES", "supported_variant"]
+from . import strategies  # noqa: E402  (variant-free: the strategy registry)
+from .strategies import register as register_strategy  # noqa: E402
+
+__all__ = ["register", "register_strategy", "strategies", "PLUGIN_MODULES",
+           "supported_variant"]
 
 #: Modules that each define and register one plugin for the current variant.
-PLUGIN_MODULES = ("phong", "path", "halton")
+PLUGIN_MODULES = ("phong", "path", "halton", "zsobol")
 
 _registered: set[str] = set()
 

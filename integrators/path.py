@@ -2,213 +2,102 @@
 from __future__ import annotations
 
 import warnings
-from typing import NamedTuple
-
 import drjit as dr
 import mitsuba as mi
 
-from . import warps
-from .choices import STRATEGIES  # noqa: F401  (the strategy list, defined once)
+from . import strategies, warps
+from .strategies import DirectionSample, Strategy, VertexSample  # noqa: F401  (re-exported)
 
-#: Probability with which the ``mis`` strategy draws from the cosine strategy
-#: (else from the BSDF's own sampling). See :class:`VRPathIntegrator`.
-MIS_COSINE_WEIGHT = 0.25
+#: The built-in strategies' names, in order (``integrators.strategies.BUILTIN``); every
+#: registered name: ``integrators.strategies.names()``.
+STRATEGIES = strategies.BUILTIN
 
 #: Largest survival probability of Russian roulette (as Mitsuba's ``path``).
 RR_MAX_PROBABILITY = 0.95
 
 
-class DirectionSample(NamedTuple):
-    """The next direction of a path, as drawn by a strategy at one vertex."""
-    wo: mi.Vector3f       # local direction
-    pdf: mi.Float         # density of the strategy at wo (solid angle; Dirac lobes: as
-                          # sampled); 0 where no direction was drawn (failed BSDF sample)
-    weight: mi.Spectrum   # bsdf.eval(wo) / pdf  (the BSDF's own weight on delta lobes)
-    delta: mi.Bool        # sampled from a Dirac delta lobe
-    eta: mi.Float         # relative index of refraction crossed (1 for reflection)
-    null: mi.Bool         # passed straight through a ``null`` component
-
-
-class VertexSample(NamedTuple):
-    """The next direction and the BSDF at an emitter sample's direction (for NEE)."""
-    direction: DirectionSample
-    em_value: mi.Spectrum  # bsdf.eval(wo_em) (f * cos)
-    em_pdf: mi.Float       # density of the strategy at wo_em (for the MIS weight)
-
-
-# ------------------------------------------------------------- strategies
+# ------------------------------------------------ strategies at a vertex
 #
-# One function per concern, callable outside the render loop (the warp tests
-# call them on a single BSDF): ``sample_direction`` draws the next direction of
-# a strategy, ``sample_direction_and_eval`` also evaluates the BSDF at an
-# emitter sample's direction, and ``direction_pdf`` reports the strategy's
-# density at any direction. The sampling maths is in :mod:`.warps`.
+# One function per concern, callable outside the render loop (the warp tests and the
+# lab call them on a single BSDF): ``sample_direction`` draws the next direction of a
+# strategy, ``sample_direction_and_eval`` also evaluates the BSDF at an emitter
+# sample's direction, and ``direction_pdf`` reports the strategy's density at any
+# direction. The strategies are objects (:mod:`.strategies`); this is where they meet
+# the BSDFs of a scene: one ``dr.dispatch`` over the BSDF instances for strategies that
+# ask for it, and there the fallback to the BSDF's own sampling on delta lobes.
 
-def _hemisphere_sample(strategy, wi, transmits, sample1, sample2):
-    """Direction of the ``uniform`` or ``cosine`` strategy: on the side of ``wi``;
-    for a BSDF that transmits, on either side (``sample1 < 0.5``: z < 0)."""
-    return warps.square_to_sided_hemisphere(warps.hemisphere_warp(strategy).warp,
-                                            sample1, sample2, wi.z, transmits)
-
-
-def _hemisphere_pdf(strategy, wi, wo, transmits):
-    """Density of :func:`_hemisphere_sample` (the unbiasedness tests replace it)."""
-    return warps.square_to_sided_hemisphere_pdf(warps.hemisphere_warp(strategy).pdf,
-                                                wo, wi.z, transmits)
-
-
-def _crossing_eta(bsdf, ctx, si, wo, transmits, active):
-    """Relative index of refraction for a direction ``wo`` on the far side.
-
-    Mitsuba's interface gives eta only with a sample, so the BSDF is sampled
-    once with its transmission lobes alone (its eta does not depend on the
-    sample). Only BSDFs that transmit pay for this call.
-    """
-    if not transmits:
-        return mi.Float(1.0)
-    ctx_t = mi.BSDFContext(ctx.mode, mi.BSDFFlags.Transmission)
-    bs, _ = bsdf.sample(ctx_t, si, mi.Float(0.5), mi.Point2f(0.5, 0.5), active)
-    crosses = (si.wi.z * wo.z) < 0
-    return dr.select(crosses & (bs.eta > 0), bs.eta, 1.0)
-
-
-def _vertex(bsdf, strategy, ctx, si, sample1, sample2, active) -> DirectionSample:
-    """Per BSDF instance (inside ``dr.dispatch``) for ``uniform``, ``cosine`` and
-    ``mis``: the next direction.
-
-    BSDFs with a Dirac delta lobe (mirrors, smooth dielectrics, ``plastic``,
-    ``null``) cannot be hit by a sampled direction: they use their own sampling.
-    """
-    flags = bsdf.flags()
-    if mi.has_flag(flags, mi.BSDFFlags.Delta):
-        return _bsdf_vertex(bsdf, ctx, si, sample1, sample2, active)
-    transmits = mi.has_flag(flags, mi.BSDFFlags.Transmission)
-    if strategy == "mis":
-        c = MIS_COSINE_WEIGHT
-        split = warps.split_mixture_sample(sample1, c)
-        bs, bs_weight = bsdf.sample(ctx, si, split.u_b, sample2, active & ~split.use_a)
-        wo_cos = _hemisphere_sample("cosine", si.wi, transmits, split.u_a, sample2)
-        wo = dr.select(split.use_a, wo_cos, bs.wo)
-        drawn = split.use_a | _drawn(bs_weight)
-        value, bsdf_pdf = bsdf.eval_pdf(ctx, si, wo, active & drawn)
-        pdf = warps.mixture_pdf(c, _hemisphere_pdf("cosine", si.wi, wo, transmits), bsdf_pdf)
-        pdf = dr.select(drawn, pdf, 0.0)
-        eta = dr.select(split.use_a, _crossing_eta(bsdf, ctx, si, wo, transmits, active),
-                        bs.eta)
-    else:
-        wo = _hemisphere_sample(strategy, si.wi, transmits, sample1, sample2)
-        value = bsdf.eval(ctx, si, wo, active)
-        pdf = _hemisphere_pdf(strategy, si.wi, wo, transmits)
-        eta = _crossing_eta(bsdf, ctx, si, wo, transmits, active)
-        drawn = mi.Bool(True)
-    weight = dr.select(drawn & (pdf > 0), value / dr.maximum(pdf, warps.PDF_EPSILON), 0.0)
-    return DirectionSample(wo, pdf, weight, mi.Bool(False), eta, mi.Bool(False))
-
-
-def _vertex_and_eval(bsdf, strategy, ctx, si, sample1, sample2, wo_em, active) -> VertexSample:
-    """:func:`_vertex`, and at ``wo_em`` the BSDF value and the strategy's density
-    (for NEE and its MIS weight)."""
-    flags = bsdf.flags()
-    if mi.has_flag(flags, mi.BSDFFlags.Delta):
-        return _bsdf_vertex_and_eval(bsdf, ctx, si, sample1, sample2, wo_em, active)
-    transmits = mi.has_flag(flags, mi.BSDFFlags.Transmission)
-    direction = _vertex(bsdf, strategy, ctx, si, sample1, sample2, active)
-    em_value, em_bsdf_pdf = bsdf.eval_pdf(ctx, si, wo_em, active)
-    if strategy == "mis":
-        em_pdf = warps.mixture_pdf(MIS_COSINE_WEIGHT,
-                                   _hemisphere_pdf("cosine", si.wi, wo_em, transmits),
-                                   em_bsdf_pdf)
-    else:
-        em_pdf = _hemisphere_pdf(strategy, si.wi, wo_em, transmits)
-    return VertexSample(direction, em_value, em_pdf)
-
-
-def _drawn(bsdf_weight):
-    """Did ``bsdf.sample`` draw a direction? Mitsuba marks a failed sample (e.g.
-    below the horizon of a one-sided BSDF) by a zero weight, its pdf may be > 0."""
-    return dr.any(mi.unpolarized_spectrum(bsdf_weight) != 0)
-
-
-def _bsdf_direction(bs, weight) -> DirectionSample:
-    """A :class:`DirectionSample` from the BSDF's own sample and weight."""
-    return DirectionSample(bs.wo, dr.select(_drawn(weight), bs.pdf, 0.0), weight,
-                           mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta), bs.eta,
-                           mi.has_flag(bs.sampled_type, mi.BSDFFlags.Null))
-
-
-def _bsdf_vertex(bsdf, ctx, si, sample1, sample2, active) -> DirectionSample:
-    """The ``bsdf`` strategy: the BSDF's own sampling."""
-    return _bsdf_direction(*bsdf.sample(ctx, si, sample1, sample2, active))
-
-
-def _bsdf_vertex_and_eval(bsdf, ctx, si, sample1, sample2, wo_em, active) -> VertexSample:
-    """The ``bsdf`` strategy, evaluated at ``wo_em`` in the same call
-    (``eval_pdf_sample``, as Mitsuba's ``path``)."""
-    em_value, em_pdf, bs, weight = bsdf.eval_pdf_sample(ctx, si, wo_em, sample1, sample2,
-                                                        active)
-    return VertexSample(_bsdf_direction(bs, weight), em_value, em_pdf)
+def _has_delta_lobe(bsdf) -> bool:
+    """BSDFs with a Dirac delta lobe (mirrors, smooth dielectrics, ``plastic``, ``null``)
+    cannot be hit by a sampled direction: every strategy uses their own sampling."""
+    return mi.has_flag(bsdf.flags(), mi.BSDFFlags.Delta)
 
 
 def _plain(value):
-    """(Nested) NamedTuples as plain tuples."""
+    """(Nested) NamedTuples as plain tuples of Dr.Jit arrays."""
+    if isinstance(value, DirectionSample):
+        return (mi.Vector3f(value.wo), mi.Float(value.pdf), mi.Spectrum(value.weight),
+                mi.Bool(value.delta), mi.Float(value.eta), mi.Bool(value.null))
     return tuple(_plain(v) for v in value) if isinstance(value, tuple) else value
 
 
-def _per_bsdf(result_type, fn, bsdf, *args):
-    """``fn(bsdf, *args)`` for one BSDF, or one ``dr.dispatch`` over a ``mi.BSDFPtr``.
-
-    Dr.Jit 1.5's ``dr.dispatch`` does not traverse NamedTuples (it compares the
-    results of the BSDFs as opaque objects and fails), so the results cross it
-    as plain nested tuples and are rebuilt as ``result_type``.
-    """
-    if not isinstance(bsdf, mi.BSDFPtr):
-        return fn(bsdf, *args)
-    out = dr.dispatch(bsdf, lambda b, *a: _plain(fn(b, *a)), *args)
+def _rebuild(result_type, out):
     if result_type is VertexSample:
         return VertexSample(DirectionSample(*out[0]), *out[1:])
-    return result_type(*out)
+    return out if result_type is None else result_type(*out)
+
+
+def _at_vertex(result_type, method, fallback, strategy, bsdf, *args):
+    """``method(bsdf, *args)`` (a method of ``strategy``) at the BSDF ``bsdf``.
+
+    Strategies with ``dispatch`` (see :class:`~.strategies.Strategy`) are called per BSDF
+    instance, in one ``dr.dispatch`` over a ``mi.BSDFPtr``, and BSDFs with a delta lobe
+    get ``fallback`` (the same method of the BSDF's own sampling) instead. The others
+    get ``bsdf`` as it is. Dr.Jit 1.5's ``dr.dispatch`` does not traverse NamedTuples
+    (it compares the results of the BSDFs as opaque objects and fails), so the results
+    cross it as plain nested tuples and are rebuilt as ``result_type``.
+    """
+    if not strategy.dispatch:
+        return method(bsdf, *args)
+
+    def per_instance(b, *a):
+        return (fallback if _has_delta_lobe(b) else method)(b, *a)
+
+    if not isinstance(bsdf, mi.BSDFPtr):
+        return per_instance(bsdf, *args)
+    out = dr.dispatch(bsdf, lambda b, *a: _plain(per_instance(b, *a)), *args)
+    return _rebuild(result_type, out)
 
 
 def sample_direction(strategy, bsdf, ctx, si, sample1, sample2,
                      active=True) -> DirectionSample:
-    """Next direction of ``strategy`` at the vertex ``si`` with BSDF ``bsdf``.
+    """Next direction of ``strategy`` (a registered name or a
+    :class:`~.strategies.Strategy`) at the vertex ``si`` with BSDF ``bsdf``.
 
-    ``bsdf``: a ``mi.BSDFPtr`` (one dispatch over the BSDFs) or one BSDF.
+    ``bsdf``: a ``mi.BSDFPtr`` (one dispatch over the BSDFs) or one BSDF. A name
+    registered with a factory gets a new strategy object at each call: pass the object
+    to keep its state.
     """
-    active = mi.Bool(active)
-    if strategy == "bsdf":
-        return _bsdf_vertex(bsdf, ctx, si, sample1, sample2, active)
-    return _per_bsdf(DirectionSample, _vertex, bsdf, strategy, ctx, si, sample1, sample2,
-                     active)
+    s = strategies.resolve(strategy)
+    return _at_vertex(DirectionSample, s.sample, strategies.bsdf.sample, s, bsdf, ctx, si,
+                      sample1, sample2, mi.Bool(active))
 
 
 def sample_direction_and_eval(strategy, bsdf, ctx, si, sample1, sample2, wo_em,
                               active=True) -> VertexSample:
     """:func:`sample_direction`, and at ``wo_em`` (a local direction, e.g. of an
-    emitter sample) the BSDF value and the strategy's density, from the same
-    BSDF call (``bsdf``: ``eval_pdf_sample``)."""
-    active = mi.Bool(active)
-    if strategy == "bsdf":
-        return _bsdf_vertex_and_eval(bsdf, ctx, si, sample1, sample2, wo_em, active)
-    return _per_bsdf(VertexSample, _vertex_and_eval, bsdf, strategy, ctx, si, sample1,
-                     sample2, wo_em, active)
+    emitter sample) the BSDF value and the strategy's density (for ``bsdf``: from the
+    same BSDF call, ``eval_pdf_sample``)."""
+    s = strategies.resolve(strategy)
+    return _at_vertex(VertexSample, s.sample_and_eval, strategies.bsdf.sample_and_eval, s,
+                      bsdf, ctx, si, sample1, sample2, wo_em, mi.Bool(active))
 
 
 def direction_pdf(strategy, bsdf, ctx, si, wo, active=True):
     """Density with which ``strategy`` draws the local direction ``wo`` at ``si``
     (for BSDFs without a delta lobe; with one, the BSDF's own pdf)."""
-    flags = bsdf.flags()
-    bsdf_pdf = bsdf.pdf(ctx, si, wo, active)
-    if strategy == "bsdf":
-        return bsdf_pdf
-    transmits = mi.has_flag(flags, mi.BSDFFlags.Transmission)
-    delta = mi.has_flag(flags, mi.BSDFFlags.Delta)
-    if strategy == "mis":
-        pdf = warps.mixture_pdf(MIS_COSINE_WEIGHT,
-                                _hemisphere_pdf("cosine", si.wi, wo, transmits), bsdf_pdf)
-    else:
-        pdf = _hemisphere_pdf(strategy, si.wi, wo, transmits)
-    return dr.select(delta, bsdf_pdf, pdf)
+    s = strategies.resolve(strategy)
+    return _at_vertex(None, s.pdf, strategies.bsdf.pdf, s, bsdf, ctx, si, wo,
+                      mi.Bool(active))
 
 
 class VRPathIntegrator(mi.SamplingIntegrator):
@@ -222,12 +111,17 @@ class VRPathIntegrator(mi.SamplingIntegrator):
 
      * - strategy
        - |string|
-       - How the next direction is drawn at every bounce: ``uniform``
-         (uniform hemisphere, pdf :math:`1/2\pi`), ``cosine`` (cosine-weighted
-         hemisphere, pdf :math:`\cos\theta/\pi`), ``bsdf`` (the BSDF's own
-         importance sampling; for ``phong`` the Phong-lobe mixture) or ``mis``
-         (one-sample multiple importance sampling of ``cosine`` and ``bsdf``,
-         see below). (Default: ``bsdf``)
+       - How the next direction is drawn at every bounce: the name of a
+         registered strategy (``integrators.strategies.names()``). Built in:
+         ``uniform`` (uniform hemisphere, pdf :math:`1/2\pi`), ``cosine``
+         (cosine-weighted hemisphere, pdf :math:`\cos\theta/\pi`), ``bsdf``
+         (the BSDF's own importance sampling; for ``phong`` the Phong-lobe
+         mixture) and ``mis`` (one-sample multiple importance sampling of
+         ``cosine`` and ``bsdf``, see below); any name added with
+         ``integrators.register_strategy`` (a
+         :class:`~integrators.strategies.Strategy`; a name registered with a
+         factory gives each ``vr_path`` its own strategy object). An unknown
+         name is an error that lists the registered ones. (Default: ``bsdf``)
 
      * - max_depth
        - |int|
@@ -257,12 +151,15 @@ class VRPathIntegrator(mi.SamplingIntegrator):
     A unidirectional path tracer written in Python: one ``@dr.syntax`` loop,
     compiled into a single megakernel, with one dispatch over the BSDFs per
     vertex (``eval_pdf_sample`` for ``bsdf`` with emitter sampling, as
-    Mitsuba's ``path``; for the other strategies one ``dr.dispatch`` that
-    draws the strategy's direction and evaluates it and the emitter sample's
-    direction). Every bounce draws a direction with the chosen ``strategy``
-    and weights it by ``bsdf.eval / pdf`` (``eval`` includes the cosine). The
-    direction sampling is :func:`sample_direction` and its density
-    :func:`direction_pdf`, callable outside the render loop (the warp tests do).
+    Mitsuba's ``path``; for strategies that ask for it, the others, one
+    ``dr.dispatch`` over the BSDF instances that draws the strategy's
+    direction and evaluates it and the emitter sample's direction). Every
+    bounce draws a direction with the chosen ``strategy`` and weights it by
+    ``bsdf.eval / pdf`` (``eval`` includes the cosine). The strategies are
+    objects (:mod:`integrators.strategies`: ``sample``, ``pdf`` and both for
+    NEE); the direction sampling at a vertex is :func:`sample_direction` and
+    its density :func:`direction_pdf`, callable outside the render loop with
+    a strategy's name or object (the warp tests and the lab do).
 
     The uniform and cosine strategies sample the hemisphere on the side of the
     incident direction; for BSDFs with a transmission lobe they sample the
@@ -280,9 +177,9 @@ class VRPathIntegrator(mi.SamplingIntegrator):
     variance), so low-spp renders are usually too dark, with rare fireflies
     holding the missing energy.
 
-    ``mis`` draws from the cosine strategy with probability
-    :math:`c` = ``MIS_COSINE_WEIGHT`` = 0.25 and from the BSDF's own sampling
-    otherwise, and weights every direction by
+    ``mis``, ``Mixture(cosine, bsdf, c)``, draws from the cosine strategy
+    with probability :math:`c` = ``strategies.MIS_COSINE_WEIGHT`` = 0.25 and
+    from the BSDF's own sampling otherwise, and weights every direction by
     :math:`f / (c\,p_\mathrm{cos} + (1-c)\,p_\mathrm{bsdf})`, whichever
     technique drew it (Veach's one-sample model with the balance heuristic).
     That mixture density is the one used everywhere, including the MIS
@@ -300,17 +197,18 @@ class VRPathIntegrator(mi.SamplingIntegrator):
 
     BSDFs with a Dirac delta lobe (mirrors, smooth dielectrics, ``plastic``,
     ``null``) cannot be hit by a sampled direction: at such vertices every
-    strategy falls back to the BSDF's own sampling, so those images stay
-    correct. Without ``emitter_sampling`` delta emitters (point, spot,
+    strategy (registered ones too) falls back to the BSDF's own sampling, so
+    those images stay correct. Without ``emitter_sampling`` delta emitters (point, spot,
     directional) are never reached; rendering such a scene warns. Participating
     media are not simulated: a scene with a medium is refused with an error
     that names it (use Mitsuba's ``volpath``). ``max_depth`` 0 renders black.
 
     Sample dimensions per bounce: 2 for the emitter sample (only with
     ``emitter_sampling``), 1 + 2 for the direction (``uniform`` and ``cosine``
-    use the 1D sample only to pick a side for transmitting BSDFs; ``mis``
-    uses it to pick the technique and, rescaled, inside the technique), 1 for
-    Russian roulette.
+    use the 1D sample only to pick a side for transmitting BSDFs; a mixture
+    such as ``mis`` uses it to pick the technique and, rescaled, inside the
+    technique; a registered strategy gets the same 1 + 2), 1 for Russian
+    roulette.
 
     .. tabs::
 
@@ -330,11 +228,13 @@ class VRPathIntegrator(mi.SamplingIntegrator):
 
     def __init__(self, props: mi.Properties):
         mi.SamplingIntegrator.__init__(self, props)
-        strategy = props.get("strategy", "bsdf")
-        if strategy not in STRATEGIES:
-            raise ValueError(f"vr_path: unknown strategy {strategy!r}; "
-                             f"valid choices are {', '.join(STRATEGIES)}")
-        self.strategy = strategy
+        #: The strategy's registered name, and the strategy object it names (for a name
+        #: registered with a factory, this instance's own; see integrators.strategies).
+        self.strategy = props.get("strategy", "bsdf")
+        try:
+            self.sampling_strategy = strategies.get(self.strategy)
+        except strategies.UnknownStrategyError as error:
+            raise ValueError(f"vr_path: {error}") from None
 
         max_depth = props.get("max_depth", -1)
         if not isinstance(max_depth, int) or max_depth < -1:
@@ -386,6 +286,7 @@ class VRPathIntegrator(mi.SamplingIntegrator):
             return mi.Spectrum(0.0), mi.Bool(False), self._aovs(mi.UInt32(0), mi.UInt32(0))
         ctx = mi.BSDFContext()
         max_depth = mi.UInt32(0xFFFFFFFF if self.max_depth < 0 else self.max_depth)
+        strategy = self.sampling_strategy
         nee = self.emitter_sampling
         count = self.count_segments
         hide = self.hide_emitters
@@ -440,8 +341,8 @@ class VRPathIntegrator(mi.SamplingIntegrator):
                 active_em &= ds_em.pdf != 0
                 sample1 = sampler.next_1d(active_next)
                 sample2 = sampler.next_2d(active_next)
-                vertex = sample_direction_and_eval(self.strategy, bsdf, ctx, si, sample1,
-                                                   sample2, si.to_local(ds_em.d), active_next)
+                vertex = sample_direction_and_eval(strategy, bsdf, ctx, si, sample1, sample2,
+                                                   si.to_local(ds_em.d), active_next)
                 direction = vertex.direction
                 w_em = dr.select(ds_em.delta, 1.0,
                                  warps.power_heuristic(ds_em.pdf, vertex.em_pdf))
@@ -449,7 +350,7 @@ class VRPathIntegrator(mi.SamplingIntegrator):
             else:
                 sample1 = sampler.next_1d(active_next)
                 sample2 = sampler.next_2d(active_next)
-                direction = sample_direction(self.strategy, bsdf, ctx, si, sample1, sample2,
+                direction = sample_direction(strategy, bsdf, ctx, si, sample1, sample2,
                                              active_next)
 
             # ------------------------------------------------ next direction

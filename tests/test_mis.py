@@ -47,6 +47,11 @@ def test_mis_within_1_5x_of_the_better_strategy(exponent):
 def test_mostly_cosine_mixture_fails(monkeypatch):
     """Negative control: a mixture drawing 95% from the cosine strategy is not robust
     at exponent 10^4 (its weights reach 20x those of lobe sampling)."""
-    monkeypatch.setattr(vr_path, "MIS_COSINE_WEIGHT", 0.95)
-    ratio, err = mis_ratio(10000)
+    from integrators import strategies
+    strategies.register("mis", strategies.Mixture(strategies.cosine, strategies.bsdf, 0.95),
+                        replace=True)
+    try:
+        ratio, err = mis_ratio(10000)
+    finally:
+        strategies.register("mis", strategies.mis, replace=True)
     assert ratio > 1.5, f"ratio {ratio:.3f}, relMSE per seed {err}"

@@ -235,13 +235,20 @@ def test_edge_cases_agree_with_builtin_path(name, params, strategy, nee, channel
 def test_wrong_pdf_fails(monkeypatch):
     """Negative control (a): uniform sampling weighted by the cosine density (a pdf off by
     the direction-dependent factor 2 |cos theta|, still normalised) must fail."""
-    true_pdf = vr_path._hemisphere_pdf
+    from integrators import strategies
 
-    def wrong_pdf(strategy, wi, wo, transmits):
-        return true_pdf("cosine" if strategy == "uniform" else strategy, wi, wo, transmits)
+    class UniformWithCosinePdf(strategies.HemisphereSampling):
+        def __init__(self):
+            super().__init__("uniform")
 
-    monkeypatch.setattr(vr_path, "_hemisphere_pdf", wrong_pdf)
-    images = vr_images("cbox-diffuse", "uniform", True, seed0=11)
+        def pdf(self, bsdf, ctx, si, wo, active):
+            return strategies.cosine.pdf(bsdf, ctx, si, wo, active)
+
+    strategies.register("uniform", UniformWithCosinePdf(), replace=True)
+    try:
+        images = vr_images("cbox-diffuse", "uniform", True, seed0=11)
+    finally:
+        strategies.register("uniform", strategies.uniform, replace=True)
     with pytest.raises(AssertionError):
         assert_blocks_agree(images, reference("cbox-diffuse"))
 
