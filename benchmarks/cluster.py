@@ -29,7 +29,8 @@ import integrators  # noqa: F401  (chooses libLLVM; must come before mitsuba/drj
 import mitsuba as mi  # noqa: E402
 
 from experiments.lib import cluster, execute  # noqa: E402
-from experiments.lib import methods as M  # noqa: E402
+from experiments.lib import scenes as SC  # noqa: E402
+from experiments.lib.methods import parse_method  # noqa: E402
 from experiments.lib import plan as P  # noqa: E402
 from experiments.lib.jobs import cpu_model  # noqa: E402
 
@@ -64,10 +65,10 @@ def overhead(repeats: int, argv: list[str]) -> dict:
 
 def _reference_jobs(spp: int, width: int, height: int) -> tuple[list, list]:
     """The reference jobs, and 1-spp warm-up jobs of the same scene (one per worker)."""
-    info = M.read_scene(SCENE)
-    depth = M.effective_depth(info)
-    jobs = P.reference_jobs(info, width, height, spp, "path", depth, VARIANT)
-    warm = [P.make_job(f"warm-up/{i}", info, "path", width, height, 1, 7 + i, depth, VARIANT,
+    info = SC.read_scene(SCENE)
+    depth = SC.effective_depth(info)
+    jobs = P.reference_jobs(info, width, height, spp, parse_method("path"), depth, VARIANT)
+    warm = [P.make_job(f"warm-up/{i}", info, parse_method("path"), width, height, 1, 7 + i, depth, VARIANT,
                        timing_group=f"warm-up/{i}") for i in range(2)]
     return jobs, warm
 

@@ -12,7 +12,9 @@ import drjit as dr  # noqa: E402
 import mitsuba as mi  # noqa: E402
 
 import scenes  # noqa: E402
-from experiments.lib import methods as M  # noqa: E402  (strategies, samplers, scene loading)
+from experiments.lib import methods as M  # noqa: E402  (strategies, the method grammar)
+from experiments.lib import samplers as S  # noqa: E402  (the sampler table)
+from experiments.lib import scenes as SC  # noqa: E402  (scene loading)
 from experiments.lib.jobs import cpu_model  # noqa: E402  (one definition, shared)
 
 #: The checkout (the benchmarks run from it: README.md, results/); the one definition for
@@ -21,7 +23,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 #: The bundled default scene (package data of :mod:`scenes`).
 SCENE = scenes.path("cbox.xml")
 VARIANT = "llvm_ad_rgb"
-RANDOMIZATIONS = M.RANDOMIZATIONS
+RANDOMIZATIONS = S.get("halton").randomizations
 STRATEGIES = M.strategies()
 
 
@@ -35,10 +37,10 @@ def load_scene(width: int, height: int, spp: int, sampler: str = "independent",
                randomization: str | None = None, max_depth: int = 8):
     """The default scene (``scenes/cbox.xml``) with ``vr_path`` bsdf + NEE and the given
     sampler, loaded through the experiments' scene route
-    (:func:`experiments.lib.methods.load_scene`)."""
+    (:func:`experiments.lib.scenes.load_scene`)."""
     name = "bsdf+nee" + ("" if sampler == "independent" else f"+{sampler}") \
         + (f":{randomization}" if randomization is not None else "")
-    return M.load_scene(SCENE, width, height, M.parse_method(name), M.Depth(max_depth), spp)
+    return SC.load_scene(SCENE, width, height, M.parse_method(name), M.Depth(max_depth), spp)
 
 
 def plugin_available(plugin: str) -> bool:
@@ -51,7 +53,7 @@ def plugin_available(plugin: str) -> bool:
 
 def halton_randomizations() -> tuple[str, ...]:
     """The ``halton`` sampler's randomizations, all of them (one definition:
-    ``integrators.qmc.RANDOMIZATIONS``, through :mod:`experiments.lib.methods`)."""
+    the sampler table, :mod:`experiments.lib.samplers`)."""
     return tuple(RANDOMIZATIONS)
 
 

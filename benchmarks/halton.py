@@ -45,7 +45,9 @@ import numpy as np
 
 from . import common as C
 from .common import mi
-from experiments.lib.methods import NATIVE_SAMPLERS as NATIVE  # Mitsuba's own samplers
+from experiments.lib.samplers import native as _native
+
+NATIVE = _native()  # Mitsuba's own samplers
 
 #: Other sample counts at which halton (owen) is measured: 3^4 and 2^3 3^2.
 EXTRA_HALTON_SPP = (81, 72)

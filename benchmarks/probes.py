@@ -66,10 +66,11 @@ def probe_rss(args) -> dict:
     from experiments.lib import execute as X
     from experiments.lib import methods as M
     from experiments.lib import plan as P
+    from experiments.lib import scenes as SC
     width, height, spp = args.width, args.height, args.spp
     start = time.perf_counter()
-    info = M.read_scene(C.SCENE)
-    job = P.make_job("bench-rss", info, args.method, width, height, spp, 0, info.depth,
+    info = SC.read_scene(C.SCENE)
+    job = P.make_job("bench-rss", info, M.parse_method(args.method), width, height, spp, 0, info.depth,
                      mi.variant())
     result = X.run_job(job, mi.variant())
     seconds = time.perf_counter() - start

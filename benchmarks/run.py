@@ -49,7 +49,7 @@ import time
 
 import numpy as np
 
-from experiments.lib import store
+from experiments.lib import files
 
 from . import cluster as CL
 from . import common as C
@@ -312,7 +312,7 @@ def markdown(rows: list[list[str]], res: dict) -> str:
 
 
 #: Every file is written atomically (temporary name, then rename).
-write_atomic = store.write_text
+write_atomic = files.write_text
 
 
 def update_readme(md: str) -> bool:
@@ -323,7 +323,7 @@ def update_readme(md: str) -> bool:
     i, j = text.find(MARK_START), text.find(MARK_END)
     if i < 0 or j < i:
         return False
-    store.write_text(README, text[:i + len(MARK_START)] + "\n" + md + text[j:])
+    files.write_text(README, text[:i + len(MARK_START)] + "\n" + md + text[j:])
     return True
 
 

@@ -347,11 +347,11 @@ STUDY = ["--resolution", "16x8", "--spp", "4", "--reference-spp", "16",
 
 def run_study(out, *extra: str) -> dict:
     """Run the study; return the executor's ``timed_on`` (empty for the local loop)."""
-    from experiments import convergence
+    from experiments.lib.studies import convergence
     from experiments.lib import cli
     timed_on = {}
     try:
-        convergence.main(STUDY + ["--out", str(out), *extra])
+        convergence.STUDY.main(STUDY + ["--out", str(out), *extra])
     finally:
         for ex in cli._EXECUTORS:
             timed_on.update(ex.timed_on)

@@ -12,11 +12,15 @@ import numpy as np
 import pytest
 from conftest import ROOT, scene_path
 
-from experiments import convergence, run_all, writeup
+from experiments import run_all
+from experiments.lib import jobs as J
+from experiments.lib import studies
+from experiments.lib.studies import convergence, writeup
 from experiments.lib import execute as X
 from experiments.lib import methods as M
 from experiments.lib import metrics, report, store
 from experiments.lib import plan as P
+from experiments.lib import scenes as SC
 from experiments.lib.jobs import accumulate
 
 PYTHON = sys.executable
@@ -76,14 +80,14 @@ def test_deterministic_check_passes_a_converging_sequence_and_fails_a_stuck_one(
 def test_accumulator_is_the_weighted_average_of_pass_images():
     rng = np.random.default_rng(1)
     passes = [(rng.random((3, 4, 3)), k) for k in (1, 1, 2, 4)]
-    acc = P.Accumulator.empty(3, 4)
+    acc = J.Accumulator.empty(3, 4)
     for image, k in passes:
         acc.add(image, k, 0.5)
     expected = sum(im * k for im, k in passes) / 8
     np.testing.assert_allclose(acc.mean, expected, rtol=1e-14)
     assert (acc.spp, acc.passes, acc.seconds) == (8, 4, 2.0)
     # equal passes: variance of the mean = sample variance / passes
-    equal = P.Accumulator.empty(3, 4)
+    equal = J.Accumulator.empty(3, 4)
     images = [rng.random((3, 4, 3)) for _ in range(5)]
     for image in images:
         equal.add(image, 2)
@@ -92,12 +96,12 @@ def test_accumulator_is_the_weighted_average_of_pass_images():
 
 
 def _info():
-    return M.read_scene(scene_path("cbox.xml"))
+    return SC.read_scene(scene_path("cbox.xml"))
 
 
 def _ladder(name="uniform", targets=(1, 2, 4, 8), width=16, height=8, seed=7, **options):
     info = _info()
-    return P.ladder(f"t/{name}", info, name, width, height, targets, seed, info.depth,
+    return P.ladder(f"t/{name}", info, M.parse_method(name), width, height, targets, seed, info.depth,
                     "llvm_ad_rgb", **options)
 
 
@@ -217,15 +221,15 @@ def test_jobs_are_plain_picklable_data():
 def test_reference_is_cached_and_remade_when_settings_change(tmp_path, count_jobs):
     st = store.JobStore(str(tmp_path))
     info = _info()
-    jobs = P.reference_jobs(info, 16, 8, 16, "path", info.depth, "llvm_ad_rgb")
+    jobs = P.reference_jobs(info, 16, 8, 16, M.parse_method("path"), info.depth, "llvm_ad_rgb")
     assert len(jobs) == 8                      # at least 8 pieces: the floor estimate
     X.execute(jobs, st, progress=False)
     assert len(count_jobs) == 8
     count_jobs.clear()
-    X.execute(P.reference_jobs(info, 16, 8, 16, "path", info.depth, "llvm_ad_rgb"), st,
+    X.execute(P.reference_jobs(info, 16, 8, 16, M.parse_method("path"), info.depth, "llvm_ad_rgb"), st,
               progress=False)
     assert count_jobs == []
-    X.execute(P.reference_jobs(info, 16, 8, 32, "path", info.depth, "llvm_ad_rgb"), st,
+    X.execute(P.reference_jobs(info, 16, 8, 32, M.parse_method("path"), info.depth, "llvm_ad_rgb"), st,
               progress=False)
     assert count_jobs
 
@@ -245,18 +249,18 @@ def test_any_scene_keeps_its_integrator_settings_unless_overridden(tmp_path):
         <film type="hdrfilm"><integer name="width" value="40"/></film></sensor>
       <include filename="sub/light.xml"/>
       <shape type="sphere"><bsdf type="diffuse"/></shape></scene>""")
-    info = M.read_scene(str(scene))
+    info = SC.read_scene(str(scene))
     assert (info.width, info.depth) == (40, M.Depth(5, 3, True))
-    loaded = M.load_scene(info.path, 12, 6, M.parse_method("cosine"), info.depth)
+    loaded = SC.load_scene(info.path, 12, 6, M.parse_method("cosine"), info.depth)
     integrator = loaded.integrator()
     assert (integrator.strategy, integrator.max_depth, integrator.rr_depth,
             integrator.hide_emitters) == ("cosine", 5, 3, True)
     assert list(loaded.sensors()[0].film().size()) == [12, 6]
     assert "Independent" in str(loaded.sensors()[0].sampler())
     # --max-depth 2 replaces only max_depth; path keeps the scene's others too
-    depth = M.effective_depth(info, max_depth=2)
+    depth = SC.effective_depth(info, max_depth=2)
     assert depth == M.Depth(2, 3, True)
-    path = M.load_scene(info.path, 12, 6, M.parse_method("path+orthogonal"), depth)
+    path = SC.load_scene(info.path, 12, 6, M.parse_method("path+orthogonal"), depth)
     assert "max_depth = 2" in str(path.integrator())
     assert "Orthogonal" in str(path.sensors()[0].sampler())
 
@@ -265,18 +269,18 @@ def test_a_scene_without_integrator_gets_the_plugin_defaults_not_a_silent_8(tmp_
     scene = tmp_path / "bare.xml"
     scene.write_text('<scene version="3.0.0"><sensor type="perspective"><film type="hdrfilm"/>'
                      '</sensor><shape type="sphere"/></scene>')
-    info = M.read_scene(str(scene))
+    info = SC.read_scene(str(scene))
     assert info.depth == M.Depth(None, None, None)
-    loaded = M.load_scene(info.path, 8, 4, M.parse_method("bsdf"), info.depth)
+    loaded = SC.load_scene(info.path, 8, 4, M.parse_method("bsdf"), info.depth)
     assert loaded.integrator().max_depth == -1          # vr_path's own default
 
 
 def test_cornell_box_as_xml_renders_like_mitsubas_dict(tmp_path):
     import mitsuba as mi
-    path = M.builtin_scene("cornell_box", str(tmp_path))
-    info = M.read_scene(path)
+    path = SC.builtin_scene("cornell_box", str(tmp_path))
+    info = SC.read_scene(path)
     assert (info.width, info.height, info.depth.max_depth) == (256, 256, 8)
-    from_xml = M.load_scene(path, 32, 32, M.parse_method("path"), info.depth)
+    from_xml = SC.load_scene(path, 32, 32, M.parse_method("path"), info.depth)
     d = mi.cornell_box()
     d["sensor"]["film"]["width"] = d["sensor"]["film"]["height"] = 32
     d["sensor"]["sampler"] = {"type": "independent"}
@@ -309,7 +313,7 @@ BAD_ARGS = [
 def test_bad_arguments_exit_2_with_one_line(argv, message, capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     with pytest.raises(SystemExit) as exc:
-        convergence.main(argv)
+        convergence.STUDY.main(argv)
     assert exc.value.code == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and message in err, err
@@ -362,7 +366,7 @@ def _assert_intervals(rows, *names):
 
 def test_convergence_end_to_end(tmp_path):
     out = tmp_path / "r"
-    convergence.main(TINY + ["--spp", "4", "--time-budget", "0.02", "--out", str(out),
+    convergence.STUDY.main(TINY + ["--spp", "4", "--time-budget", "0.02", "--out", str(out),
                              "--methods", "uniform,cosine,bsdf", "--repeats", "3"])
     errors = _csv(out / "convergence" / "errors.csv")
     assert [(r["method"], int(r["spp"])) for r in errors] == \
@@ -419,7 +423,7 @@ def test_convergence_adds_the_sampler_studys_winner(tmp_path):
 
 def test_writeup_end_to_end_with_full(tmp_path):
     out = tmp_path / "r"
-    writeup.main(TINY + ["--short-spp", "2", "--halton-spp", "3", "--full", "--full-spp", "4",
+    writeup.STUDY.main(TINY + ["--short-spp", "2", "--halton-spp", "3", "--full", "--full-spp", "4",
                          "--full-resolution", "8x4", "--out", str(out)])
     rmse = {r["pair A vs B"]: r for r in _csv(out / "writeup" / "rmse.csv")}
     assert set(rmse) == {"cosine vs uniform", "bsdf vs uniform", "uniform+halton vs uniform"}
@@ -462,7 +466,8 @@ def test_run_all_report_lists_every_produced_file_and_reruns_resume(tmp_path, co
     assert stored and not any(f.startswith(store.STORE_DIR + "/") for f in links)
     assert f"holds the {stored} finished render jobs" in page
     sections = [s["name"] for s in report.read_sections(str(out))]
-    assert sections == ["convergence", "writeup", "samplers", "lab", "stability", "run_all"]
+    # the registered studies in their declared order, then the run's own section
+    assert sections == [s.name for s in studies.ordered()] + ["run_all"]
     assert not any("/cache/" in f or f.startswith("cache/") for f in files)
     eff = (out / "convergence" / "efficiency.md").read_text()
     assert "| bsdf+nee |" in eff and "| path |" in eff
@@ -476,20 +481,20 @@ def test_run_all_forwards_the_options_it_is_given_and_no_others(tmp_path):
     parser = run_all.build_parser()
     args = run_all.cli.parse_args(parser, ["--methods", "cosine,bsdf+nee", "--spp", "8",
                                            "--max-depth", "3", "--repeats", "2", "--out", out])
-    sub = run_all.stability.parse(run_all.sub_argv(args, run_all.stability))
+    stability, writeup_study = studies.get("stability"), studies.get("writeup")
+    sub = stability.parse_args(run_all.sub_argv(args, stability))
     assert (sub.spp, sub.methods, sub.depth.max_depth, sub.repeats) == \
         (8, ["cosine", "bsdf+nee"], 3, 2)
     # the writeup takes no --spp: only what its parser knows reaches it
-    wu = run_all.sub_argv(args, run_all.writeup, run_all.WRITEUP)
+    wu = run_all.sub_argv(args, writeup_study)
     assert "--spp" not in wu and wu[wu.index("--repeats") + 1] == "2"
     # options left at run_all's defaults are not forwarded: every study keeps its own
     # defaults, exactly as if it were run alone with the shared options
     args = run_all.cli.parse_args(parser, ["--out", out])
-    for module in (run_all.samplers, run_all.convergence, run_all.writeup):
-        via_run_all = run_all.cli.parse_args(module.build_parser(),
-                                             run_all.sub_argv(args, module))
-        alone = run_all.cli.parse_args(module.build_parser(), ["--out", out])
+    for study in studies.ordered():
+        via_run_all = study.parse_args(run_all.sub_argv(args, study))
+        alone = study.parse_args(["--out", out])
         for key in ("spp", "resolution", "repeats", "methods", "reference_spp",
                     "time_budget"):
             assert getattr(via_run_all, key, None) == getattr(alone, key, None), \
-                (module.__name__, key)
+                (study.name, key)

@@ -174,9 +174,9 @@ def read_header(path):
 
 
 def test_quick_run_writes_section_and_resumes(tmp_path, monkeypatch):
-    from experiments import lab
+    from experiments.lib.studies import lab
     out = str(tmp_path / "out")
-    lab.main(["--quick", "--out", out])
+    lab.STUDY.main(["--quick", "--out", out])
     section = json.load(open(os.path.join(out, "lab", "section.json")))
     assert section["order"] == lab.ORDER and section["name"] == "lab"
     kinds = {b["kind"] for b in section["blocks"]}
@@ -195,12 +195,12 @@ def test_quick_run_writes_section_and_resumes(tmp_path, monkeypatch):
     # a rerun computes nothing: every panel and point set comes from the cache
     monkeypatch.setattr(LW, "compute", lambda *a, **k: pytest.fail("panel recomputed"))
     monkeypatch.setattr(LP, "compute", lambda *a, **k: pytest.fail("point set recomputed"))
-    lab.main(["--quick", "--out", out])
+    lab.STUDY.main(["--quick", "--out", out])
     assert os.path.isfile(os.path.join(out, "index.html"))
 
 
 def test_bad_input_is_one_line_exit_2(tmp_path, capsys):
-    from experiments import lab
+    from experiments.lib.studies import lab
     with pytest.raises(SystemExit) as e:
         lab.parse(["--samples", "0", "--out", str(tmp_path)])
     assert e.value.code == 2
@@ -221,9 +221,14 @@ def test_dimension_meaning():
 
 def test_run_all_runs_the_lab(tmp_path, monkeypatch):
     """run_all --lab quick: the lab's section is in the report (the other studies stubbed)."""
+    import dataclasses
+
     from experiments import run_all
-    for module in (run_all.convergence, run_all.writeup, run_all.samplers, run_all.stability):
-        monkeypatch.setattr(module, "run", lambda args: None)
+    from experiments.lib import studies
+    for spec in studies.ordered():
+        if spec.name != "lab":
+            monkeypatch.setitem(studies._REGISTRY, spec.name,
+                                dataclasses.replace(spec, run=lambda args: None))
     out = tmp_path / "r"
     run_all.main(["--lab", "quick", "--samplers", "off", "--stability", "off", "--seed", "4",
                   "--out", str(out)])

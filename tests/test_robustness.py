@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 from _paths import ROOT
-from experiments.lib.methods import strategies, vr_path_dict
+from experiments.lib.methods import Depth, parse_method, strategies
 
 PYTHON = sys.executable
 
@@ -44,7 +44,8 @@ def grid_scene(view: str, strategy: str, nee: bool, spp: int = 8):
         origin, target = [0, 1e-3, 4], [0, 1e-3, -4]
     scene = {
         "type": "scene",
-        "integrator": vr_path_dict(strategy, nee, max_depth=6, rr_depth=3),
+        "integrator": parse_method(strategy + ("+nee" if nee else "")).integrator_dict(
+            Depth(max_depth=6, rr_depth=3)),
         "sensor": {"type": "perspective", "fov": 60,
                    "to_world": mi.ScalarTransform4f().look_at(origin=origin, target=target,
                                                               up=[0, 1, 0]),

@@ -15,9 +15,10 @@ import numpy as np
 import pytest
 
 from _paths import scene_path
-from experiments import stability
+from experiments.lib.studies import stability
 from experiments.lib import methods as M
 from experiments.lib import metrics
+from experiments.lib import scenes as SC
 from experiments.lib import scene_probes as SP
 from experiments.lib import sweeps as SW
 from integrators.choices import STRATEGIES
@@ -33,20 +34,20 @@ def phong(kd, ks, n):
 # ------------------------------------------------------------ scene variants
 
 def test_scene_variant_changes_only_the_given_defaults(tmp_path):
-    info = M.read_scene(CBOX)
-    v = M.scene_variant(info, str(tmp_path), "e", {"exponent": 1234.0, "light_size": 0.25})
-    defaults = M.scene_defaults(v.path)
-    original = M.scene_defaults(CBOX)
+    info = SC.read_scene(CBOX)
+    v = SC.scene_variant(info, str(tmp_path), "e", {"exponent": 1234.0, "light_size": 0.25})
+    defaults = SC.scene_defaults(v.path)
+    original = SC.scene_defaults(CBOX)
     assert float(defaults["exponent"]) == 1234.0 and float(defaults["light_size"]) == 0.25
     assert {k: d for k, d in defaults.items() if k not in ("exponent", "light_size")} == \
         {k: d for k, d in original.items() if k not in ("exponent", "light_size")}
     assert v.depth == info.depth and v.sha256 != info.sha256
-    scene = M.load_scene(v.path, 8, 4, M.parse_method("bsdf"))
+    scene = SC.load_scene(v.path, 8, 4, M.parse_method("bsdf"))
     exps = [float(p["exponent"][0]) for s in scene.shapes()
             if type(s.bsdf()).__name__ == "PhongBSDF" for p in [mi.traverse(s.bsdf())]]
     assert exps == [1234.0]
     with pytest.raises(KeyError, match="roughness"):
-        M.scene_variant(info, str(tmp_path), "x", {"roughness": 0.1})
+        SC.scene_variant(info, str(tmp_path), "x", {"roughness": 0.1})
 
 
 def test_phong_mask_is_the_glossy_sphere():
@@ -194,13 +195,13 @@ def test_every_sweep_plans_points_of_one_shape_with_independent_repeats(tmp_path
 
 def test_sweep_list_rejects_unknown_sweeps():
     with pytest.raises(SystemExit) as exc:
-        stability.main(["--sweeps", "exponent,bogus"])
+        stability.STUDY.main(["--sweeps", "exponent,bogus"])
     assert exc.value.code == 2
 
 
 def test_stability_quick_end_to_end(tmp_path, capsys):
     out = tmp_path / "r"
-    stability.main(["--quick", "--resolution", "24x12", "--out", str(out)])
+    stability.STUDY.main(["--quick", "--resolution", "24x12", "--out", str(out)])
     settings = json.loads((out / "stability" / "section.json").read_text())["settings"]
     assert settings["resolution"] == "24x12" and settings["spp"] == 4     # quick, not 32
     section = json.loads((out / "stability" / "section.json").read_text())
@@ -261,7 +262,7 @@ def test_stability_quick_end_to_end(tmp_path, capsys):
 
 def test_sweeps_are_skipped_with_a_sentence_on_a_scene_without_their_parameters(tmp_path):
     out = tmp_path / "r"
-    stability.main(["--quick", "--scene", "cornell_box", "--sweeps", "exponent,light,halton",
+    stability.STUDY.main(["--quick", "--scene", "cornell_box", "--sweeps", "exponent,light,halton",
                     "--out", str(out)])
     section = json.loads((out / "stability" / "section.json").read_text())
     texts = " ".join(b["text"] for b in section["blocks"] if b["kind"] == "text")

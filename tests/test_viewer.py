@@ -19,7 +19,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from experiments.lib import metrics, store, viewer
+from experiments.lib import files
+from experiments.lib import metrics, viewer
 from experiments.lib import report as report_lib
 from tools.ensure_browser import browser_path
 
@@ -50,7 +51,7 @@ def synthetic_images(seed=0):
 
 
 def tonemap(values):
-    return store.tonemap(np.asarray(values, np.float64)).astype(int)
+    return files.tonemap(np.asarray(values, np.float64)).astype(int)
 
 
 @pytest.fixture(scope="module")
@@ -59,8 +60,8 @@ def report(tmp_path_factory):
     out = str(tmp_path_factory.mktemp("report"))
     exr = {}
     for name, image in synthetic_images().items():
-        store.write_exr(os.path.join(out, name + ".exr"), image)
-        exr[name] = store.read_exr(os.path.join(out, name + ".exr")).astype(np.float32)
+        files.write_exr(os.path.join(out, name + ".exr"), image)
+        exr[name] = files.read_exr(os.path.join(out, name + ".exr")).astype(np.float32)
     first = viewer.comparison(out, "first", [("noisy", exr["noisy"]), ("checker", exr["checker"])],
                               reference=exr["reference"], viewer_id="first")
     second = viewer.comparison(out, TRICKY_TITLE,
@@ -365,9 +366,9 @@ def test_e_shows_the_relmse_map_and_m_the_flip_map(page, report):
 def test_report_of_a_small_run_opens_with_working_viewers(browser, tmp_path):
     """A real (tiny) convergence run: its report's viewers load from file://, and the
     FLIP column of the error table is the mean of the FLIP map the viewer shows."""
-    from experiments import convergence
+    from experiments.lib.studies import convergence
     out = tmp_path / "r"
-    convergence.main(["--resolution", "16x8", "--reference-spp", "8", "--spp", "4",
+    convergence.STUDY.main(["--resolution", "16x8", "--reference-spp", "8", "--spp", "4",
                       "--time-budget", "0.02", "--methods", "uniform,bsdf", "--out", str(out)])
     page_html = (out / "index.html").read_text()
     assert 'href="viewer.css"' in page_html and 'src="viewer.js"' in page_html
@@ -387,7 +388,7 @@ def test_report_of_a_small_run_opens_with_working_viewers(browser, tmp_path):
                              arg=roots.nth(i).element_handle())
     manifest = json.loads(roots.nth(1).locator("script.vrv-manifest").text_content())
     assert [im["label"] for im in manifest["images"]] == ["1 spp", "2 spp", "4 spp", "reference"]
-    image = store.read_exr(str(out / "convergence" / "uniform" / "spp00004.exr"))
+    image = files.read_exr(str(out / "convergence" / "uniform" / "spp00004.exr"))
     ref = viewer.read_blob(str(out), manifest["images"][-1]["data"], image.shape)
     flip_map = viewer.read_blob(str(out), manifest["images"][2]["errors"]["flip"], image.shape[:2])
     row = next(r.split(",") for r in (out / "convergence" / "errors.csv").read_text().splitlines()

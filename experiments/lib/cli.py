@@ -17,7 +17,9 @@ import mitsuba as mi
 import scenes
 from integrators.choices import JIT_VARIANT_PREFIXES
 
+from . import extensions
 from . import methods as M
+from . import scenes as SC
 
 #: The bundled scene (package data of :mod:`scenes`, found in a checkout and an install alike).
 DEFAULT_SCENE = scenes.path("cbox.xml")
@@ -89,7 +91,7 @@ def common_parser(prog: str, description: str, spp: int | None = None,
                formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     p.add_argument("--scene", default=DEFAULT_SCENE,
                    help="Mitsuba scene XML (its integrator and sampler are replaced per method), "
-                        f"or a built-in scene: {', '.join(M.BUILTIN_SCENES)} (Mitsuba's "
+                        f"or a built-in scene: {', '.join(SC.BUILTIN_SCENES)} (Mitsuba's "
                         "mi.cornell_box())")
     p.add_argument("--resolution", type=resolution, default=default_resolution,
                    metavar="WxH", help="film resolution")
@@ -127,19 +129,46 @@ def common_parser(prog: str, description: str, spp: int | None = None,
     p.add_argument("--reference-method", type=one_method, default="path",
                    help="method of the reference, with next-event estimation: path (Mitsuba's) "
                         "or e.g. bsdf+nee")
+    add_plugin_option(p)
     return p
+
+
+def add_plugin_option(p: Parser) -> None:
+    """``--plugin FILE``: a researcher's extension file (see :mod:`.extensions`)."""
+    p.add_argument(extensions.OPTION, action="append", default=[], metavar="FILE",
+                   help="a Python file that registers your own strategy, sampler or study "
+                        "(imported first; repeatable)")
+
+
+def load_extensions(argv=None) -> None:
+    """Import the ``--plugin`` files of ``argv`` before any parser is built (so that their
+    strategies, samplers and studies are known to it), with the Mitsuba variant of
+    ``--variant`` set first. A bad file ends the program with exit code 2 and one line."""
+    files = extensions.files_in(argv)
+    if not files:
+        return
+    argv = list(sys.argv[1:] if argv is None else argv)
+    variant = next((argv[i + 1] for i, a in enumerate(argv[:-1]) if a == "--variant"),
+                   next((a.split("=", 1)[1] for a in argv if a.startswith("--variant=")),
+                        DEFAULT_VARIANT))
+    parser = Parser(prog=os.path.basename(sys.argv[0]) or "experiments")
+    _set_variant(parser, variant)
+    try:
+        extensions.load_all(files)
+    except extensions.ExtensionError as e:
+        parser.error(str(e))
 
 
 def max_depth(text: str) -> int:
     return _int_at_least(text, -1)
 
 
-def one_method(text: str) -> str:
+def one_method(text: str) -> M.Method:
+    """An argparse type: the parsed :class:`~.methods.Method` (its ``str`` is its name)."""
     try:
-        M.parse_method(text)
+        return M.parse_method(text)
     except ValueError as e:
         raise argparse.ArgumentTypeError(str(e)) from None
-    return text.strip()
 
 
 def explicit_options(parser: Parser, argv) -> set[str]:
@@ -195,10 +224,10 @@ def parse_args(parser: Parser, argv=None) -> argparse.Namespace:
     """
     args = parser.parse_args(argv)
     args.explicit = explicit_options(parser, argv)
-    builtin = args.scene in M.BUILTIN_SCENES
+    builtin = args.scene in SC.BUILTIN_SCENES
     if not builtin and not os.path.isfile(args.scene):
         parser.error(f"scene file '{args.scene}' does not exist (or use a built-in scene: "
-                     f"{', '.join(M.BUILTIN_SCENES)})")
+                     f"{', '.join(SC.BUILTIN_SCENES)})")
     problem = _check_out(args.out)
     if problem:
         parser.error(problem)
@@ -206,16 +235,16 @@ def parse_args(parser: Parser, argv=None) -> argparse.Namespace:
     mi.set_log_level(mi.LogLevel.Error)   # not the samplers' "rounding to N" per render
     args.executor = open_executor(parser, args)     # before anything is written
     if builtin:
-        args.scene = M.builtin_scene(args.scene, os.path.join(args.out, "cache", "scenes"))
+        args.scene = SC.builtin_scene(args.scene, os.path.join(args.out, "cache", "scenes"))
     try:
-        args.info = M.read_scene(args.scene)
+        args.info = SC.read_scene(args.scene)
     except (ValueError, OSError) as e:
         parser.error(str(e))
-    args.depth = M.effective_depth(args.info, args.max_depth, args.rr_depth)
+    args.depth = SC.effective_depth(args.info, args.max_depth, args.rr_depth)
     args.method_objs = [M.parse_method(n) for n in args.methods]   # checked by method_list
     width, height = args.resolution
     try:   # the scene must load as every method would load it
-        M.load_scene(args.scene, width, height, args.method_objs[0], args.depth)
+        SC.load_scene(args.scene, width, height, args.method_objs[0], args.depth)
     except Exception as e:  # noqa: BLE001
         parser.error(f"scene '{args.scene}' does not load: {str(e).strip().splitlines()[-1]}")
     return args

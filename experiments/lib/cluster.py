@@ -50,6 +50,8 @@ import dask
 from distributed import Client, LocalCluster, as_completed, get_worker
 from distributed.diagnostics.plugin import WorkerPlugin
 
+from . import extensions
+
 #: Seconds the client waits for a scheduler before giving up (the CLI then exits 2).
 CONNECT_TIMEOUT = 5.0
 #: Seconds beyond the timeout that :meth:`DaskExecutor.connect` may take to give up
@@ -105,7 +107,9 @@ def prepare_worker(variant: str) -> None:
 
 
 class WorkerSetup(WorkerPlugin):
-    """Runs ``prepare(variant)`` on every worker when it starts (and when it restarts).
+    """Runs ``prepare(variant)`` on every worker when it starts (and when it restarts), then
+    imports the client's extension files (``--plugin``, :mod:`.extensions`), so that the
+    strategies and samplers they register exist on the worker too.
 
     ``threads``: Dr.Jit's thread count on each worker (for N workers sharing
     one machine); None keeps Dr.Jit's default (all cores).
@@ -114,13 +118,15 @@ class WorkerSetup(WorkerPlugin):
     idempotent = False                 # re-registering (new variant) replaces the old one
 
     def __init__(self, variant: str, prepare: Callable[[str], None] = prepare_worker,
-                 threads: int | None = None):
+                 threads: int | None = None, plugins: tuple = ()):
         self.variant = variant
         self.prepare = prepare
         self.threads = threads
+        self.plugins = tuple(plugins)
 
     def setup(self, worker) -> None:
         self.prepare(self.variant)
+        extensions.load_all(self.plugins)
         if self.threads:
             import drjit as dr
             dr.set_thread_count(self.threads)
@@ -179,7 +185,8 @@ class DaskExecutor:
         #: job key -> the worker that ran (and timed) it, for every job yielded so far
         self.timed_on: dict[str, WorkerInfo] = {}
         try:
-            client.register_plugin(WorkerSetup(variant, prepare, threads))
+            client.register_plugin(WorkerSetup(variant, prepare, threads,
+                                               extensions.loaded()))
         except Exception as e:                   # the worker's own error, e.g. no CUDA GPU
             self.close()
             raise ClusterError(f"Dask workers cannot set up variant '{variant}': "

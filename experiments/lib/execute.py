@@ -60,7 +60,8 @@ from typing import Iterable, Iterator
 import numpy as np
 
 from .jobs import Job, JobResult, cpu_model, derive_seed
-from .methods import Depth, Method, file_hash, load_scene, parse_method
+from .methods import Depth, Method
+from .scenes import load_scene, scene_hash
 from .store import JobStore
 
 #: Scenes kept loaded per process (each keeps its compiled kernels warm).
@@ -77,11 +78,6 @@ def job_depth(job: Job) -> Depth:
     return Depth(job.max_depth, job.rr_depth, job.hide_emitters)
 
 
-def job_method(job: Job) -> Method:
-    """The :class:`~.methods.Method` that ``job`` renders."""
-    return parse_method(job.method)
-
-
 def _check_scene_file(job: Job) -> None:
     """The scene file this process reads must be the one the plan was made from (a
     cluster worker may see another file, or none, at the same path)."""
@@ -90,7 +86,7 @@ def _check_scene_file(job: Job) -> None:
             f"scene file '{job.scene}' not found on host {socket.gethostname()}: workers "
             f"read scenes at the client's paths; put the scenes and --out on a file system "
             f"every worker sees at the same path")
-    sha = file_hash(job.scene)
+    sha = scene_hash(job.scene)
     if sha != job.scene_sha256:
         raise ValueError(
             f"scene file '{job.scene}' on host {socket.gethostname()} differs from the one "
@@ -107,9 +103,12 @@ def _scene(job: Job, variant: str):
         _scenes.move_to_end(key)
         return _scenes[key]
     _check_scene_file(job)
-    method = job_method(job)
-    scene = load_scene(job.scene, job.width, job.height, method, job_depth(job))
-    _render(scene, method.continues_sequence, 1, 0x5EED, 0)   # load, first compile
+    method: Method = job.method
+    spp = job.passes()[0] if method.sampler_spec.bakes_spp else 1
+    scene = load_scene(job.scene, job.width, job.height, method, job_depth(job), spp)
+    # load and first compile; a sampler that bakes its count into the kernel at the count
+    # of the first pass, so that the timed render does not compile again
+    _render(scene, method.continues_sequence, spp, 0x5EED, 0)
     _scenes[key] = scene
     while len(_scenes) > SCENE_CACHE:
         _scenes.popitem(last=False)
@@ -173,7 +172,7 @@ def run_job(job: Job, variant: str) -> JobResult:
     if mi.variant() != variant:
         mi.set_variant(variant)
     scene = _scene(job, variant)
-    continues = job_method(job).continues_sequence
+    continues = job.method.continues_sequence
     mean = np.zeros((job.height, job.width, 3))
     sq = np.zeros_like(mean)
     done, times, cpu, recompiled, compiled_passes = 0, [], 0.0, 0, 0

@@ -7,21 +7,21 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from . import store  # noqa: E402
+from . import files  # noqa: E402
 from .metrics import loglog_slope  # noqa: E402
 
 TILE_INCHES = 2.4
 
 
 def _save(fig, path: str) -> str:
-    with store.atomic_path(path) as tmp:
+    with files.atomic_path(path) as tmp:
         fig.savefig(tmp, format="png", dpi=110, bbox_inches="tight")
     plt.close(fig)
     return path
 
 
 def _show(ax, image: np.ndarray) -> None:
-    ax.imshow(store.tonemap(image), interpolation="nearest")
+    ax.imshow(files.tonemap(image), interpolation="nearest")
     ax.set_xticks([])
     ax.set_yticks([])
 

@@ -1,6 +1,6 @@
 """Render jobs and their results as plain data: the base of the library (imports none of it).
 
-A :class:`Job` is one render (a scene, a method, a resolution, a number of
+A :class:`Job` is one render (a scene, a parsed method, a resolution, a number of
 samples per pixel, rendered in passes of at most ``pass_spp``); the planner
 (:mod:`.plan`) fixes its seed and, for samplers that continue one sequence
 (``halton``), its sample offset, so the same plan gives the same images
@@ -37,7 +37,7 @@ class Job:
     key: str                    # stable unique id = the store entry name
     scene: str                  # scene XML path
     scene_sha256: str
-    method: str                 # a method name (see experiments.lib.methods)
+    method: object              # a methods.Method (parsed once; the key hashes its name)
     width: int
     height: int
     spp: int                    # samples per pixel of this job

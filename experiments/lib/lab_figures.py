@@ -14,7 +14,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from . import store  # noqa: E402
+from . import files  # noqa: E402
 
 #: Standardized residual shown at full colour in the difference tiles.
 Z_RANGE = 5.0
@@ -23,7 +23,7 @@ PAD = 6
 
 
 def _save(fig, path: str, dpi: int = 100) -> str:
-    with store.atomic_path(path) as tmp:
+    with files.atomic_path(path) as tmp:
         fig.savefig(tmp, format="png", dpi=dpi, bbox_inches="tight")
     plt.close(fig)
     return path

@@ -40,6 +40,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import files
+from . import samplers as S
+
 #: The calls of one sample, in order: ("2d", what) or ("1d", what).
 CAMERA = (("2d", "camera: film position"),)
 BOUNCE = (("2d", "emitter sample (NEE)"), ("1d", "BSDF lobe choice"),
@@ -49,22 +52,12 @@ PATTERN = CAMERA + BOUNCE * BOUNCES
 #: The dimension pairs the lab shows; (1, 2) crosses two calls on purpose.
 PAIRS = ((0, 1), (2, 3), (10, 11), (30, 31), (1, 2))
 COUNTS = (64, 256)
-#: Samplers of the sampler study (experiments.samplers), as Mitsuba dicts.
-NATIVE = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler")
 VERSION = 4
 
 
 def samplers() -> list[str]:
-    from integrators.qmc import RANDOMIZATIONS
-    return list(NATIVE) + [f"halton:{r}" for r in RANDOMIZATIONS]
-
-
-def sampler_dict(name: str, spp: int) -> dict:
-    kind, _, randomization = name.partition(":")
-    d = {"type": kind, "sample_count": spp}
-    if randomization:
-        d["randomization"] = randomization
-    return d
+    """Every registered sampler with each randomization (the sampler study's list)."""
+    return S.labels()
 
 
 def dimensions(pattern=PATTERN) -> list[tuple[int, str, int]]:
@@ -104,7 +97,7 @@ def draw(name: str, spp: int, seed: int, width: int, height: int, pattern=PATTER
     of a width x height render of ``spp`` samples, driven as ``mi.render`` drives it."""
     import drjit as dr
     import mitsuba as mi
-    sampler = mi.load_dict(sampler_dict(name, spp))
+    sampler = mi.load_dict(S.label_dict(name, spp, width, height))
     sampler.set_sample_count(spp)
     count = sampler.sample_count()
     lanes = width * height * count
@@ -250,14 +243,13 @@ def compute(spec: PointSpec) -> dict:
 def cached(spec: PointSpec, cache_dir: str) -> dict:
     """:func:`compute`, or the result an earlier run stored for the same settings."""
     import os
-    from . import store
     path = os.path.join(cache_dir, spec.key() + ".npz")
-    data = store.read_npz(path)
+    data = files.read_npz(path)
     if data is not None:
         data["count"] = int(data["count"])
         return data
     result = compute(spec)
-    store.write_npz(path, **{k: np.asarray(v) for k, v in result.items()})
+    files.write_npz(path, **{k: np.asarray(v) for k, v in result.items()})
     return result
 
 

@@ -365,13 +365,13 @@ def cached(spec: PanelSpec, cache_dir: str) -> dict:
     the same settings (written atomically, so an interrupted run loses only the
     panel it was computing)."""
     import os
-    from . import store
+    from . import files
     path = os.path.join(cache_dir, spec.key() + ".npz")
-    data = store.read_npz(path)
+    data = files.read_npz(path)
     if data is not None:
         return {k: (float(v) if k in SCALARS else v) for k, v in data.items()}
     panel = compute(spec)
-    store.write_npz(path, **{k: np.asarray(v) for k, v in panel.items()})
+    files.write_npz(path, **{k: np.asarray(v) for k, v in panel.items()})
     return panel
 
 

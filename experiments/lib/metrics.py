@@ -42,6 +42,25 @@ def relmse_map(image: np.ndarray, reference: np.ndarray, eps: float = RELMSE_EPS
     return (np.square(np.asarray(image, np.float64) - ref) / (ref * ref + eps)).mean(axis=-1)
 
 
+#: Share of the largest per-pixel errors left out by :func:`relmse_rejected` (SeeSharp's
+#: ``RelMSE_OutlierRejection`` default).
+OUTLIER_SHARE = 0.001
+
+
+def relmse_rejected(image: np.ndarray, reference: np.ndarray, share: float = OUTLIER_SHARE,
+                    floor_map: np.ndarray | None = None) -> float:
+    """relMSE with the top ``share`` of the pixels' errors left out (a few fireflies or the
+    edges of a directly visible light then do not rule it). ``floor_map``: the reference's
+    own expected relMSE per pixel and channel (subtracted over the pixels kept)."""
+    err = relmse_map(image, reference).ravel()
+    keep = err.size - int(math.floor(share * err.size))
+    order = np.argsort(err, kind="stable")[:keep]
+    value = float(err[order].mean())
+    if floor_map is not None:
+        value -= float(np.asarray(floor_map, np.float64).mean(axis=-1).ravel()[order].mean())
+    return value
+
+
 #: Recent FLIP results, keyed by a hash of both images (a report shows an image's FLIP
 #: in a table and its FLIP map in the viewer: computed once).
 _FLIP_CACHE: dict[bytes, tuple[np.ndarray, float]] = {}

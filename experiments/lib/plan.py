@@ -4,43 +4,59 @@ Data flows one way: plan -> execute -> store -> analyse -> present. The job
 types live in :mod:`.jobs`; this module fixes their fields: :func:`make_job`
 gives a job its key (a hash of everything its image depends on),
 :func:`ladder` plans a progressive render as one job per stretch between two
-sample counts: independent samplers get a new seed per stretch, ``halton``
-keeps its seed and continues the sequence (``sample_offset`` = samples
-already taken), so the stretches together are exactly one render of all
-their samples. The analysis adds them up (:func:`.jobs.accumulate` of their
-results, :meth:`.study.Study.accumulate`).
-
-``Job``, ``derive_seed``, ``MAX_LANES`` and ``Accumulator`` are defined in
-:mod:`.jobs` and importable from here too.
+sample counts: samplers that reseed get a new seed per stretch, samplers that
+continue one sequence (``halton``: :attr:`.samplers.SamplerSpec.continues_sequence`)
+keep their seed and continue the sequence (``sample_offset`` = samples already
+taken), so the stretches together are exactly one render of all their samples.
+The analysis adds them up (:func:`.jobs.accumulate` of their results,
+:meth:`.study.Study.accumulate`).
 """
 from __future__ import annotations
 
 import dataclasses
 import hashlib
 import json
+import os
 
-from .jobs import MAX_LANES, Accumulator, Job, derive_seed
-from .methods import Depth, SceneInfo, parse_method, plugins_version
+import integrators
+import mitsuba as mi
 
-__all__ = ["MAX_LANES", "Accumulator", "Job", "derive_seed", "make_job", "ladder",
-           "doubling_targets", "reference_jobs"]
+from .jobs import MAX_LANES, Job, derive_seed
+from .methods import Depth, Method
+from .scenes import SceneInfo
 
 
-def make_job(prefix: str, info: SceneInfo, method: str, width: int, height: int, spp: int,
+def plugins_version() -> str:
+    """Hash of the plugin sources (``integrators/*.py``) and Mitsuba's version.
+
+    Part of every render job's key, so renders made with other plugin code are
+    made again rather than reused.
+    """
+    digest = hashlib.sha256(mi.__version__.encode())
+    directory = os.path.dirname(os.path.abspath(integrators.__file__))
+    for name in sorted(os.listdir(directory)):
+        if name.endswith(".py"):
+            with open(os.path.join(directory, name), "rb") as f:
+                digest.update(name.encode() + f.read())
+    return digest.hexdigest()[:16]
+
+
+def make_job(prefix: str, info: SceneInfo, method: Method, width: int, height: int, spp: int,
              seed: int, depth: Depth, variant: str, sample_offset: int = 0, pass_spp: int = 0,
              timing_group: str | None = None) -> Job:
     """A :class:`Job` whose key is ``prefix`` + a hash of everything its image depends on
-    (the plugin sources and the variant included)."""
-    fields = dict(scene=info.path, scene_sha256=info.sha256, method=method, width=width,
+    (the plugin sources and the variant included; the method by its name)."""
+    fields = dict(scene=info.path, scene_sha256=info.sha256, method=method.name, width=width,
                   height=height, spp=spp, seed=seed, sample_offset=sample_offset,
                   pass_spp=pass_spp, **dataclasses.asdict(depth))
     digest = hashlib.sha256(json.dumps([fields, variant, plugins_version()],
                                        sort_keys=True).encode()).hexdigest()[:12]
     safe = prefix.replace(":", "-").replace("+", "_")
+    fields["method"] = method
     return Job(key=f"{safe}-{digest}", timing_group=timing_group, **fields)
 
 
-def ladder(prefix: str, info: SceneInfo, method: str, width: int, height: int,
+def ladder(prefix: str, info: SceneInfo, method: Method, width: int, height: int,
            targets, base_seed: int, depth: Depth, variant: str, pass_spp: int = 0,
            timing_group: str | None = None) -> list[Job]:
     """Jobs rendering ``method`` progressively to every sample count in ``targets``.
@@ -48,13 +64,13 @@ def ladder(prefix: str, info: SceneInfo, method: str, width: int, height: int,
     Job ``i`` renders the samples between targets ``i-1`` and ``i``; the
     images at each target accumulate the results of the first jobs (:func:`.jobs.accumulate`).
     """
-    m = parse_method(method)
+    continues = method.continues_sequence
     jobs, done = [], 0
     for i, target in enumerate(sorted(set(int(t) for t in targets))):
-        seed = derive_seed(base_seed, prefix, 0 if m.continues_sequence else i)
+        seed = derive_seed(base_seed, prefix, 0 if continues else i)
         jobs.append(make_job(f"{prefix}/spp{done:05d}-{target:05d}", info, method, width,
                              height, target - done, seed, depth, variant,
-                             sample_offset=done if m.continues_sequence else 0,
+                             sample_offset=done if continues else 0,
                              pass_spp=pass_spp, timing_group=timing_group))
         done = target
     return jobs
@@ -69,11 +85,11 @@ def doubling_targets(max_spp: int, factor: int = 2) -> list[int]:
     return targets + [max_spp]
 
 
-def reference_jobs(info: SceneInfo, width: int, height: int, spp: int, method: str,
+def reference_jobs(info: SceneInfo, width: int, height: int, spp: int, method: Method,
                    depth: Depth, variant: str, seed: int = 0, chunk_spp: int = 0) -> list[Job]:
     """The high-spp reference as jobs of ``chunk_spp`` samples (resumable pieces; by default
     at least 8, so that the spread of their images estimates the reference's own error)."""
     chunk = chunk_spp or max(1, min(MAX_LANES // (width * height), spp // 8))
     targets = list(range(chunk, spp, chunk)) + [spp]
-    return ladder(f"reference/{method}-{width}x{height}-{spp}spp", info, method, width, height,
-                  targets, seed, depth, variant)
+    return ladder(f"reference/{method.name}-{width}x{height}-{spp}spp", info, method, width,
+                  height, targets, seed, depth, variant)

@@ -16,7 +16,8 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from .methods import load_scene, parse_method, Depth
+from .methods import Depth, parse_method
+from .scenes import load_scene
 from .metrics import luminance
 
 

@@ -29,6 +29,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+def g(x: float) -> str:
+    """A number as the report's tables and prose print it: three significant digits."""
+    return f"{x:.3g}"
+
+
 #: Nominal coverage of every interval in the report.
 LEVEL = 0.95
 METHOD = ("delta-method interval on the log scale over independent repeats (Student t, "
@@ -44,6 +49,10 @@ class Estimate:
     hi: float
     n: int
     level: float = LEVEL
+    #: True when the quantity could not be told from zero and only its upper bound ``hi``
+    #: is known (an error below the reference's own noise, see :func:`excess_interval`);
+    #: ``value`` is then ``hi`` and ``lo`` is 0.
+    bound: bool = False
 
     @property
     def known(self) -> bool:
@@ -51,14 +60,21 @@ class Estimate:
         return math.isfinite(self.lo) and math.isfinite(self.hi)
 
     def excludes(self, x: float = 1.0) -> bool:
-        return self.known and not (self.lo <= x <= self.hi)
+        return self.known and not self.bound and not (self.lo <= x <= self.hi)
 
     def fields(self, name: str) -> dict:
         """``{name: value, name_lo: lo, name_hi: hi}`` for tables and summary.json rows."""
         return {name: self.value, f"{name}_lo": self.lo, f"{name}_hi": self.hi}
 
+    def cells(self) -> list[str]:
+        """``[value, lo, hi]`` as table cells (:func:`g`)."""
+        return [g(self.value), g(self.lo), g(self.hi)]
+
     def text(self, fmt: str = "{:.3g}") -> str:
-        """'v (95% CI lo-hi)', or 'v (one run, no interval)'."""
+        """'v (95% CI lo-hi)', 'v (one run, no interval)', or '< hi (...)' for a bound."""
+        if self.bound:
+            return (f"< {fmt.format(self.hi)} (below the reference's own noise: an upper "
+                    f"bound at {self.level:.0%})")
         if not self.known:
             return f"{fmt.format(self.value)} (no interval: {self.n} run)"
         return (f"{fmt.format(self.value)} ({self.level:.0%} CI {fmt.format(self.lo)}-"
@@ -105,6 +121,29 @@ def mean_interval(values, level: float = LEVEL) -> Estimate:
     return _combine([(lm, var, n, 1)], level)
 
 
+def excess_interval(values, floor: float, level: float = LEVEL) -> Estimate:
+    """The expected error of a method over the reference's own expected error ``floor``.
+
+    ``values`` are the per-repeat errors measured against the (noisy) reference; their mean
+    overstates the method's error by ``floor``. The estimate is ``mean - floor`` with the
+    interval of the mean shifted by the floor. Where the interval's lower end does not clear
+    the floor, the method's error cannot be told from the reference's noise: the result is
+    an upper bound (:attr:`Estimate.bound`: value = hi = the interval's upper end minus the
+    floor, lo = 0), never a negative or NaN error. The cure is a better reference.
+    """
+    x = np.asarray(values, np.float64)
+    raw = mean_interval(x, level)
+    floor = float(floor)
+    value = float(x.mean()) - floor
+    if raw.known and raw.lo - floor > 0:
+        return Estimate(value, raw.lo - floor, raw.hi - floor, raw.n, level)
+    if not raw.known and value > 0:            # one run: no interval, the point estimate
+        return Estimate(value, float("nan"), float("nan"), raw.n, level)
+    upper = (raw.hi if raw.known else float(x.mean())) - floor
+    upper = max(upper, 0.0)
+    return Estimate(upper, 0.0, upper, raw.n, level, bound=True)
+
+
 def ratio_interval(numerators: list, denominators: list, level: float = LEVEL) -> Estimate:
     """prod(mean of each numerator list) / prod(mean of each denominator list)."""
     terms = [(*_log_term(v), 1) for v in numerators] + \
@@ -126,6 +165,9 @@ def verdict(a: str, b: str, ratio: Estimate, quantity: str = "efficient") -> str
             return f"{a} is more {quantity} than {b} by {ratio.text()}x"
         inverse = Estimate(1 / ratio.value, 1 / ratio.hi, 1 / ratio.lo, ratio.n, ratio.level)
         return f"{b} is more {quantity} than {a} by {inverse.text()}x"
+    if not math.isfinite(ratio.value):
+        return (f"{a} and {b} cannot be compared at this budget: an error is below the "
+                f"reference's own noise (a better reference is needed)")
     why = (f"{ratio.level:.0%} CI {ratio.lo:.3g}-{ratio.hi:.3g} contains 1" if ratio.known
            else f"{ratio.n} run gives no interval")
     return (f"{a} and {b} are not distinguishable at this budget (ratio {ratio.value:.3g}, "

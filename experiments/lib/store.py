@@ -5,9 +5,7 @@
 passes, the job and the result's metadata). A job whose entry exists is
 finished; :func:`experiments.lib.execute.execute` skips it.
 
-The file helpers (atomic writes, EXR/PNG/JSON/CSV) are defined in
-:mod:`.files`; the names below are re-exported for the scripts that call
-them as ``store.write_text`` and so on.
+The file helpers (atomic writes, EXR/PNG/JSON/CSV) are :mod:`.files`.
 """
 from __future__ import annotations
 
@@ -17,9 +15,7 @@ import os
 
 import numpy as np
 
-from .files import (atomic_path, markdown_table, read_exr, read_json, read_npz,  # noqa: F401
-                    read_text, tonemap, write_bytes, write_csv, write_exr, write_image,
-                    write_json, write_npz, write_png, write_text)
+from .files import read_npz, write_npz
 from .jobs import Job, JobResult
 
 #: Directory of the job store under an experiment's ``--out``.

@@ -16,7 +16,8 @@ import numpy as np
 from . import plan as P
 from .execute import execute
 from .jobs import Accumulator, Job, accumulate as accumulate_results, derive_seed
-from .methods import Depth, SceneInfo, parse_method
+from .methods import Depth, Method
+from .scenes import SceneInfo
 from .metrics import RELMSE_EPS
 from .store import STORE_DIR, JobStore
 
@@ -44,10 +45,10 @@ class Study:
         """Execute the jobs the store lacks; return how many were rendered."""
         return execute(jobs, self.store, self.executor, progress=label, variant=self.variant)
 
-    def repeats_of(self, method: str) -> int:
+    def repeats_of(self, method: Method) -> int:
         """Independent randomizations rendered of ``method``: ``--repeats``, but 1 for a
         deterministic method (plain Halton: every run gives the same image)."""
-        return 1 if parse_method(method).deterministic else self.repeats
+        return 1 if method.deterministic else self.repeats
 
     def per_repeat(self, values) -> tuple:
         """Per-repeat values as a tuple of :attr:`repeats` entries: a deterministic method's
@@ -55,7 +56,7 @@ class Study:
         values = tuple(values)
         return values * self.repeats if len(values) == 1 else values
 
-    def job(self, prefix: str, method: str, spp: int, info: SceneInfo | None = None,
+    def job(self, prefix: str, method: Method, spp: int, info: SceneInfo | None = None,
             depth: Depth | None = None, **options) -> Job:
         """One job at this study's resolution, seed derived from the base seed and prefix."""
         width, height = options.pop("resolution", (self.width, self.height))
@@ -63,7 +64,7 @@ class Study:
                           derive_seed(self.seed, prefix), depth or self.depth, self.variant,
                           **options)
 
-    def ladder(self, prefix: str, method: str, targets, info: SceneInfo | None = None,
+    def ladder(self, prefix: str, method: Method, targets, info: SceneInfo | None = None,
                depth: Depth | None = None, **options) -> list[Job]:
         width, height = options.pop("resolution", (self.width, self.height))
         return P.ladder(prefix, info or self.info, method, width, height, targets, self.seed,
@@ -87,7 +88,7 @@ class Study:
         var = acc.variance_of_mean()
         rel = var / (acc.mean ** 2 + RELMSE_EPS)     # per pixel and channel, for masked errors
         return acc.mean, {"seconds": acc.seconds, "passes": acc.passes, "spp": acc.spp,
-                          "method": jobs[0].method, "mse_floor": float(np.mean(var)),
+                          "method": jobs[0].method.name, "mse_floor": float(np.mean(var)),
                           "relmse_floor": float(np.mean(rel)), "relmse_floor_map": rel}
 
     def timed_on(self, jobs: list[Job]) -> str:

@@ -26,15 +26,17 @@ from typing import Protocol
 
 import numpy as np
 
+from .. import jobs as J
 from .. import metrics, report, stats
 from .. import plan as P
-from ..methods import Depth, SceneInfo
-from ..study import Study
+from ..methods import Depth, parse_method
+from ..scenes import Needs, SceneInfo
+from ..study import Study, repeat_prefix
 
 NAME = "stability"
 #: relMSE ratio at which a method counts as broken down against the robust one.
 BREAK_FACTOR = 10.0
-g = "{:.3g}".format
+g = stats.g
 
 
 @dataclass(frozen=True)
@@ -62,10 +64,10 @@ class SweepPoint:
     x: float
     info: SceneInfo | None
     ref_jobs: list
-    jobs: dict[str, list[list[P.Job]]]
+    jobs: dict[str, list[list[J.Job]]]
     extra: dict = field(default_factory=dict)     # e.g. the light's radiance, the depth
 
-    def all_jobs(self) -> list[P.Job]:
+    def all_jobs(self) -> list[J.Job]:
         return [j for runs in self.jobs.values() for run in runs for j in run]
 
 
@@ -82,6 +84,7 @@ class SweepReport:
 
 class Sweep(Protocol):
     name: str
+    needs: Needs                      # what it needs of the scene (checked before plan)
 
     def plan(self, ctx: "Context") -> list[SweepPoint]: ...
 
@@ -147,11 +150,6 @@ def budget(spp: int, repeats: int) -> str:
 
 def label(method: str) -> str:
     return method.replace("+nee", " + NEE")
-
-
-def repeat_prefix(prefix: str, r: int) -> str:
-    """Job key prefix of repeat ``r`` (repeat 0: the single run's prefix)."""
-    return prefix if r == 0 else f"{prefix}/r{r}"
 
 
 class Outliers:
@@ -251,12 +249,12 @@ class Context:
     def point(self, sweep: str, x, info, methods, extra=None) -> SweepPoint:
         """A point rendered once per method and repeat at :attr:`spp` (key ``stability/<sweep>/
         <x>/<method>[/r<r>]``), with its reference."""
-        jobs = {m: [[self.st.job(repeat_prefix(f"{NAME}/{sweep}/{x:g}/{m}", r), m,
+        jobs = {m: [[self.st.job(repeat_prefix(f"{NAME}/{sweep}/{x:g}/{m}", r), parse_method(m),
                                  self.spp, info=info, timing_group=f"{NAME}/{sweep}")]
                     for r in range(self.repeats)] for m in methods}
         return SweepPoint(x, info, self.st.reference_jobs(info), jobs, dict(extra or {}))
 
-    def read_run(self, jobs: list[P.Job], method: str, ref, mask=None,
+    def read_run(self, jobs: list[J.Job], method: str, ref, mask=None,
                  floor=None) -> tuple[Run, np.ndarray]:
         """The numbers of one run (its jobs accumulated) and its image; counts outliers.
         ``floor``: the reference's own relMSE per pixel and channel (``Study.reference``'s

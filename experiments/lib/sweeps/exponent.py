@@ -12,7 +12,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from .. import metrics, report, stats
-from ..methods import scene_variant, strategies
+from ..methods import strategies
+from ..scenes import Needs, scene_variant
 from ..scene_probes import phong_mask
 from .. import figures
 from .base import (BREAK_FACTOR, NAME, Context, Run, SweepPoint, SweepReport, basis, below,
@@ -120,6 +121,7 @@ def _comparison_sentence(c: Comparison, xs, spp: int, how: str) -> str:
 
 class ExponentSweep:
     name = "exponent"
+    needs = Needs(defaults=("exponent",), bsdfs=("phong",))
 
     def methods(self) -> list[str]:
         """Every vr_path strategy (the list the plugin defines), no NEE, as in the writeup."""

@@ -12,11 +12,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from .. import jobs as J
 from .. import metrics, report, stats
 from .. import plan as P
+from ..methods import strategies
+from ..scenes import Needs
 from ..scene_probes import direction_sampling_table, first_hit_sampling, phong_bsdf
 from .. import figures
-from .base import NAME, Context, Skip, SweepPoint, SweepReport, basis, below, g, onset
+from .base import NAME, Context, SweepPoint, SweepReport, basis, below, g, onset
 
 #: Strategies whose prose is in the closing note (every strategy is in the table).
 LOBE = ("bsdf", "mis")
@@ -96,15 +99,13 @@ def analyse(data: GrazingData) -> GrazingResult:
 
 class GrazingSweep:
     name = "grazing"
+    needs = Needs(bsdfs=("phong",))
 
     def strategies(self) -> list[str]:
-        from integrators.choices import STRATEGIES
-        return list(STRATEGIES)
+        return list(strategies())
 
     def plan(self, ctx: Context) -> list[SweepPoint]:
         """One point per exponent, nothing to render (the samples are drawn in measure)."""
-        if phong_bsdf(ctx.probe())[0] is None:
-            raise Skip("the scene has no phong BSDF")
         return [SweepPoint(n, ctx.args.info, [], {}) for n in ctx.cfg.grazing_exponents]
 
     def measure(self, ctx: Context, points: list[SweepPoint]) -> GrazingData:
@@ -120,7 +121,7 @@ class GrazingSweep:
             params.update()
             for s in self.strategies():
                 # repeat 0 keeps the single run's seed; repeat r draws an independent set
-                seeds = [seed] + [P.derive_seed(seed, NAME, self.name, r)
+                seeds = [seed] + [J.derive_seed(seed, NAME, self.name, r)
                                   for r in range(1, ctx.repeats)]
                 out[(s, p.x)] = direction_sampling_table(
                     bsdf, [math.cos(math.radians(t)) for t in cfg.angles], s,

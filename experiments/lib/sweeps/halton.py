@@ -14,7 +14,9 @@ from dataclasses import dataclass, field
 
 from .. import figures, metrics, report, stats
 from .. import plan as P
-from ..methods import RANDOMIZATIONS
+from .. import samplers as S
+from ..methods import parse_method
+from ..scenes import Needs
 from .base import (NAME, Context, SweepPoint, SweepReport, basis, exceeds, g, mean_interval,
                    onset, ratio, repeat_prefix)
 
@@ -108,17 +110,19 @@ def _where(at: list, spp: list) -> str:
 
 class HaltonSweep:
     name = "halton"
+    needs = Needs()
 
     def methods(self, ctx: Context) -> list[str]:
         strategy = "uniform" if "uniform" in ctx.strategies else ctx.strategies[0]
-        return [strategy] + [f"{strategy}+halton:{r}" for r in RANDOMIZATIONS]
+        return [strategy] + [f"{strategy}+halton:{r}" for r in S.get("halton").randomizations]
 
     def plan(self, ctx: Context) -> list[SweepPoint]:
         targets = P.doubling_targets(ctx.halton_spp)
         points = []
         for d in ctx.halton_depths:
             depth = ctx.depth(d)
-            jobs = {m: [ctx.st.ladder(repeat_prefix(f"{NAME}/halton/depth{d}/{m}", r), m,
+            jobs = {m: [ctx.st.ladder(repeat_prefix(f"{NAME}/halton/depth{d}/{m}", r),
+                                      parse_method(m),
                                       targets, depth=depth, timing_group=f"{NAME}/halton")
                         for r in range(ctx.repeats)] for m in self.methods(ctx)}
             points.append(SweepPoint(d, ctx.args.info, ctx.st.reference_jobs(ctx.args.info, depth),

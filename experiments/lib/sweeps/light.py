@@ -11,9 +11,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from .. import metrics, report, stats
-from ..methods import scene_defaults, scene_variant
+from ..scenes import Needs, scene_defaults, scene_variant
 from .. import figures
-from .base import (BREAK_FACTOR, NAME, Context, Run, Skip, SweepPoint, SweepReport, basis,
+from .base import (BREAK_FACTOR, NAME, Context, Run, SweepPoint, SweepReport, basis,
                    budget, exceeds, g, label, mean_interval, ratio, onset, worst)
 
 
@@ -89,6 +89,7 @@ def analyse(data: LightData) -> LightResult:
 
 class LightSweep:
     name = "light"
+    needs = Needs(defaults=("light_size", "light_radiance"))
 
     def methods(self, ctx: Context) -> list[str]:
         nee = ("bsdf" if "bsdf" in ctx.strategies else ctx.strategies[0]) + "+nee"
@@ -97,8 +98,6 @@ class LightSweep:
     def plan(self, ctx: Context) -> list[SweepPoint]:
         info = ctx.args.info
         defaults = scene_defaults(info.path)
-        if "light_size" not in defaults or "light_radiance" not in defaults:
-            raise Skip("the scene has no <default> parameter light_size, light_radiance")
         size0, rad0 = float(defaults["light_size"]), float(defaults["light_radiance"])
         points = []
         for size in ctx.cfg.light_sizes:

@@ -1,0 +1,141 @@
+"""Stability sweeps: where each sampling method breaks down, measured and charted.
+
+Four sweeps on the scene's parameters (see :mod:`experiments.lib.sweeps`):
+the Phong exponent (every vr_path strategy), the light size at constant
+power (with and without next-event estimation), grazing incidence, and
+Halton without and with randomization at max_depth 2 and --max-depth (8 when
+the scene and the command line give none above 2). Every comparison is
+measured over --repeats independent randomizations and reported with 95%
+intervals. Outliers are counted over every render. --methods picks the
+strategies of the light and Halton sweeps.
+
+    python -m experiments.stability --help
+"""
+from __future__ import annotations
+
+import math
+import os
+import time
+
+from experiments.lib import files
+from experiments.lib.studies import StudySpec, check_scene, register_study
+from experiments.lib import cli, report, stats
+from experiments.lib.metrics import FIREFLY_MADS
+from experiments.lib.sweeps import BREAK_FACTOR, NAME, NORMAL, QUICK, REGISTRY, Context, Skip
+
+ORDER = 40
+QUICK_DEFAULTS = {"resolution": (32, 16), "spp": 4, "reference_spp": 16}
+#: Independent repeats of every sweep render, for the intervals (--spp, and the Halton
+#: ladder's 64, are split over them: each repeat renders spp // R).
+REPEATS = 3
+
+
+def build_parser() -> cli.Parser:
+    p = cli.common_parser("python -m experiments.stability", __doc__.split("\n")[0], spp=32,
+                          default_resolution="128x64", methods=("uniform", "cosine", "bsdf"),
+                          repeats=REPEATS)
+    p.set_defaults(reference_spp=128)
+    p.add_argument("--quick", action="store_true",
+                   help=f"tiny run (for tests): fewer sweep points; resolution, --spp and "
+                        f"--reference-spp default to {QUICK_DEFAULTS['resolution'][0]}x"
+                        f"{QUICK_DEFAULTS['resolution'][1]}, {QUICK_DEFAULTS['spp']} and "
+                        f"{QUICK_DEFAULTS['reference_spp']}")
+    p.add_argument("--sweeps", type=sweep_list, default=",".join(REGISTRY),
+                   help=f"comma-separated sweeps to run: {', '.join(REGISTRY)}")
+    return p
+
+
+def sweep_list(text: str) -> list[str]:
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    bad = [n for n in names if n not in REGISTRY]
+    if bad or not names:
+        raise cli.argparse.ArgumentTypeError(
+            f"unknown sweep '{bad[0] if bad else text}': choose from {', '.join(REGISTRY)}")
+    return list(dict.fromkeys(names))
+
+
+def parse(argv=None):
+    args = cli.parse_args(build_parser(), argv)
+    if args.quick:       # quick values for every option not given on the command line
+        for key, value in QUICK_DEFAULTS.items():
+            if key not in args.explicit:
+                setattr(args, key, value)
+    args.config = QUICK if args.quick else NORMAL
+    return args
+
+
+def plan(ctx: Context, names) -> tuple[dict, dict]:
+    """The points of every sweep in ``names``, and the skipped ones with the reason."""
+    plans, skipped = {}, {}
+    for name in names:
+        sweep = REGISTRY[name]
+        reason = check_scene(NAME, ctx.args.info, sweep.needs, f"sweep '{name}'")
+        if reason is not None:
+            skipped[name] = reason
+            continue
+        try:
+            plans[name] = sweep.plan(ctx)
+        except Skip as e:
+            skipped[name] = str(e)
+    return plans, skipped
+
+
+def _json_safe(rows: list[dict]) -> list[dict]:
+    """NaN/inf (no interval from one repeat) as null in summary.json."""
+    return [{k: (None if isinstance(v, float) and not math.isfinite(v) else v)
+             for k, v in r.items()} for r in rows]
+
+
+def run(args) -> None:
+    start = time.perf_counter()
+    ctx = Context(args, args.config)
+    plans, skipped = plan(ctx, args.sweeps)
+    points = [p for pts in plans.values() for p in pts]
+    jobs = [j for p in points for j in p.ref_jobs] + [j for p in points for j in p.all_jobs()]
+    ctx.st.run(jobs, f"{NAME}: sweeps")
+    blocks = [report.text(
+        f"Where each sampling method breaks down, on {os.path.basename(args.scene)} at "
+        f"{ctx.width}x{ctx.height} ({args.depth.describe()}). Each sweep point is the scene "
+        f"with one parameter changed (the scene files are in {NAME}/scenes/); errors are relMSE "
+        f"against a {args.reference_spp}-spp reference ({args.reference_method}) of the same "
+        f"point, the reference's own expected relMSE (from the spread of its passes) "
+        f"subtracted, means over {ctx.repeats} independent repeats with {stats.LEVEL:.0%} intervals "
+        f"({stats.METHOD}). Times are warm render times on this (shared) machine. Breakdown "
+        f"points and verdicts below are computed from the measurements; a difference is "
+        f"claimed only where its interval excludes no difference.")]
+    notes, rows = [], []
+    for name in args.sweeps:
+        if name in skipped:
+            blocks.append(report.text(f"Sweep '{name}' skipped: {skipped[name]}."))
+            continue
+        sweep = REGISTRY[name]
+        part = sweep.report(ctx, sweep.analyse(sweep.measure(ctx, plans[name])))
+        blocks += part.blocks
+        notes += part.notes
+        rows += part.rows
+    outliers = ctx.outliers.report(args.out)
+    blocks += outliers.blocks
+    notes += outliers.notes
+    blocks.append(report.text("Closing note, per sweep: " + " ".join(notes)))
+    settings = {"scene": args.scene, "resolution": f"{ctx.width}x{ctx.height}", "spp": args.spp,
+                "repeats": ctx.repeats, "spp per repeat": ctx.spp,
+                "halton spp per repeat": ctx.halton_spp, "sweeps": ", ".join(args.sweeps), "quick": args.quick,
+                "strategies (light, halton sweeps)": ", ".join(ctx.strategies),
+                "path settings": args.depth.describe(),
+                "halton sweep max_depth": ", ".join(map(str, ctx.halton_depths)),
+                "variant": args.variant, "seed": args.seed,
+                "reference": f"{args.reference_spp} spp, {args.reference_method}",
+                "intervals": f"{stats.LEVEL:.0%}, {stats.METHOD}",
+                "breakdown factor": BREAK_FACTOR, "firefly threshold (MADs)": FIREFLY_MADS,
+                "render times measured on": ctx.st.timed_on(jobs)}
+    report.write_section(args.out, NAME, "Stability: where each method breaks down", ORDER,
+                         settings, blocks, args.variant, time.perf_counter() - start)
+    # machine-readable results (breakdown sentences, rows with intervals, outliers)
+    files.write_json(os.path.join(args.out, NAME, "summary.json"),
+                     {"notes": notes, "repeats": ctx.repeats, "rows": _json_safe(rows),
+                      "outliers": ctx.outliers.rows})
+
+
+STUDY = register_study(StudySpec(
+    NAME, 'Stability: where each method breaks down', ORDER, build_parser, run,
+    parse=parse, quick=("--quick",)))
