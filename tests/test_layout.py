@@ -1,11 +1,12 @@
 """Layout of the experiment code (issue #17): one-way imports inside experiments/lib, small classes.
 
-* Every module of ``experiments/lib`` is parsed with :mod:`ast`; every import
-  counts, function-local ones included, so an import moved into a function
-  to dodge a cycle is still an edge. The graph of imports between lib
-  modules must be acyclic (data flows one way: plan -> execute -> store ->
-  analyse -> present), and the base modules (``jobs``, ``files``) import
-  nothing else from lib.
+* Every module of ``experiments/lib``, its subpackages (``studies``, ``sweeps``)
+  included, is parsed with :mod:`ast`; every import counts, function-local ones
+  included, so an import moved into a function to dodge a cycle is still an
+  edge. The graph of imports between lib modules (named by their dotted path
+  under lib, ``sweeps.base``; a package by its ``__init__``) must be acyclic
+  (data flows one way: plan -> execute -> store -> analyse -> present), and the
+  base modules (``jobs``, ``files``) import nothing else from lib.
 * No class in ``experiments/`` is longer than :data:`MAX_CLASS_LINES` lines.
 
 Each check has a negative control on synthetic input, so a checker that
@@ -24,14 +25,41 @@ MAX_CLASS_LINES = 250
 
 
 def lib_modules() -> dict[str, str]:
-    """{module name: source path} of every module in experiments/lib."""
-    return {name[:-3]: os.path.join(LIB, name) for name in sorted(os.listdir(LIB))
-            if name.endswith(".py") and name != "__init__.py"}
+    """{dotted module name under lib: source path} of every module in experiments/lib and
+    its subpackages (a subpackage is its ``__init__``; lib's own ``__init__`` is left out)."""
+    out = {}
+    for directory, _, names in os.walk(LIB):
+        rel = os.path.relpath(directory, LIB)
+        prefix = "" if rel == "." else rel.replace(os.sep, ".") + "."
+        for name in sorted(names):
+            if not name.endswith(".py"):
+                continue
+            module = prefix[:-1] if name == "__init__.py" else prefix + name[:-3]
+            if module:
+                out[module] = os.path.join(directory, name)
+    return out
+
+
+def _package_of(module: str, path: str) -> str:
+    """The package a module's relative imports start from."""
+    parent = module if path.endswith("__init__.py") else module.rpartition(".")[0]
+    return ".".join(p for p in (PACKAGE, parent) if p)
+
+
+def _lib_module(target: str, modules) -> str | None:
+    """The module of lib (longest dotted prefix among ``modules``) that ``target`` names."""
+    if not target.startswith(PACKAGE + "."):
+        return None
+    parts = target[len(PACKAGE) + 1:].split(".")
+    for k in range(len(parts), 0, -1):
+        if ".".join(parts[:k]) in modules:
+            return ".".join(parts[:k])
+    return None
 
 
 def imported_lib_modules(source: str, modules, package: str = PACKAGE) -> set[str]:
-    """The modules of ``package`` (among ``modules``) that ``source`` imports anywhere:
-    ``from . import x``, ``from .x import y``, ``import experiments.lib.x``,
+    """The modules of lib (among ``modules``) that ``source``, a module of ``package``,
+    imports anywhere: ``from . import x``, ``from .x import y``, ``import experiments.lib.x``,
     ``from experiments.lib import x``, at module level or inside a function."""
     found = set()
     parts = package.split(".")
@@ -45,10 +73,9 @@ def imported_lib_modules(source: str, modules, package: str = PACKAGE) -> set[st
         else:
             continue
         for target in targets:
-            if target.startswith(package + "."):
-                head = target[len(package) + 1:].split(".")[0]
-                if head in modules:
-                    found.add(head)
+            module = _lib_module(target, modules)
+            if module is not None:
+                found.add(module)
     return found
 
 
@@ -57,7 +84,8 @@ def import_graph() -> dict[str, set[str]]:
     graph = {}
     for name, path in modules.items():
         with open(path, encoding="utf-8") as f:
-            graph[name] = imported_lib_modules(f.read(), modules) - {name}
+            graph[name] = imported_lib_modules(f.read(), modules,
+                                               _package_of(name, path)) - {name}
     return graph
 
 
@@ -123,6 +151,13 @@ def get():
     assert imported_lib_modules("from ..lib import store\n", modules) == {"store"}
     assert imported_lib_modules("from ..lib.plan import Job\n", modules) == {"plan"}
     assert imported_lib_modules("from .. import convergence\n", modules) == set()
+    # inside a subpackage: relative imports resolve from it, dotted modules are nodes
+    sub = {"metrics", "sweeps", "sweeps.base", "studies", "studies.suite"}
+    assert imported_lib_modules("from .. import metrics\nfrom .base import Context\n", sub,
+                                "experiments.lib.sweeps") == {"metrics", "sweeps.base"}
+    assert imported_lib_modules("from experiments.lib.studies import StudySpec\n"
+                                "from experiments.lib.studies.suite import STUDY\n", sub) == \
+        {"studies", "studies.suite"}
 
 
 def test_cycle_finder_reports_a_cycle():
@@ -136,7 +171,8 @@ def test_cycle_finder_reports_a_cycle():
 
 def test_lib_imports_flow_one_way():
     graph = import_graph()
-    assert {"jobs", "files", "plan", "store", "execute", "methods", "study"} <= set(graph)
+    assert {"jobs", "files", "plan", "store", "execute", "methods", "study", "studies",
+            "studies.convergence", "sweeps", "sweeps.base"} <= set(graph)
     assert sum(map(len, graph.values())) >= 10, graph        # the checker saw the imports
     cycle = find_cycle(graph)
     assert cycle is None, f"import cycle in experiments/lib: {' -> '.join(cycle)}"

@@ -8,25 +8,31 @@ that the import graph has no cycle):
 * :mod:`.jobs`           jobs and results as plain data (``Job``, ``JobResult``, ``derive_seed``,
                          ``MAX_LANES``), ``Accumulator``/``accumulate`` over results,
                          ``cpu_model`` (no lib imports)
-* :mod:`.metrics`        MSE, relMSE, slopes, efficiency, bias and convergence checks, outliers
-* :mod:`.stats`          intervals and verdicts over repeats
-* :mod:`.methods`        the method grammar (strategies, samplers, randomizations read from
-                         the plugins), plugin dicts, scene reading/loading/variants (files)
-* :mod:`.plan`           render jobs planned: keys, seeds, sample offsets, ladders (jobs, methods)
+* :mod:`.metrics`        MSE, relMSE (with outlier rejection), slopes, efficiency, bias checks
+* :mod:`.stats`          intervals, errors over the reference's floor, verdicts over repeats
+* :mod:`.samplers`       the sampler table: one descriptor per sampler, ``register_sampler``
+* :mod:`.methods`        the method grammar: names parsed once into ``Method`` values
+                         (strategies from :mod:`integrators.strategies`, samplers)
+* :mod:`.scenes`         scenes read, loaded and varied through Mitsuba's own parser; the
+                         scene contract (``Needs``)
+* :mod:`.plan`           render jobs planned: keys, seeds, sample offsets, ladders (jobs,
+                         methods, scenes)
 * :mod:`.store`          the resumable job store (files, jobs)
 * :mod:`.execute`        runs jobs (``run_job``, ``LocalExecutor``) and stores each result
-                         (jobs, methods, store)
-* :mod:`.cluster`        the Dask executor (execute)
-* :mod:`.study`          what a script shares: store, executor, reference image, accumulation
-                         of stored results (plan, execute, jobs, methods, store)
-* :mod:`.figures`        every chart (matplotlib, Agg; store, metrics)
+* :mod:`.extensions`     ``--plugin FILE``: a researcher's strategy, sampler or study
+* :mod:`.cluster`        the Dask executor (execute, extensions)
+* :mod:`.study`          what a study shares: store, executor, reference image, accumulation
+* :mod:`.figures`        every chart (matplotlib, Agg)
 * :mod:`.viewer`         the report's interactive image comparisons (files, metrics)
-* :mod:`.report`         per-experiment sections and ``results/index.html`` (files, jobs,
-                         store, viewer)
-* :mod:`.cli`            the argument parser shared by every script (methods, cluster)
+* :mod:`.report`         per-experiment sections and ``results/index.html``
+* :mod:`.cli`            the argument parser shared by every script, ``load_extensions``
 * :mod:`.scene_probes`   measurements on a scene's objects without rendering (Phong mask, ...)
-* :mod:`.sweeps`         the stability sweeps (plan, analysis, prose)
+* :mod:`.sweeps`         the stability sweeps (plan, analysis, prose), one module each
 * :mod:`.sampler_study`  the sampler study's table and conclusion
+* :mod:`.lab_warps`, :mod:`.lab_points`, :mod:`.lab_figures`  the sampling lab
+* :mod:`.studies`        the study registry (``StudySpec``, ``register_study``, the one
+                         ``main``) and the built-in studies, one module each; the scripts
+                         ``experiments/NAME.py`` are their commands
 
 Package data: ``viewer_assets/`` (viewer.js, viewer.css), read with
 :mod:`importlib.resources`; the bundled scenes are the :mod:`scenes` package.
