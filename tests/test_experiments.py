@@ -405,7 +405,7 @@ def test_convergence_adds_the_sampler_studys_winner(tmp_path):
         summary.write_text(json.dumps({"best": best}))
         args = convergence.cli.parse_args(convergence.build_parser(),
                                           TINY + ["--out", str(out), *argv])
-        return convergence.methods_of(args)
+        return [m.name for m in convergence.settings_from(args).methods]
 
     plain = list(M.DEFAULT_METHODS)
     assert methods(best={"2": "multijitter", "8": "halton:owen"}) == plain + [
@@ -418,7 +418,7 @@ def test_convergence_adds_the_sampler_studys_winner(tmp_path):
     assert methods("--best-sampler", "ldsampler", best={}) == plain + ["bsdf+nee+ldsampler"]
     summary.unlink()
     args = convergence.cli.parse_args(convergence.build_parser(), TINY + ["--out", str(out)])
-    assert convergence.methods_of(args) == plain          # no sampler study yet
+    assert [m.name for m in convergence.settings_from(args).methods] == plain   # no study yet
 
 
 def test_writeup_end_to_end_with_full(tmp_path):

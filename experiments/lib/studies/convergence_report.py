@@ -1,0 +1,184 @@
+"""The convergence study's report: images, viewers, charts, tables, prose and summary.json.
+
+Everything here is presentation of a :class:`~.convergence_analysis.Result`: numbers and
+sentences come from the analysis (one source for the tables and the prose), this module
+only writes them down.
+"""
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass
+
+from .. import files, figures, metrics, stats
+from .. import report as rep
+from .. import jobs as J
+from .convergence_analysis import NAME, Result
+
+
+@dataclass(frozen=True)
+class Context:
+    """What the report needs besides the analysis: the settings, the study (its output
+    folder and reference description), the measured numbers and images."""
+    settings: object              # ConvergenceSettings
+    st: object                    # Study
+    measured: object              # Measured
+    targets: tuple                # the ladder's requested counts
+    timed_on: str                 # which machine measured the render times
+    title: str
+    order: int
+    start: float                  # time.perf_counter() when the study began
+
+
+ERRORS_HEADER = ["method", "spp", "repeats", "seconds", "MSE", "MSE_lo", "MSE_hi", "relMSE",
+                 "relMSE_lo", "relMSE_hi", "FLIP (first repeat)", "image"]
+SLOPES_HEADER = ["method", "MSE vs spp", "MSE vs time", "relMSE vs spp", "relMSE vs time"]
+EFFICIENCY_HEADER = ["method", "spp", "repeats", "seconds", "MSE", "MSE_lo", "MSE_hi",
+                     "relMSE", "relMSE_lo", "relMSE_hi", "relative efficiency",
+                     "relative efficiency_lo", "relative efficiency_hi", "equal-time spp",
+                     "equal-time MSE", "equal-time MSE_lo", "equal-time MSE_hi",
+                     "equal-time relative efficiency", "equal-time relative efficiency_lo",
+                     "equal-time relative efficiency_hi"]
+
+
+def _stem(method: str, spp: int) -> str:
+    return f"{NAME}/{method}/spp{spp:05d}"
+
+
+def intro(ctx: Context) -> dict:
+    s, st, meta = ctx.settings, ctx.st, ctx.measured.reference
+    best = s.best.method.name if s.best is not None else None
+    return rep.text(
+        f"Progressive renders of {os.path.basename(s.scene)} at {st.width}x{st.height} "
+        f"({s.depth.describe()}): each method accumulates jobs (a new seed each; Halton "
+        f"continues its sequence) to 1, 2, 4, ... {s.spp} spp (Mitsuba's stratified, "
+        f"orthogonal and ldsampler round counts up; the spp shown are those rendered), "
+        f"{st.repeats} times with independent randomizations (plain Halton, deterministic, "
+        f"once). Errors are expected values over the repeats against the reference: "
+        f"{st.describe_reference(meta)}. Times are warm render times in the timed "
+        f"configuration (JIT compilation excluded), cumulative over passes. "
+        + (f"{best} is the best combination the sampler study found (its most efficient "
+           f"sampler with bsdf+nee)." if best else
+           "The sampler study's winner is not among the methods (run the sampler study "
+           "first, as run_all does, or give --best-sampler).")
+        + f" Intervals: {stats.LEVEL:.0%}, {stats.METHOD}.")
+
+
+def sequences(ctx: Context, result: Result) -> list[dict]:
+    """The convergence sequences: images, viewers, error charts, errors and slopes."""
+    s, st, images = ctx.settings, ctx.st, ctx.measured.images
+    out, ref = st.out, images.reference
+    table, grid, captions, viewers, last_notes = [], [], [], [], []
+    for m, lines in result.lines.items():
+        grid.append(images.ladders[m])
+        captions.append([f"MSE {x.mse.value:.2e}\nrelMSE {x.relmse.value:.2e}\n"
+                         f"{x.seconds:.2f} s" for x in lines])
+        notes = [f"{x.first_seconds:.2f} s · expected relMSE {x.relmse.value:.3g} · "
+                 f"FLIP {x.flip:.3f}" for x in lines]
+        last_notes.append(notes[-1])
+        for x, image in zip(lines, images.ladders[m]):
+            files.write_image(os.path.join(out, _stem(m, x.spp)), image)
+            table.append([m, x.spp, x.runs, round(x.seconds, 4), *x.mse.cells(),
+                          *x.relmse.cells(), stats.g(x.flip), _stem(m, x.spp) + ".exr"])
+        viewers.append(rep.viewer(
+            out, f"{m}: 1 to {lines[-1].spp} spp",
+            [(f"{x.spp} spp", im) for x, im in zip(lines, images.ladders[m])], ref,
+            f"The convergence sequence of {m} against the reference (first repeat; the "
+            f"notes give expected errors over the repeats).", notes))
+    viewers.insert(0, rep.viewer(
+        out, f"Every method at {s.spp} spp", [(m, g[-1]) for m, g in zip(result.lines, grid)],
+        ref, "The last image of each sequence.", last_notes))
+    figures.image_grid(os.path.join(out, NAME, "sequences.png"), grid, list(result.lines),
+                       [f"{t} spp" for t in ctx.targets], captions)
+    for metric, series in result.bands.items():
+        figures.error_bands(os.path.join(out, NAME, f"error_{metric.lower()}.png"), series,
+                            metric)
+    band = (f"expected over {st.repeats} repeats with {stats.LEVEL:.0%} bands; the reference's "
+            f"own expected error is subtracted")
+    slopes = [[m, *(stats.g(v) for v in values)] for m, values in result.slopes.items()]
+    return viewers + [
+        rep.image(f"{NAME}/sequences.png", "Convergence sequences (first repeat): rows = "
+                     "methods, columns = spp; expected MSE, relMSE and cumulative render time "
+                     "under each tile."),
+        rep.image(f"{NAME}/error_mse.png", f"MSE against spp and against render time "
+                     f"(log-log), {band}; fitted slopes in the legend (-1 is the Monte Carlo "
+                     f"rate)."),
+        rep.image(f"{NAME}/error_relmse.png", f"relMSE = mean((x - ref)^2 / (ref^2 + "
+                     f"{metrics.RELMSE_EPS})) against spp and time, {band}."),
+        rep.image(f"{NAME}/error_flip.png", "Mean FLIP (NVIDIA's perceptual error in "
+                     "[0, 1], flip-evaluator, HDR) of the images shown (the first repeat) "
+                     "against spp and time; a perceptual measure of one image, not an "
+                     "expected error (no band), and not a squared error, so its slope is not "
+                     "the Monte Carlo -1."),
+        rep.write_table(out, f"{NAME}/errors", ERRORS_HEADER, table,
+                           f"Every intermediate image with its expected error ({band}) and "
+                           f"mean cumulative time", collapsed=True),
+        rep.write_table(out, f"{NAME}/slopes", SLOPES_HEADER, slopes,
+                           "Fitted convergence slopes of the expected errors (least squares "
+                           "in log-log; -1 is the Monte Carlo rate)"),
+    ]
+
+
+def equal_time(ctx: Context, result: Result) -> list[dict]:
+    """The equal-time panel."""
+    s, st, images = ctx.settings, ctx.st, ctx.measured.images
+    shown, captions, notes = [], [], []
+    for row in result.efficiency:
+        image = images.equal[row.method]
+        files.write_image(os.path.join(st.out, "equal_time", row.method), image)
+        shown.append(image)
+        captions.append(f"{row.equal_spp} spp, {row.equal_seconds:.2f} s\n"
+                        f"MSE {row.equal_mse.value:.2e}")
+        notes.append(f"{row.equal_spp} spp, {row.equal_seconds:.2f} s · expected MSE "
+                     f"{row.equal_mse.text()} · FLIP "
+                     f"{ctx.measured.equal[row.method].flip:.3f}")
+    names = [row.method for row in result.efficiency]
+    figures.image_grid(os.path.join(st.out, NAME, "equal_time.png"), [shown], ["equal time"],
+                       names, [captions])
+    return [rep.viewer(
+        st.out, f"Equal time ({s.time_budget:g} s)", list(zip(names, shown)),
+        images.reference,
+        f"Equal time: each method renders the samples that fit in {s.time_budget:g} s "
+        f"at the speed measured on its convergence sequences, {st.repeats} times (the first "
+        f"repeat is shown; the notes give the expected MSE over the repeats with its "
+        f"{stats.LEVEL:.0%} interval).", notes, figure=f"{NAME}/equal_time.png")]
+
+
+def efficiency(ctx: Context, result: Result) -> list[dict]:
+    s, st = ctx.settings, ctx.st
+    rows = [[r.method, r.spp, r.repeats, round(r.seconds, 3), *r.mse.cells(),
+             *r.relmse.cells(), *r.relative.cells(), r.equal_spp, *r.equal_mse.cells(),
+             *r.equal_relative.cells()] for r in result.efficiency]
+    return [
+        rep.write_table(
+            st.out, f"{NAME}/efficiency", EFFICIENCY_HEADER, rows,
+            f"Veach efficiency 1/(MSE x time) after {s.spp} spp and at equal time, "
+            f"relative to {result.base}: expected values over {st.repeats} repeats with "
+            f"{stats.LEVEL:.0%} intervals ({stats.METHOD})"),
+        rep.text(" ".join(result.sentences) + " Timings are warm render times on this "
+                    "machine and vary with its load (other processes sharing the cores slow "
+                    "every method); MSE does not."),
+    ]
+
+
+def settings_table(ctx: Context) -> dict:
+    s, st = ctx.settings, ctx.st
+    return {"scene": s.scene, "resolution": f"{st.width}x{st.height}", "spp": s.spp,
+            "methods": ", ".join(m.name for m in s.methods), "repeats": st.repeats,
+            "variant": s.variant, "seed": s.seed, "time budget (s)": s.time_budget,
+            "path settings": s.depth.describe(),
+            "reference": st.describe_reference(ctx.measured.reference),
+            "max lanes per pass": J.MAX_LANES,
+            "intervals": f"{stats.LEVEL:.0%}, {stats.METHOD}",
+            "render times measured on": ctx.timed_on}
+
+
+def report(ctx: Context, result: Result) -> None:
+    """Write the section, its files and summary.json."""
+    blocks = [intro(ctx)] + sequences(ctx, result) + equal_time(ctx, result) \
+        + efficiency(ctx, result)
+    s = ctx.settings
+    rep.write_section(s.out, NAME, ctx.title, ctx.order, settings_table(ctx), blocks,
+                         s.variant, time.perf_counter() - ctx.start)
+    files.write_json(os.path.join(s.out, NAME, "summary.json"),
+                     {"efficiency": [r.record() for r in result.efficiency]})

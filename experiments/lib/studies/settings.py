@@ -1,0 +1,42 @@
+"""What every study's typed settings share, made from the argparse Namespace in one place.
+
+A study's library code takes a settings dataclass, never the Namespace, so that it can be
+driven from Python, from another study or from a test without faking command-line
+arguments. :class:`StudySettings` holds the options of :func:`~..cli.common_parser` with
+what :func:`~..cli.parse_args` adds (the scene read, its depth settings, the methods as
+parsed :class:`~..methods.Method` values, the executor); a study subclasses it with its
+own options and builds it with :func:`common_fields` plus those. Its field names are those
+:class:`~..study.Study` reads, so ``Study(settings)`` works.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..methods import Depth, Method
+from ..scenes import SceneInfo
+
+
+@dataclass(frozen=True)
+class StudySettings:
+    out: str                          # the report directory (``--out``)
+    scene: str                        # the scene file
+    info: SceneInfo
+    resolution: tuple                 # (width, height)
+    depth: Depth                      # the scene's path settings with --max-depth etc.
+    methods: tuple                    # Method values, in order
+    repeats: int                      # independent randomizations (--repeats)
+    variant: str
+    seed: int
+    reference_spp: int
+    reference_method: Method
+    executor: object                  # a Dask executor, or None (the local loop)
+
+
+def common_fields(args) -> dict:
+    """The :class:`StudySettings` fields of a parsed Namespace (``cli.parse_args``)."""
+    return {"out": args.out, "scene": args.scene, "info": args.info,
+            "resolution": tuple(args.resolution), "depth": args.depth,
+            "methods": tuple(args.method_objs), "repeats": int(getattr(args, "repeats", 1)),
+            "variant": args.variant, "seed": args.seed, "reference_spp": args.reference_spp,
+            "reference_method": args.reference_method,
+            "executor": getattr(args, "executor", None)}
