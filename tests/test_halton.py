@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from scipy.stats import qmc as scipy_qmc
 
+import _qmc_oracle as oracle
 from conftest import scene_path
 from integrators import qmc
 from integrators.halton import HaltonSampler
@@ -90,6 +91,65 @@ def test_none_reproduces_plain_halton():
     sampler.seed(7, n)                       # one pixel, n samples
     expected = scipy_qmc.Halton(d=dims, scramble=False).random(n)
     np.testing.assert_allclose(draw(sampler, dims), expected, rtol=0, atol=4e-7)
+
+
+#: A path tracer's calls per sample, as vr_path with NEE makes them: the camera's
+#: next_2d, then per bounce next_2d (emitter), next_1d, next_2d (direction), next_1d
+#: (roulette); two bounces, dimensions 0-13.
+RENDER_CALLS = ("2d",) + ("2d", "1d", "2d", "1d") * 2
+#: Dimensions reached in a symbolic loop after RENDER_CALLS: a deep pair and the end of
+#: the prime table with its wrap-around (dimension 1000 is base 2 again).
+DEEP_DIMENSIONS = (30, 31, 998, 999, 1000, 1001)
+
+
+def _drive_as_a_render(sampler, spp, lanes, seed):
+    """set_sample_count, seed(seed, lanes), then RENDER_CALLS and a symbolic loop up to
+    the last of DEEP_DIMENSIONS: {dimension: values of every lane}."""
+    sampler.set_sample_count(spp)
+    sampler.seed(seed, lanes)
+    values = []
+    for kind in RENDER_CALLS:
+        if kind == "2d":
+            p = sampler.next_2d()
+            values += [p.x, p.y]
+        else:
+            values.append(sampler.next_1d())
+    got = {d: np.array(v, dtype=np.float64) for d, v in enumerate(values)}
+    first = len(values)
+    deep = np.array(_draw_in_loop(sampler, DEEP_DIMENSIONS[-1] + 1 - first, lanes))
+    deep = deep.reshape(lanes, -1)
+    got.update({d: deep[:, d - first] for d in DEEP_DIMENSIONS})
+    return got
+
+
+@pytest.mark.parametrize("randomization,base_seed,offset", [
+    ("none", 0, 0), ("permute_digits", 0, 0), ("owen", 0, 0), ("owen", 7, 5)])
+def test_values_are_the_halton_points_of_their_lane(randomization, base_seed, offset):
+    """Driven as a render drives it, every next_1d and both coordinates of every next_2d
+    are the Halton point of the definition (tests/_qmc_oracle.py, scipy's Halton
+    sequence for 'none'): dimension j for the j-th value drawn, sample index
+    sample_offset + lane % spp, the scramble seed of pixel lane // spp from the render's
+    seed plus the 'seed' parameter. Negative controls: the oracle one dimension or one
+    sample index off does not match."""
+    width, height, spp, seed = 4, 2, 16, 3
+    lanes = width * height * spp
+    sampler = make_sampler(spp=spp, randomization=randomization, seed=base_seed,
+                           sample_offset=offset)
+    got = _drive_as_a_render(sampler, spp, lanes, seed)
+    sample = np.arange(lanes) % spp + offset
+    plain = scipy_qmc.Halton(d=qmc.PRIME_TABLE_SIZE, scramble=False).random(offset + spp + 1)
+
+    def expected(dimension, index_shift=0):
+        if randomization == "none":
+            return plain[sample + index_shift, dimension % qmc.PRIME_TABLE_SIZE]
+        return oracle.sampler_values(dimension, lanes, spp, seed, randomization, base_seed,
+                                     offset + index_shift)
+
+    for dimension, values in got.items():
+        np.testing.assert_allclose(values, expected(dimension), rtol=0, atol=oracle.TOLERANCE,
+                                   err_msg=f"dimension {dimension}")
+        for wrong in (expected(dimension + 1), expected(dimension, index_shift=1)):
+            assert np.mean(np.abs(values - wrong) > oracle.TOLERANCE) > 0.5, dimension
 
 
 @dr.syntax

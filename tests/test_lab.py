@@ -20,6 +20,7 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
+import _qmc_oracle as oracle
 import integrators.path as vr_path
 from experiments.lib import lab_points as LP
 from experiments.lib import lab_warps as LW
@@ -166,6 +167,22 @@ def test_points_are_what_a_render_draws(name):
     pixel = np.arange(width * height)
     film -= np.stack([pixel % width, pixel // width], axis=1)[:, None, :]
     np.testing.assert_allclose(film, lab[..., :2], atol=2e-4)
+
+
+@pytest.mark.parametrize("randomization", ["none", "permute_digits", "owen"])
+def test_halton_point_sets_are_the_halton_points(randomization):
+    """The lab's halton point sets are the Halton points of their definition (the numpy
+    oracle of tests/_qmc_oracle.py), not merely what the sampler gives: every dimension
+    of LP.PATTERN, sample index = position in the pixel's set, the pixel's scramble
+    seed from the render seed."""
+    width, height, spp, seed = 4, 2, 16, 5
+    pts, count = LP.draw(f"halton:{randomization}", spp, seed, width, height)
+    assert count == spp and pts.shape == (width * height, spp, len(LP.dimensions()))
+    lanes = width * height * spp
+    for k in range(pts.shape[-1]):
+        expected = oracle.sampler_values(k, lanes, spp, seed, randomization)
+        np.testing.assert_allclose(pts[..., k].ravel(), expected, rtol=0,
+                                   atol=oracle.TOLERANCE, err_msg=f"dimension {k}")
 
 
 def read_header(path):

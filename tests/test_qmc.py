@@ -13,6 +13,7 @@ import pytest
 from scipy import stats
 from scipy.stats import qmc as scipy_qmc
 
+import _qmc_oracle as oracle
 from integrators import qmc
 
 ALPHA = 1e-3
@@ -100,6 +101,36 @@ def test_plain_halton_matches_scipy():
             exact.append(v)
         np.testing.assert_allclose(np.array(qmc.radical_inverse(d, mi.UInt32(big))), exact,
                                    rtol=0, atol=4e-7)
+
+
+#: Dimensions checked against the definition: every base up to 41, high bases (the
+#: lab's deep pair, the last base with 64 table permutations, the first with 4), the
+#: end of the prime table and its wrap-around.
+ORACLE_DIMENSIONS = list(range(13)) + [30, 31, 127, 171, 172, 998, 999, 1000, 1001, 2999]
+
+
+@pytest.mark.parametrize("randomization", qmc.RANDOMIZATIONS)
+def test_halton_sample_is_its_definition(randomization):
+    """qmc.halton_sample equals the numpy oracle of tests/_qmc_oracle.py (the
+    definitions of the module docstring, digit by digit) for small and large indices
+    and random seeds, in every dimension of ORACLE_DIMENSIONS, to float32 rounding;
+    the oracle's own 'none' is scipy's Halton sequence. Negative controls: the next
+    dimension's or the next index's values do not match."""
+    rng = np.random.default_rng(8)
+    index = np.concatenate([np.arange(300), rng.integers(0, 2**31 - 1, 300)]).astype(np.uint32)
+    seeds = rng.integers(0, 2**32, index.size, dtype=np.uint64).astype(np.uint32)
+    if randomization == "none":
+        plain = scipy_qmc.Halton(d=13, scramble=False).random(300)
+        for d in range(13):
+            np.testing.assert_allclose(oracle.halton(d, index[:300], seeds[:300], "none"),
+                                       plain[:, d], rtol=0, atol=1e-12)
+    for d in ORACLE_DIMENSIONS:
+        got = _values(d, index, seeds, randomization)
+        np.testing.assert_allclose(got, oracle.halton(d, index, seeds, randomization), rtol=0,
+                                   atol=oracle.TOLERANCE, err_msg=f"dimension {d}")
+        for wrong in (oracle.halton(d + 1, index, seeds, randomization),
+                      oracle.halton(d, index + 1, seeds, randomization)):
+            assert np.mean(np.abs(got - wrong) > oracle.TOLERANCE) > 0.9, d
 
 
 def test_dimensions_wrap_past_prime_table():
