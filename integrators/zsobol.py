@@ -267,15 +267,20 @@ class ZSobolSampler(mi.Sampler):
     def _reset_state(self, seed, wavefront_size: int, samples_per_wavefront: int,
                      width: int, length: int, declared: bool) -> None:
         lanes = dr.arange(mi.UInt32, wavefront_size)
-        spw = dr.opaque(mi.UInt32, samples_per_wavefront)
-        w = dr.opaque(mi.UInt32, width)
-        pixel = lanes // spw
-        row = pixel // w
+        # No vector integer division (x86 executes it lane by lane): a shift for
+        # the samples per pixel (a power of two: they divide the sample count,
+        # Mitsuba checks it), a float64 reciprocal for the width (exact:
+        # (pixel + 1/2) / width lies at least 2^-17 from an integer, the
+        # product's error is below 2^-20).
+        spw = samples_per_wavefront
+        pixel = lanes >> dr.opaque(mi.UInt32, spw.bit_length() - 1)
+        Float64 = dr.float64_array_t(mi.Float)
+        row = mi.UInt32(dr.floor((Float64(pixel) + 0.5) * dr.opaque(Float64, 1.0 / width)))
         log2_length = length.bit_length() - 1
-        morton = qmc.morton_encode(pixel - row * w, row)
+        morton = qmc.morton_encode(pixel - row * dr.opaque(mi.UInt32, width), row)
         #: Sequence index of every lane's current sample, before the permutation.
-        self._index = ((morton << dr.opaque(mi.UInt32, log2_length)) + (lanes - pixel * spw)
-                       + self._sample_offset)
+        self._index = ((morton << dr.opaque(mi.UInt32, log2_length))
+                       + (lanes - pixel * dr.opaque(mi.UInt32, spw)) + self._sample_offset)
         #: The Morton digits' x bits of a reversed index (qmc.morton_x_mask).
         self._x_mask = dr.opaque(mi.UInt32, qmc.morton_x_mask(log2_length))
         self._seed = seed
@@ -296,6 +301,9 @@ class ZSobolSampler(mi.Sampler):
                     "number of lanes): set <integer name=\"film_width\" value=\"$width\"/> in "
                     "the scene's sampler, 'film_width' in its dict, or sampler.film_width = "
                     "width before rendering")
+        if spw & (spw - 1):
+            return (f"zsobol: {spw} samples per pixel per pass is not a power of two; "
+                    f"declare passes of a power of two (set_samples_per_wavefront)")
         if wavefront_size % (width * spw) != 0:
             return (f"zsobol: a wavefront of {wavefront_size} lanes is not film_width {width} x "
                     f"height x {spw} samples per pixel for any whole height: 'film_width' does "
