@@ -36,9 +36,21 @@ DEFAULT_METHODS = ("uniform", "cosine", "bsdf", "uniform+halton", "bsdf+halton",
 FIXED = {"uniform+halton": "uniform+halton:none"}
 
 
+#: Words of the grammar that no strategy may be called (a strategy ``nee`` would make
+#: ``bsdf+nee`` ambiguous).
+RESERVED = (PATH, "nee")
+
+
 def strategies() -> tuple[str, ...]:
-    """The registered ``vr_path`` strategies (built-in ones first)."""
-    return tuple(_strategies.names())
+    """The registered ``vr_path`` strategies (built-in ones first); ValueError if one is
+    named like a word of the grammar or like a sampler."""
+    names = tuple(_strategies.names())
+    clash = [n for n in names if n in RESERVED or n in S.names()]
+    if clash:
+        raise ValueError(f"strategy name '{clash[0]}' clashes with the method grammar "
+                         f"({', '.join(RESERVED)} and the samplers {', '.join(S.names())} "
+                         f"are taken): register it under another name")
+    return names
 
 
 @dataclass(frozen=True)

@@ -61,9 +61,10 @@ def _sample_direction():
 
 
 def check_strategy(strategy: str) -> str:
-    from integrators.choices import STRATEGIES
-    if strategy not in STRATEGIES:
-        raise ValueError(f"unknown strategy '{strategy}': choose from {', '.join(STRATEGIES)}")
+    """``strategy`` if it is registered (:func:`integrators.strategies.get` names the
+    registered ones otherwise)."""
+    from integrators import strategies
+    strategies.get(strategy)
     return strategy
 
 
@@ -71,7 +72,7 @@ def direction_sampling_stats(bsdf, cos_theta_i: float, strategy: str, n: int,
                              seed: int = 0) -> dict:
     """Per-sample statistics of estimating the directional albedo at one incidence angle.
 
-    ``strategy``: any ``vr_path`` strategy (``integrators.choices.STRATEGIES``),
+    ``strategy``: any registered ``vr_path`` strategy (``integrators.strategies.names()``),
     drawn by the plugin itself (``integrators.path.sample_direction``, the
     function ``vr_path`` calls at every vertex), whose weight is
     ``f cos / pdf``; another name raises ValueError. Returns the albedo

@@ -1,7 +1,7 @@
 """Sweep 3: grazing incidence on the scene's Phong material, no rendering.
 
 At each incidence angle and exponent, every ``vr_path`` strategy
-(``integrators.choices.STRATEGIES``) draws directions with the plugin's own
+(``integrators.strategies.names()``) draws directions with the plugin's own
 ``sample_direction`` (:func:`~..scene_probes.direction_sampling_table`),
 R independent sample sets each. A wasted sample has zero weight; efficiency
 is the inverse relative variance per sample (the cost per sample is the same)
