@@ -1,120 +1,85 @@
-"""The sampler study's table and conclusion are computed from its numbers.
+"""The sampler study's analysis (experiments.lib.sampler_study) on synthetic numbers.
 
-Synthetic ladders with a known answer: every count of a ladder has R repeats
-whose MSEs scatter around a known value (a fixed relative spread, the same
-pattern for every sampler, so the expected values and ratios are exact). The
-conclusion must name the winner with the factor that follows from the numbers
-and say "not distinguishable" when the interval contains 1; change the
-numbers and it changes. An order change along the ladder (crossing curves)
-must be found at the count where it happens.
+Synthetic ladders with a known answer: every count of a ladder has R repeats whose errors
+scatter around a known value (a fixed relative spread, the same pattern for every sampler,
+so the expected values and ratios are exact). Each property has its negative control:
+
+- the verdict's direction: a sampler known to be better reads "A is more efficient", the
+  same numbers swapped read the other way, equal ones "not distinguishable";
+- the comparison of each bundled sampler family with the best native sampler picks the
+  pair the numbers say, decided by the sampler table's ``native`` and never by a name;
+- the counts where the order changes along a ladder (onsets), on constructed curves that
+  cross, and none on parallel ones;
+- the reference floor: an error with a known floor comes out as the excess, and an error
+  below the floor is a bound (``stats.excess_interval``), never NaN;
+- the verdicts use relMSE: where MSE and relMSE disagree, relMSE decides.
 """
 import math
 
 import pytest
 
 from experiments.lib import sampler_study as SS
+from experiments.lib import samplers as S
 from experiments.lib import stats
 
 PIXELS = 100
 #: Relative scatter of the repeats around their mean (mean exactly 1).
 SPREAD = (0.9, 1.0, 1.1)
+NATIVE, BUNDLED = True, False
 
 
-def ladder(mse_at_1: float, slope: float, us: float, spps=(1, 4, 16, 64), spread=SPREAD):
-    """MSE = mse_at_1 * spp^slope (scattered by ``spread``); time = us per sample."""
+def ladder(mse_at_1: float, slope: float, us: float, spps=(1, 4, 16, 64), spread=SPREAD,
+           rel: float = 2.0, floor: float = 0.0, requested=None):
+    """MSE = mse_at_1 * spp^slope (scattered by ``spread``), relMSE = ``rel`` x MSE, time
+    = ``us`` per sample; ``floor`` added to both errors (the reference's own, subtracted
+    again by the analysis)."""
+    requested = requested or spps
     return [SS.Point(n, tuple(us * 1e-6 * n * PIXELS for _ in spread),
-                     tuple(mse_at_1 * n ** slope * f for f in spread),
-                     tuple(2 * mse_at_1 * n ** slope * f for f in spread)) for n in spps]
+                     tuple(floor + mse_at_1 * n ** slope * f for f in spread),
+                     tuple(floor + rel * mse_at_1 * n ** slope * f for f in spread), t,
+                     floor, floor)
+            for n, t in zip(spps, requested)]
 
 
-def synthetic(orthogonal_mse=0.07, halton_mse=0.2, halton_time=1.1, spread=SPREAD):
-    return {
-        2: {"independent": ladder(1.0, -1.0, 10.0, spread=spread),
-            "orthogonal": ladder(orthogonal_mse, -1.0, 20.0, spread=spread),   # eff 7.1x
-            "halton:owen": ladder(halton_mse, -1.0, 10.0 * halton_time, spread=spread)},
-        8: {"independent": ladder(1.0, -1.0, 10.0, spread=spread),
-            "multijitter": ladder(0.4, -1.0, 13.0, spread=spread),
-            "halton:owen": ladder(0.5, -1.0, 11.0, spread=spread)},
-    }
+def kinds(**natives):
+    """``{label: Family}``: the family is the label's part before ':'; ``natives`` says which
+    are native (every label not named is bundled)."""
+    return {label: SS.Family(label.split(":")[0], native) for label, native in natives.items()}
 
+
+def analyse(points, families):
+    return SS.analyse(points, PIXELS, families)
+
+
+def of(analysis, role, depth=2):
+    return [c for c in analysis.comparisons if c.role == role and c.depth == depth]
+
+
+# ------------------------------------------------------------------ the table
 
 def test_table_numbers_follow_from_the_points():
-    rows = {(r.depth, r.sampler): r for r in SS.table(synthetic(), PIXELS)}
-    o = rows[(2, "orthogonal")]
+    points = {2: {"independent": ladder(1.0, -1.0, 10.0),
+                  "orthogonal": ladder(0.07, -1.0, 20.0)}}
+    rows = {r.sampler: r for r in SS.table(points, PIXELS)}
+    o = rows["orthogonal"]
     assert o.relative_mse.value == pytest.approx(0.07)
     assert o.relative_efficiency.value == pytest.approx(1 / (0.07 * 2.0))
     assert o.relative_efficiency.lo < o.relative_efficiency.value < o.relative_efficiency.hi
     assert o.us_per_sample == pytest.approx(20.0)
     assert o.slope == pytest.approx(-1.0)
     assert (o.spp, o.repeats) == (64, 3)
-    assert rows[(2, "independent")].relative_efficiency.value == pytest.approx(1.0)
+    assert o.mse.value == pytest.approx(0.07 / 64) and o.relmse.value == pytest.approx(
+        0.14 / 64)
+    assert rows["independent"].relative_efficiency.value == pytest.approx(1.0)
     record = o.record()
     assert record["relative_efficiency_lo"] < record["relative_efficiency"] \
         < record["relative_efficiency_hi"]
     assert {"mse_lo", "mse_hi", "relmse_lo", "relmse_hi"} <= set(record)
 
 
-def test_conclusion_names_the_known_winner_and_its_factor():
-    points = synthetic()
-    depth2, depth8 = SS.conclude(SS.table(points, PIXELS), points)
-    eff_o, eff_h = 1 / (0.07 * 2.0), 1 / (0.2 * 1.1)
-    assert depth2.startswith(f"At max_depth 2 and 64 spp (3 independent runs each), "
-                             f"orthogonal has the highest efficiency 1/(MSE x time): "
-                             f"{eff_o:.3g} (95% CI")
-    assert f"orthogonal is more efficient than halton:owen by {eff_o / eff_h:.3g} (95% CI" \
-        in depth2
-    eff_mj, eff_h8 = 1 / (0.4 * 1.3), 1 / (0.5 * 1.1)
-    assert depth8.startswith(f"At max_depth 8 and 64 spp (3 independent runs each), "
-                             f"multijitter has the highest efficiency 1/(MSE x time): "
-                             f"{eff_mj:.3g} (95% CI")
-    # 6% apart with a 10% scatter over 3 repeats: no verdict either way
-    assert f"multijitter and halton:owen are not distinguishable at this budget (ratio " \
-           f"{eff_mj / eff_h8:.3g}" in depth8
-    assert "lowest expected MSE is multijitter's (0.4 (95% CI" in depth8
-
-
-def test_conclusion_follows_the_numbers_when_halton_wins():
-    points = synthetic(orthogonal_mse=0.5, halton_mse=0.05)
-    depth2, _ = SS.conclude(SS.table(points, PIXELS), points)
-    assert "halton:owen has the highest efficiency" in depth2
-    # orthogonal (MSE 0.5 at twice the time) only ties independent: the best native is the
-    # first of the two
-    assert "against the best native sampler, independent: halton:owen is more efficient " \
-           "than independent by" in depth2
-    assert "against orthogonal, halton:owen is more efficient at 1-64 spp" in depth2
-    assert "lowest expected MSE is halton:owen's (0.05 (95% CI" in depth2
-
-
-def test_close_samplers_are_not_distinguishable():
-    """Negative control: a 3% difference with a 20% scatter is no verdict."""
-    wide = (0.8, 1.0, 1.2)
-    points = {2: {"independent": ladder(1.0, -1.0, 10.0, spread=wide),
-                  "multijitter": ladder(0.5, -1.0, 10.0, spread=wide),
-                  "halton:owen": ladder(0.5 / 1.03, -1.0, 10.0, spread=(1.2, 1.0, 0.8))}}
-    text, = SS.conclude(SS.table(points, PIXELS), points)
-    assert "halton:owen and multijitter are not distinguishable at this budget" in text
-    assert "is more efficient than multijitter" not in text
-
-
-def test_order_change_along_the_ladder_is_found():
-    """Halton's MSE falls faster (slope -1.5) than orthogonal's (-1): it loses at 1 and 4 spp,
-    ties about 16 and wins from 64 spp."""
-    spps = (1, 4, 16, 64, 256)
-    ortho = ladder(0.1, -1.0, 10.0, spps)
-    halton = ladder(0.4, -1.5, 10.0, spps)        # ratio 0.25 x spp^0.5: 0.25, 0.5, 1, 2, 4
-    changes = SS.order_changes(halton, ortho)
-    assert [c[1] for c in changes] == [-1, -1, 0, 1, 1]
-    assert changes[3][2].value == pytest.approx(2.0)
-    text = SS.describe_order("halton:owen", "orthogonal", changes)
-    assert text == ("against orthogonal, halton:owen is less efficient at 1-4 spp, not "
-                    "distinguishable at 16 spp, more efficient from 64 spp (halton:owen "
-                    "overtakes orthogonal from 64 spp)")
-    same = SS.describe_order("a", "b", SS.order_changes(ortho, ortho))
-    assert same == "against b, a is not distinguishable at any count of the ladder (1-256 spp)"
-
-
 def test_curves_give_the_ratio_at_every_count():
-    curves = SS.curves(synthetic())
+    curves = SS.curves({2: {"independent": ladder(1.0, -1.0, 10.0),
+                            "orthogonal": ladder(0.07, -1.0, 20.0)}})
     pts = curves[2]["orthogonal"]
     assert [spp for spp, _ in pts] == [1, 4, 16, 64]
     assert all(e.value == pytest.approx(1 / (0.07 * 2.0)) for _, e in pts)
@@ -127,10 +92,194 @@ def test_slope_of_a_qmc_like_ladder():
     assert math.isfinite(rows[1].relative_efficiency.value)
 
 
+# ------------------------------------------------------------------ verdicts
+
+def three(bundled_mse, native_mse, spread=SPREAD):
+    """independent (1.0), a native sampler and a bundled one at the same time per sample."""
+    return {2: {"independent": ladder(1.0, -1.0, 10.0, spread=spread),
+                "nat": ladder(native_mse, -1.0, 10.0, spread=spread),
+                "bund": ladder(bundled_mse, -1.0, 10.0, spread=spread)}}
+
+
+FAMILIES = kinds(independent=NATIVE, nat=NATIVE, bund=BUNDLED)
+
+
+def test_the_better_sampler_reads_more_efficient():
+    better = analyse(three(0.1, 0.2), FAMILIES)
+    c, = of(better, SS.BUNDLED)
+    assert (c.a, c.b) == ("bund", "nat")
+    assert c.ratio.value == pytest.approx(2.0) and c.ratio.excludes(1.0)
+    assert c.short_verdict() == "bund is more efficient"
+    assert c.verdict.startswith("bund is more efficient than nat by 2 (95% CI")
+    assert "bund is more efficient than nat by 2 (95% CI" in better.conclusions[2][1]
+    # negative control: the same numbers swapped read the other way
+    worse = analyse(three(0.2, 0.1), FAMILIES)
+    c, = of(worse, SS.BUNDLED)
+    assert c.ratio.value == pytest.approx(0.5)
+    assert c.short_verdict() == "nat is more efficient"
+    assert c.verdict.startswith("nat is more efficient than bund by 2 (95% CI")
+    assert "bund is more efficient" not in " ".join(worse.conclusions[2])
+
+
+def test_a_tie_is_not_distinguishable():
+    tie = analyse(three(0.2, 0.2), FAMILIES)
+    c, = of(tie, SS.BUNDLED)
+    assert c.ratio.value == pytest.approx(1.0)
+    assert c.short_verdict() == "not distinguishable"
+    assert "bund and nat are not distinguishable at this budget" in tie.conclusions[2][1]
+    # 3% apart with a 20% scatter: still no verdict; 2x apart with it: a verdict
+    wide = (0.8, 1.0, 1.2)
+    assert of(analyse(three(0.2 / 1.03, 0.2, wide), FAMILIES), SS.BUNDLED)[0] \
+        .short_verdict() == "not distinguishable"
+    assert of(analyse(three(0.1, 0.2, wide), FAMILIES), SS.BUNDLED)[0] \
+        .short_verdict() == "bund is more efficient"
+
+
 def test_one_repeat_gives_no_interval_and_no_verdict():
-    points = synthetic(spread=(1.0,))
-    rows = SS.table(points, PIXELS)
-    assert not any(r.relative_efficiency.known for r in rows if r.sampler != "independent")
-    depth2, _ = SS.conclude(rows, points)
-    assert "no interval" in depth2 and "is more efficient than" not in depth2
-    assert isinstance(rows[0].mse, stats.Estimate)
+    one = analyse(three(0.1, 0.2, spread=(1.0,)), FAMILIES)
+    assert not any(r.relative_efficiency.known for r in one.rows if r.sampler != "independent")
+    c, = of(one, SS.BUNDLED)
+    assert c.short_verdict() == "not distinguishable" and "1 run" in c.cells()[5]
+    assert "no interval" in one.conclusions[2][1]
+    assert "is more efficient than" not in " ".join(one.conclusions[2])
+
+
+# ------------------------------------------------------------------ which pair
+
+def many():
+    """Natives independent < stratified < orthogonal; two bundled families (halton with two
+    randomizations, and 'mine'); the most efficient of all is halton:owen."""
+    return {2: {"independent": ladder(1.0, -1.0, 10.0),
+                "stratified": ladder(0.5, -1.0, 10.0),
+                "orthogonal": ladder(0.2, -1.0, 10.0),
+                "halton:none": ladder(0.4, -1.0, 10.0),
+                "halton:owen": ladder(0.1, -1.0, 10.0),
+                "mine": ladder(0.3, -1.0, 10.0)}}
+
+
+def test_each_bundled_family_meets_the_best_native_sampler():
+    families = kinds(independent=NATIVE, stratified=NATIVE, orthogonal=NATIVE,
+                     **{"halton:none": BUNDLED, "halton:owen": BUNDLED, "mine": BUNDLED})
+    a = analyse(many(), families)
+    best, = of(a, SS.BEST)
+    assert (best.a, best.b) == ("halton:owen", "orthogonal")
+    assert [(c.a, c.b) for c in of(a, SS.BUNDLED)] == [("halton:owen", "orthogonal"),
+                                                        ("mine", "orthogonal")]
+    assert {(c.a, c.b) for c in of(a, SS.NATIVE)} == {
+        (f, n) for f in ("halton:owen", "mine") for n in ("independent", "stratified")}
+    assert of(a, SS.BUNDLED)[1].short_verdict() == "orthogonal is more efficient"
+    assert a.best[2].sampler == "halton:owen"
+
+
+def test_native_or_bundled_comes_from_the_table_not_the_name():
+    """Negative control: the same numbers with halton's labels declared native and
+    orthogonal bundled: the pairs follow the declaration."""
+    families = kinds(independent=NATIVE, stratified=NATIVE, orthogonal=BUNDLED,
+                     **{"halton:none": NATIVE, "halton:owen": NATIVE, "mine": BUNDLED})
+    a = analyse(many(), families)
+    assert [(c.a, c.b) for c in of(a, SS.BUNDLED)] == [("orthogonal", "halton:owen"),
+                                                        ("mine", "halton:owen")]
+
+
+def test_families_come_from_the_sampler_table():
+    table = SS.families(S.labels())
+    for label, family in table.items():
+        spec, _ = S.split_label(label)
+        assert family == SS.Family(spec.name, spec.native)
+    assert not table["halton:owen"].native and table["independent"].native
+    spec = S.register_sampler(S.SamplerSpec("haltonlike_test", native=True))
+    try:
+        mine = S.register_sampler(S.SamplerSpec("independent_test"))
+        assert SS.families(["haltonlike_test", "independent_test"]) == {
+            "haltonlike_test": SS.Family("haltonlike_test", True),
+            "independent_test": SS.Family("independent_test", False)}
+    finally:
+        S.unregister_sampler(spec.name)
+        S.unregister_sampler(mine.name)
+
+
+# ------------------------------------------------------------------ order along the ladder
+
+SPPS = (1, 4, 16, 64, 256)
+
+
+def test_order_changes_are_found_where_the_curves_cross():
+    """A's MSE falls faster (slope -1.5) than B's (-1): the efficiency ratio A/B is 0.25 x
+    spp^0.5, i.e. 0.25, 0.5, 1, 2, 4: A loses at 1 and 4 spp, ties at 16, wins from 64."""
+    b = ladder(0.1, -1.0, 10.0, SPPS)
+    a = ladder(0.4, -1.5, 10.0, SPPS)
+    changes = SS.order_changes(a, b)
+    assert [c[1] for c in changes] == [-1, -1, 0, 1, 1]
+    assert changes[3][2].value == pytest.approx(2.0)
+    assert SS.onsets(changes) == [16, 64]
+    assert SS.overtakes("A", "B", changes) == ("A", "B", 64)
+    assert SS.order_text(changes) == ("less efficient at 1-4 spp, not distinguishable at "
+                                      "16 spp, more efficient from 64 spp")
+    # the other way round: B overtakes... no, B is overtaken; swapped roles agree
+    back = SS.order_changes(b, a)
+    assert SS.onsets(back) == [16, 64] and SS.overtakes("B", "A", back) == ("A", "B", 64)
+
+
+def test_parallel_curves_have_no_order_change():
+    """Negative control: A twice as efficient at every count: no onset, nobody overtakes."""
+    b = ladder(0.2, -1.0, 10.0, SPPS)
+    a = ladder(0.1, -1.0, 10.0, SPPS)
+    changes = SS.order_changes(a, b)
+    assert [c[1] for c in changes] == [1] * 5
+    assert SS.onsets(changes) == [] and SS.overtakes("A", "B", changes) is None
+    assert SS.order_text(changes) == "more efficient at 1-256 spp (no change)"
+    same = SS.order_changes(b, b)
+    assert SS.onsets(same) == [] and SS.order_text(same) == \
+        "not distinguishable at 1-256 spp (no change)"
+
+
+def test_the_table_and_the_sentences_report_the_crossing():
+    points = {8: {"independent": ladder(1.0, -1.0, 10.0, SPPS),
+                  "orthogonal": ladder(0.1, -1.0, 10.0, SPPS),
+                  "halton:owen": ladder(0.4, -1.5, 10.0, SPPS)}}
+    a = SS.analyse(points, PIXELS, kinds(independent=NATIVE, orthogonal=NATIVE,
+                                         **{"halton:owen": BUNDLED}))
+    c, = [c for c in a.comparisons if c.role == SS.BUNDLED]
+    cells = dict(zip(SS.COMPARISON_HEADER, c.cells()))
+    assert cells["A / B"] == "halton:owen / orthogonal"
+    assert cells["order changes at spp"] == "16, 64"
+    assert cells["verdict"] == "halton:owen is more efficient"
+    assert cells["efficiency A / B"] == stats.g(c.ratio.value) == "4"
+    assert "halton:owen overtakes orthogonal from 64 spp" in a.conclusions[8][-1]
+
+
+# ------------------------------------------------------------------ the conclusion's shape
+
+def test_conclusions_are_short_and_come_from_the_table():
+    """Ten labels, three bundled families, crossing curves: per depth at most three
+    sentences, none over 80 words, and the best label with the count it was chosen at."""
+    points = {d: {"independent": ladder(1.0, -1.0, 10.0, SPPS),
+                  "stratified": ladder(0.5, -1.1, 12.0, SPPS),
+                  "multijitter": ladder(0.3, -1.2, 12.0, SPPS),
+                  "orthogonal": ladder(0.3, -1.25, 20.0, (1, 4, 25, 81, 289),
+                                       requested=SPPS),
+                  "ldsampler": ladder(0.2, -1.1, 20.0, SPPS),
+                  "halton:none": ladder(0.9, -1.4, 11.0, SPPS),
+                  "halton:permute_digits": ladder(0.8, -1.3, 11.0, SPPS),
+                  "halton:owen": ladder(0.7, -1.35, 11.0, SPPS),
+                  "zsobol": ladder(0.6, -1.3, 12.0, SPPS),
+                  "mine": ladder(1.0, -1.0, 9.0, SPPS)} for d in (2, 8)}
+    families = kinds(independent=NATIVE, stratified=NATIVE, multijitter=NATIVE,
+                     orthogonal=NATIVE, ldsampler=NATIVE,
+                     **{"halton:none": BUNDLED, "halton:permute_digits": BUNDLED,
+                        "halton:owen": BUNDLED, "zsobol": BUNDLED, "mine": BUNDLED})
+    a = SS.analyse(points, PIXELS, families)
+    for d in (2, 8):
+        assert 1 <= len(a.conclusions[d]) <= 3
+        for sentence in a.conclusions[d]:
+            assert len(sentence.split()) <= 80, sentence
+        mine = [c for c in a.comparisons if c.depth == d]
+        assert len([c for c in mine if c.role == SS.BUNDLED]) == 3      # one per family
+        for c in mine:                    # each verdict in the prose is the table's
+            if c.role in (SS.BEST, SS.BUNDLED):
+                assert c.verdict in " ".join(a.conclusions[d])
+    best = a.best[2]
+    top = max(a.rows, key=lambda r: (r.depth == 2, r.relative_efficiency.value))
+    assert (best.sampler, best.spp, best.requested) == (top.sampler, top.spp, top.requested)
+    ortho = next(r for r in a.rows if r.sampler == "orthogonal")
+    assert (ortho.spp, ortho.requested) == (289, 256)

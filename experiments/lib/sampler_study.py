@@ -1,24 +1,57 @@
-"""The sampler study's numbers and its conclusion (no rendering here).
+"""The sampler study's analysis: numbers in, numbers and sentences out (no rendering, no files).
 
-Every sampler renders every count of the ladder R times with independent
-randomizations. :func:`table` turns those renders into one row per sampler and
-depth at the largest count: expected MSE and relMSE over the repeats (the
-reference's own expected error subtracted), time per sample, Veach efficiency
-1/(MSE x time) relative to ``independent``, each with its 95% interval
-(:mod:`.stats`), and the fitted slope of MSE against spp. :func:`curves` gives
-the relative efficiency at every count of the ladder; :func:`conclude` writes
-the conclusion from those numbers alone: which sampler wins at each depth and
-whether the interval lets us say so, where halton stands against the best
-native sampler, and at which counts the order between halton and each native
-sampler changes. Tests feed it synthetic points whose answer is known.
+Every sampler label (:func:`experiments.lib.samplers.labels`) renders every count of the
+ladder R times with independent randomizations; :class:`Point` holds one count's numbers per
+repeat (render time, MSE and relMSE against the reference) and the reference's own expected
+errors (the floors under them). :func:`analyse`, a pure function of those numbers, gives
+
+- :class:`Row`: each label at each depth at the largest count: expected MSE and relMSE (the
+  floor subtracted), time per sample, MSE relative to the baseline (``independent``),
+  efficiency relative to the baseline, each with its 95% interval (:mod:`.stats`), and the
+  fitted slope of MSE against spp;
+- curves: the relative efficiency at every count of the ladder;
+- per depth the conclusion table, :class:`Comparison` rows: the most efficient label against
+  the runner-up; each bundled sampler family's best label against the best native sampler
+  (Mitsuba's own, :attr:`SamplerSpec.native`), and against every other native sampler,
+  each with its ratio, interval, verdict and the counts where the order changes;
+- at most three sentences per depth computed from those rows (:func:`sentences`), and the
+  most efficient label per depth with the count it was chosen at.
+
+Which label is bundled and which native comes from :class:`Family` values (the sampler
+table's ``native``), never from a name. Tests feed synthetic points whose answer is known.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, field
 
 from . import metrics, stats
+from . import samplers as S
 
-BASELINE = "independent"
+#: The sampler every efficiency and MSE is relative to.
+BASELINE = S.DEFAULT
+#: The error of the efficiency 1/(error x time) that every verdict uses.
+METRIC = "mse"
+METRIC_NAMES = {"mse": "MSE", "relmse": "relMSE"}
+#: Roles of the conclusion table's rows.
+BEST, BUNDLED, NATIVE = "most efficient / runner-up", "bundled best / best native", \
+    "bundled best / native"
+
+
+@dataclass(frozen=True)
+class Family:
+    """What the analysis knows of a label's sampler: its name and whether it is native."""
+    name: str
+    native: bool
+
+
+def families(labels) -> dict[str, Family]:
+    """``{label: Family}`` from the sampler table (:mod:`.samplers`)."""
+    out = {}
+    for label in labels:
+        spec, _ = S.split_label(label)
+        out[label] = Family(spec.name, spec.native)
+    return out
 
 
 @dataclass(frozen=True)
@@ -26,24 +59,35 @@ class Point:
     """A sampler at one count of the ladder, over R repeats."""
     spp: int                    # samples per pixel actually rendered
     seconds: tuple              # warm render time per repeat
-    mse: tuple                  # MSE per repeat (reference floor subtracted)
+    mse: tuple                  # MSE per repeat against the reference (floor included)
     relmse: tuple
     requested: int = 0          # the ladder's count (0: the same as spp)
+    mse_floor: float = 0.0      # the reference's own expected MSE
+    relmse_floor: float = 0.0
+
+    def net(self, metric: str) -> tuple:
+        """Per-repeat errors with the reference's own expected error subtracted."""
+        floor = getattr(self, metric + "_floor")
+        return tuple(v - floor for v in getattr(self, metric))
+
+    def expected(self, metric: str) -> stats.Estimate:
+        """The expected error over the repeats, the floor subtracted."""
+        return stats.mean_interval(self.net(metric))
 
 
 @dataclass(frozen=True)
 class Row:
     """A sampler at one depth, at the largest count of its ladder."""
     depth: int
-    sampler: str                # independent, ..., halton:owen
+    sampler: str                # a label: independent, ..., halton:owen
     spp: int                    # rendered (orthogonal: a prime squared, stratified: a square)
     requested: int
     repeats: int
     mse: stats.Estimate
     relmse: stats.Estimate
     us_per_sample: float
-    relative_efficiency: stats.Estimate   # efficiency / independent's at the same depth
-    relative_mse: stats.Estimate          # MSE / independent's
+    relative_efficiency: stats.Estimate   # efficiency / the baseline's at the same depth
+    relative_mse: stats.Estimate          # MSE / the baseline's
     slope: float                          # fitted slope of log MSE against log spp
 
     def record(self) -> dict:
@@ -56,21 +100,17 @@ class Row:
         return out
 
 
-def sampler_label(method_sampler: str, randomization: str | None) -> str:
-    return method_sampler + (f":{randomization}" if randomization else "")
-
-
 def _base(by_sampler: dict) -> str:
     return BASELINE if BASELINE in by_sampler else next(iter(by_sampler))
 
 
-def _ratio(a: Point, b: Point) -> stats.Estimate:
-    """Efficiency of ``a`` over ``b``."""
-    return stats.efficiency_ratio(a.mse, a.seconds, b.mse, b.seconds)
+def ratio(a: Point, b: Point, metric: str = METRIC) -> stats.Estimate:
+    """Efficiency 1/(error x time) of ``a`` over ``b``."""
+    return stats.efficiency_ratio(a.net(metric), a.seconds, b.net(metric), b.seconds)
 
 
 def table(points: dict[int, dict[str, list[Point]]], pixels: int) -> list[Row]:
-    """Rows from ``points[depth][sampler]`` (ladder points, increasing spp)."""
+    """Rows from ``points[depth][label]`` (ladder points, increasing spp)."""
     rows = []
     for depth, by_sampler in points.items():
         base = by_sampler[_base(by_sampler)][-1]
@@ -78,25 +118,28 @@ def table(points: dict[int, dict[str, list[Point]]], pixels: int) -> list[Row]:
             p = pts[-1]
             mean_seconds = sum(p.seconds) / len(p.seconds)
             rows.append(Row(depth, s, p.spp, p.requested or p.spp, len(p.mse),
-                            stats.mean_interval(p.mse), stats.mean_interval(p.relmse),
-                            mean_seconds / (p.spp * pixels) * 1e6, _ratio(p, base),
-                            stats.ratio_interval([p.mse], [base.mse]),
+                            p.expected("mse"), p.expected("relmse"),
+                            mean_seconds / (p.spp * pixels) * 1e6, ratio(p, base),
+                            stats.ratio_interval([p.net("mse")], [base.net("mse")]),
                             metrics.loglog_slope([q.spp for q in pts],
-                                                 [sum(q.mse) / len(q.mse) for q in pts])))
+                                                 [sum(q.net("mse")) / len(q.mse)
+                                                  for q in pts])))
     return rows
 
 
 def curves(points: dict[int, dict[str, list[Point]]]) -> dict[int, dict[str, list]]:
-    """``{depth: {sampler: [(spp rendered, efficiency / independent's at that count)]}}``."""
+    """``{depth: {label: [(spp rendered, efficiency / the baseline's at that count)]}}``."""
     out = {}
     for depth, by_sampler in points.items():
         base = by_sampler[_base(by_sampler)]
-        out[depth] = {s: [(p.spp, _ratio(p, b)) for p, b in zip(pts, base)]
+        out[depth] = {s: [(p.spp, ratio(p, b)) for p, b in zip(pts, base)]
                       for s, pts in by_sampler.items()}
     return out
 
 
-def _sign(e: stats.Estimate) -> int:
+# ------------------------------------------------------------ order along the ladder
+
+def sign(e: stats.Estimate) -> int:
     """+1: more efficient (interval above 1), -1: less (below 1), 0: not distinguishable."""
     return 0 if not e.excludes(1.0) else (1 if e.value > 1 else -1)
 
@@ -106,89 +149,178 @@ WORDS = {1: "more efficient", -1: "less efficient", 0: "not distinguishable"}
 
 def order_changes(a: list[Point], b: list[Point]) -> list[tuple[int, int, stats.Estimate]]:
     """``(count of a, sign, efficiency a / b)`` at every count of two ladders."""
-    return [(p.spp, _sign(r), r) for p, q in zip(a, b) for r in [_ratio(p, q)]]
+    return [(p.spp, sign(r), r) for p, q in zip(a, b) for r in [ratio(p, q)]]
 
 
-def describe_order(name_a: str, name_b: str, changes) -> str:
-    """'Against B, A is less efficient at 1-4 spp, ... and more efficient from 64 spp'; plus
-    'A overtakes B from N spp' when it wins from some count to the end and not before."""
-    signs = [s for _, s, _ in changes]
-    if signs and set(signs) == {0}:
-        return (f"against {name_b}, {name_a} is not distinguishable at any count of the "
-                f"ladder ({changes[0][0]}-{changes[-1][0]} spp)")
+def onsets(changes) -> list[int]:
+    """The counts at which the sign differs from the previous count's: where the order
+    changes along the ladder."""
+    return [spp for (_, before, _), (spp, now, _) in zip(changes, changes[1:])
+            if now != before]
+
+
+def order_text(changes) -> str:
+    """'less efficient at 1-4 spp, not distinguishable at 16 spp, more efficient from 64
+    spp', or 'not distinguishable at 1-256 spp (no change)'."""
     runs: list[list] = []
-    for spp, sign, _ in changes:
-        if runs and runs[-1][0] == sign:
+    for spp, s, _ in changes:
+        if runs and runs[-1][0] == s:
             runs[-1][2] = spp
         else:
-            runs.append([sign, spp, spp])
+            runs.append([s, spp, spp])
     parts = []
-    for i, (sign, lo, hi) in enumerate(runs):
+    for i, (s, lo, hi) in enumerate(runs):
         last = i == len(runs) - 1 and i > 0
         where = (f"from {lo} spp" if last and lo != hi else
                  f"at {lo} spp" if lo == hi else f"at {lo}-{hi} spp")
-        parts.append(f"{WORDS[sign]} {where}")
-    text = f"against {name_b}, {name_a} is " + ", ".join(parts)
-    if signs and signs[-1] == 1 and any(s != 1 for s in signs):
-        first = next(i for i in range(len(signs)) if all(s == 1 for s in signs[i:]))
-        text += f" ({name_a} overtakes {name_b} from {changes[first][0]} spp)"
-    elif signs and signs[-1] == -1 and any(s != -1 for s in signs):
-        first = next(i for i in range(len(signs)) if all(s == -1 for s in signs[i:]))
-        text += f" ({name_b} overtakes {name_a} from {changes[first][0]} spp)"
-    elif signs and len(set(signs)) == 1:
-        text += " (the order does not change within the ladder)"
-    return text
+        parts.append(f"{WORDS[s]} {where}")
+    return ", ".join(parts) + (" (no change)" if len(runs) == 1 else "")
 
 
-def halton_vs_native(rows: list[Row], points: dict) -> dict[int, tuple[str, str, stats.Estimate]]:
-    """Per depth: halton's best randomization, the best native sampler (both by efficiency
-    at the largest count) and the efficiency ratio of the first over the second."""
-    out = {}
+def overtakes(a: str, b: str, changes) -> tuple[str, str, int] | None:
+    """(winner, loser, count) when one of ``a``, ``b`` wins from some count to the end of
+    the ladder and did not before; None otherwise."""
+    signs = [s for _, s, _ in changes]
+    if not signs or signs[-1] == 0 or all(s == signs[-1] for s in signs):
+        return None
+    first = next(i for i in range(len(signs)) if all(s == signs[-1] for s in signs[i:]))
+    return (a, b, changes[first][0]) if signs[-1] == 1 else (b, a, changes[first][0])
+
+
+# ------------------------------------------------------------ the conclusion table
+
+@dataclass(frozen=True)
+class Comparison:
+    """One row of a depth's conclusion table: the efficiency of ``a`` over ``b``."""
+    depth: int
+    role: str                   # BEST, BUNDLED or NATIVE
+    a: str
+    b: str
+    spp: int                    # a's count at the largest count of the ladder
+    ratio: stats.Estimate       # efficiency a / b there
+    changes: tuple = field(default=())   # (spp, sign, Estimate) at every count
+
+    @property
+    def verdict(self) -> str:
+        return stats.verdict(self.a, self.b, self.ratio)
+
+    @property
+    def sign(self) -> int:
+        return sign(self.ratio)
+
+    @property
+    def onsets(self) -> list[int]:
+        return onsets(list(self.changes))
+
+    @property
+    def overtakes(self):
+        return overtakes(self.a, self.b, list(self.changes))
+
+    def short_verdict(self) -> str:
+        if not math.isfinite(self.ratio.value):
+            return "cannot be compared (below the reference's noise)"
+        if self.sign == 0:
+            return "not distinguishable"
+        return f"{self.a if self.sign > 0 else self.b} is more efficient"
+
+    def cells(self) -> list:
+        interval = (f"{stats.g(self.ratio.lo)}-{stats.g(self.ratio.hi)}" if self.ratio.known
+                    else f"none ({self.ratio.n} run)")
+        return [self.depth, self.role, f"{self.a} / {self.b}", self.spp,
+                stats.g(self.ratio.value), interval, self.short_verdict(),
+                order_text(list(self.changes)) if self.changes else "",
+                ", ".join(map(str, self.onsets)) or "none"]
+
+    def record(self) -> dict:
+        return {"depth": self.depth, "role": self.role, "a": self.a, "b": self.b,
+                "spp": self.spp, **self.ratio.fields("efficiency_ratio"),
+                "verdict": self.short_verdict(), "order_changes_at": self.onsets}
+
+
+COMPARISON_HEADER = ["max_depth", "comparison", "A / B", "spp (A)", "efficiency A / B",
+                     f"{stats.LEVEL:.0%} interval", "verdict", "order along the ladder",
+                     "order changes at spp"]
+
+
+def _best(rows: list[Row]) -> Row:
+    return max(rows, key=lambda r: r.relative_efficiency.value)
+
+
+def comparisons(rows: list[Row], points: dict, kinds: dict[str, Family]) -> list[Comparison]:
+    """The conclusion table's rows of every depth (see the module docstring)."""
+    out = []
     for depth in sorted({r.depth for r in rows}):
         at = [r for r in rows if r.depth == depth]
-        halton = [r for r in at if r.sampler.startswith("halton")]
-        native = [r for r in at if not r.sampler.startswith("halton")]
-        if halton and native:
-            h = max(halton, key=lambda r: r.relative_efficiency.value)
-            n = max(native, key=lambda r: r.relative_efficiency.value)
-            out[depth] = (h.sampler, n.sampler, _ratio(points[depth][h.sampler][-1],
-                                                       points[depth][n.sampler][-1]))
+        ladders = points[depth]
+
+        def compare(role, a, b):
+            return Comparison(depth, role, a, b, ladders[a][-1].spp,
+                              ratio(ladders[a][-1], ladders[b][-1]),
+                              tuple(order_changes(ladders[a], ladders[b])))
+        best = _best(at)
+        others = [r for r in at if r is not best]
+        if others:
+            out.append(compare(BEST, best.sampler, _best(others).sampler))
+        native = [r for r in at if kinds[r.sampler].native]
+        bundled = list(dict.fromkeys(kinds[r.sampler].name for r in at
+                                     if not kinds[r.sampler].native))
+        if not native:
+            continue
+        top = _best(native)
+        for family in bundled:
+            mine = _best([r for r in at if kinds[r.sampler].name == family])
+            out.append(compare(BUNDLED, mine.sampler, top.sampler))
+            out += [compare(NATIVE, mine.sampler, n.sampler) for n in native if n is not top]
     return out
 
 
-def conclude(rows: list[Row], points: dict[int, dict[str, list[Point]]]) -> list[str]:
-    """One paragraph per depth, computed from the rows and the ladder points."""
-    sentences = []
-    for depth in sorted({r.depth for r in rows}):
-        at = [r for r in rows if r.depth == depth]
-        by_sampler = points[depth]
-        best = max(at, key=lambda r: r.relative_efficiency.value)
-        lowest = min(at, key=lambda r: r.mse.value)
-        text = (f"At max_depth {depth} and {best.requested} spp ({best.repeats} independent "
-                f"runs each), {best.sampler} has the highest efficiency 1/(MSE x time): "
-                f"{best.relative_efficiency.text()}x {BASELINE}'s")
-        others = [r for r in at if r is not best]
-        if others:
-            second = max(others, key=lambda r: r.relative_efficiency.value)
-            text += ("; " + stats.verdict(best.sampler, second.sampler,
-                                          _ratio(by_sampler[best.sampler][-1],
-                                                 by_sampler[second.sampler][-1])))
-        text += (f". The lowest expected MSE is {lowest.sampler}'s "
-                 f"({lowest.relative_mse.text()}x {BASELINE}'s at {lowest.spp} spp).")
-        pair = halton_vs_native(at, points).get(depth)
-        if pair:
-            h, n, hn = (next(r for r in at if r.sampler == pair[0]),
-                        next(r for r in at if r.sampler == pair[1]), pair[2])
-            base = next((r for r in at if r.sampler == BASELINE), at[0])
-            text += (f" Halton's best randomization at this count, {h.sampler}, reaches "
-                     f"{h.relative_efficiency.text()}x {BASELINE}'s efficiency (MSE "
-                     f"{h.relative_mse.text()}x, "
-                     f"{h.us_per_sample / base.us_per_sample:.2f}x its time per sample); "
-                     f"against the best native sampler, {n.sampler}: "
-                     + stats.verdict(h.sampler, n.sampler, hn) + ".")
-            changes = [describe_order(h.sampler, s, order_changes(by_sampler[h.sampler],
-                                                                  by_sampler[s]))
-                       for s in by_sampler if not s.startswith("halton")]
-            text += " Over the ladder, " + "; ".join(changes) + "."
-        sentences.append(text)
-    return sentences
+def sentences(table_rows: list[Comparison], limit: int = 3) -> list[str]:
+    """At most three sentences about one depth, computed from its conclusion table alone:
+    the winner, the bundled samplers against the best native one, and where the order
+    between a bundled and a native sampler changes along the ladder."""
+    out = []
+    best = [c for c in table_rows if c.role == BEST]
+    for c in best:
+        out.append(f"At max_depth {c.depth} and {c.spp} spp, {c.a} is the most efficient "
+                   f"sampler ({METRIC_NAMES[METRIC]}); against the runner-up: {c.verdict}.")
+    bundled = [c for c in table_rows if c.role == BUNDLED]
+    if bundled:
+        out.append(f"Against the best native sampler, {bundled[0].b}: "
+                   + "; ".join(c.verdict for c in bundled) + ".")
+    moves = [c.overtakes for c in table_rows if c.role in (BUNDLED, NATIVE) and c.overtakes]
+    flips = [c for c in table_rows if c.role in (BUNDLED, NATIVE) and c.onsets]
+    if moves:
+        shown = "; ".join(f"{w} overtakes {loser} from {n} spp" for w, loser, n in moves[:3])
+        more = f" and {len(moves) - 3} more (table)" if len(moves) > 3 else ""
+        out.append(f"Along the ladder, {shown}{more}.")
+    elif flips:
+        out.append(f"Along the ladder the order changes without a lasting winner in "
+                   f"{len(flips)} comparison(s) (table).")
+    elif bundled:
+        first = bundled[0].changes
+        span = f" ({first[0][0]}-{first[-1][0]} spp)" if first else ""
+        out.append(f"No order between a bundled and a native sampler changes along the "
+                   f"ladder{span}.")
+    return out[:limit]
+
+
+# ------------------------------------------------------------ everything at once
+
+@dataclass(frozen=True)
+class Analysis:
+    rows: list                  # Row per depth and label
+    curves: dict                # {depth: {label: [(spp, Estimate)]}}
+    comparisons: list           # Comparison rows of every depth
+    conclusions: dict           # {depth: [sentence]}
+    best: dict                  # {depth: Row of the most efficient label}
+
+
+def analyse(points: dict[int, dict[str, list[Point]]], pixels: int,
+            kinds: dict[str, Family]) -> Analysis:
+    """Everything the report says, from the numbers alone."""
+    rows = table(points, pixels)
+    comps = comparisons(rows, points, kinds)
+    depths = sorted(points)
+    return Analysis(rows, curves(points), comps,
+                    {d: sentences([c for c in comps if c.depth == d]) for d in depths},
+                    {d: _best([r for r in rows if r.depth == d]) for d in depths})

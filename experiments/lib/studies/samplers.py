@@ -1,16 +1,22 @@
-"""Sampler study: halton (each randomization) against Mitsuba's own samplers, by efficiency.
+"""Sampler study: every sampler of the sampler table, the bundled ones against Mitsuba's own.
 
-For the base method (default ``bsdf+nee``) with every sampler (independent,
-stratified, multijitter, orthogonal, ldsampler, and halton with each
-randomization), at max_depth 2 and 8 (or --max-depth), each sample count of
-the ladder 1, 4, 16, ... --spp is a fresh render (so every sampler stratifies
-the whole count; Mitsuba's samplers round some counts up, e.g. orthogonal
-to a prime squared, and the rendered count is used). Measured: MSE and
-relMSE against a high-spp reference, time per sample, Veach efficiency
-1/(MSE x time) relative to ``independent``, fitted slope of MSE against spp;
-a chart of error against time per sampler; the conclusion computed from the
-numbers. Renders of one depth are interleaved (every sampler at one spp,
-then the next spp) so that changing machine load affects them alike.
+For the base method (default ``bsdf+nee``) with every sampler label of the sampler table
+(:func:`experiments.lib.samplers.labels`: Mitsuba's independent, stratified, multijitter,
+orthogonal and ldsampler, the bundled samplers with each randomization, and any sampler a
+``--plugin`` file registers), at max_depth 2 and 8 (or --max-depth), each sample count of
+the ladder 1, 4, 16, ... --spp is a fresh render (so every sampler stratifies the whole
+count; samplers that round a count up are compared at the count they rendered). Measured:
+MSE and relMSE against a high-spp reference (its own expected error subtracted), time per
+sample, Veach efficiency 1/(error x time) relative to ``independent``, the fitted slope of
+MSE against spp; a chart of error against time per sampler; per depth a conclusion table
+(the most efficient sampler against the runner-up, each bundled sampler family's best
+against the best native sampler and the others, with the counts where the order changes)
+and three sentences computed from it. Renders of one depth are interleaved (every sampler at
+one spp, then the next spp) so that changing machine load affects them alike.
+
+The study is a list of measurement passes (:data:`PASSES`), each plan -> measure -> pure
+analysis -> report; a further pass (e.g. screen-space error at another resolution) is one
+more entry.
 
     python -m experiments.samplers --help
 """
@@ -18,6 +24,8 @@ from __future__ import annotations
 
 import os
 import time
+from dataclasses import dataclass
+from typing import Protocol
 
 from experiments.lib import jobs as J
 from experiments.lib import files
@@ -31,20 +39,18 @@ from experiments.lib.methods import method_name as _method_name
 from experiments.lib.study import Study, repeat_prefix
 
 NAME = "samplers"
+TITLE = "Samplers: the bundled samplers against Mitsuba's own"
 ORDER = 10
 DEPTHS = (2, 8)
-#: Independent runs of every count of the ladder: samplers close in efficiency (halton's best
-#: and the best native one are within about 10%) need more than the other studies' 3.
+#: Independent runs of every count of the ladder: samplers close in efficiency (the best
+#: bundled and the best native one can be within about 10%) need more than the other
+#: studies' 3.
 REPEATS = 4
 CPU_TIME = ("the CPU time of the rendering process (all its threads), which load from other "
             "processes perturbs far less than wall-clock time")
 
 
-def samplers() -> list[str]:
-    """Every sampler of the study: each registered sampler with each of its randomizations
-    (:func:`experiments.lib.samplers.labels`)."""
-    return S.labels()
-
+# ------------------------------------------------------------------ settings
 
 def base_method(text: str) -> Method:
     m = cli.one_method(text)
@@ -80,47 +86,38 @@ def build_parser() -> cli.Parser:
                           default_resolution="64x32", methods=("bsdf+nee",), repeats=REPEATS)
     # The reference uses the independent sampler: a QMC reference shares structure with the
     # QMC renders it judges (ldsampler against a path+ldsampler reference: its MSE came out
-    # 7-12% low, halton's not), which biases the comparison. Its own expected error is
-    # subtracted, so it need not be far below the samplers' errors.
+    # 7-12% low), which biases the comparison. Its own expected error is subtracted, so it
+    # need not be far below the samplers' errors.
     p.set_defaults(reference_spp=2048, reference_method="path")
     add_arguments(p)
     return p
 
 
+@dataclass(frozen=True)
+class Settings:
+    """What one run of the study measures (typed; the Namespace stays in :func:`run`)."""
+    base: Method                  # the method every sampler drives
+    depths: tuple                 # max_depth values
+    targets: tuple                # the ladder's requested counts
+    samplers: tuple               # sampler labels, from the sampler table
+    depth: Depth                  # the scene's path settings (max_depth set per depth)
+    scene: str
+    resolution: tuple             # (width, height)
+
+    def at(self, max_depth: int) -> Depth:
+        return Depth(max_depth, self.depth.rr_depth, self.depth.hide_emitters)
+
+
+def settings_of(args) -> Settings:
+    depths = [args.max_depth] if args.max_depth is not None else list(args.depths)
+    return Settings(args.base, tuple(depths),
+                    tuple(P.doubling_targets(args.spp, args.ladder_factor)),
+                    tuple(S.labels()), args.depth, args.scene, tuple(args.resolution))
+
+
 def method(base: Method, sampler: str) -> Method:
     """``base`` driven by the sampler label ``sampler``."""
     return parse_method(_method_name(base, sampler))
-
-
-def depths(args) -> list[int]:
-    return [args.max_depth] if args.max_depth is not None else list(args.depths)
-
-
-def plan(st: Study) -> tuple[dict, dict]:
-    """(reference jobs per depth, {depth: {sampler: [repeat: [jobs of the ladder]]}})."""
-    a = st.args
-    targets = P.doubling_targets(a.spp, a.ladder_factor)
-    refs, ladders = {}, {}
-    for d in depths(a):
-        depth = Depth(d, a.depth.rr_depth, a.depth.hide_emitters)
-        refs[d] = st.reference_jobs(depth=depth)
-        ladders[d] = {s: [[st.job(repeat_prefix(f"{NAME}/depth{d}/{s}/spp{t:05d}", r),
-                                  method(a.base, s), t, depth=depth,
-                                  timing_group=f"{NAME}/depth{d}") for t in targets]
-                          for r in range(st.repeats_of(method(a.base, s)))]
-                      for s in samplers()}
-    return refs, ladders
-
-
-def ordered(refs: dict, ladders: dict) -> list[J.Job]:
-    """References first, then per depth and repeat every sampler at one spp before the
-    next spp (so that drifting machine load affects every sampler alike)."""
-    jobs = [j for r in refs.values() for j in r]
-    for by_sampler in ladders.values():
-        for r in range(max(len(reps) for reps in by_sampler.values())):
-            for i in range(len(next(iter(by_sampler.values()))[0])):
-                jobs += [reps[r][i] for reps in by_sampler.values() if r < len(reps)]
-    return jobs
 
 
 def timing(st: Study, result) -> float:
@@ -131,41 +128,42 @@ def timing(st: Study, result) -> float:
     return result.seconds
 
 
-def analyse(st: Study, refs: dict, ladders: dict) -> tuple[list[SS.Row], dict, dict]:
-    """Rows, ``{depth: {sampler: [Point per count]}}`` and the references' metadata.
+# ------------------------------------------------------------------ passes
 
-    Errors are expected values over the repeats with the reference's own expected
-    error subtracted; plain Halton (``halton:none``) is deterministic, so its one run
-    stands for every repeat (its error has no spread).
-    """
-    points, floors = {}, {}
-    for d, by_sampler in ladders.items():
-        ref, meta = st.reference(refs[d])
-        floors[d] = meta
-        points[d] = {}
-        for s, reps in by_sampler.items():
-            pts = []
-            for i, target in enumerate(reps[0]):
-                results = [st.store.get(rep[i].key) for rep in reps]
-                images = [r.image.astype(float) for r in results]
-                pts.append(SS.Point(
-                    results[0].spp, st.per_repeat(timing(st, r) for r in results),
-                    st.per_repeat(metrics.mse(im, ref) - meta["mse_floor"] for im in images),
-                    st.per_repeat(metrics.relmse(im, ref) - meta["relmse_floor"]
-                                  for im in images), target.spp))
-            points[d][s] = pts
-    return SS.table(points, st.width * st.height), points, floors
+@dataclass
+class PassReport:
+    blocks: list                  # report blocks, in order
+    summary: dict                 # entries of summary.json
+    jobs: list                    # the timed jobs (for "render times measured on")
 
 
-def comparison(st: Study, refs: dict, ladders: dict, d: int) -> dict:
-    """Viewer block: every sampler's image at the largest count of the ladder, at max_depth d
-    (the first repeat)."""
-    ref, _ = st.reference(refs[d])
-    images = [(s, st.store.get(reps[0][-1].key).image.astype(float))
-              for s, reps in ladders[d].items()]
-    return report.viewer(st.out, f"Samplers at max_depth {d}, {st.args.spp} spp", images, ref,
-                         f"{st.args.base} with each sampler at max_depth {d} after the largest "
-                         f"sample count (first repeat), against the reference.")
+class Pass(Protocol):
+    """One measurement pass: plan -> measure -> analyse (pure) -> report."""
+    name: str
+
+    def plan(self, st: Study, cfg: Settings): ...
+
+    def jobs(self, planned) -> list[J.Job]: ...
+
+    def measure(self, st: Study, cfg: Settings, planned): ...
+
+    def analyse(self, measured): ...
+
+    def report(self, st: Study, cfg: Settings, planned, measured, result) -> PassReport: ...
+
+
+@dataclass(frozen=True)
+class LadderPlan:
+    refs: dict                    # {depth: reference jobs}
+    ladders: dict                 # {depth: {label: [repeat: [jobs of the ladder]]}}
+
+
+@dataclass(frozen=True)
+class Measured:
+    points: dict                  # {depth: {label: [SS.Point per count]}}
+    floors: dict                  # {depth: the reference's metadata}
+    pixels: int
+    kinds: dict                   # {label: SS.Family}
 
 
 TABLE_HEADER = ["max_depth", "sampler", "spp rendered", "spp requested", "repeats",
@@ -188,86 +186,179 @@ def curve_rows(curves: dict) -> list[list]:
             for i, (spp, e) in enumerate(pts)]
 
 
-def best_sampler(rows: list[SS.Row], depth: int) -> str:
-    """The sampler of the highest efficiency at ``depth`` (the nearest depth studied)."""
-    studied = sorted({r.depth for r in rows}, key=lambda d: (abs(d - depth), d))
-    at = [r for r in rows if r.depth == studied[0]]
-    return max(at, key=lambda r: r.relative_efficiency.value).sampler
+class Efficiency:
+    """Errors and render times of every label over the ladder, at every depth."""
+    name = "efficiency"
+
+    def plan(self, st: Study, cfg: Settings) -> LadderPlan:
+        refs, ladders = {}, {}
+        for d in cfg.depths:
+            depth = cfg.at(d)
+            refs[d] = st.reference_jobs(depth=depth)
+            ladders[d] = {s: [[st.job(repeat_prefix(f"{NAME}/depth{d}/{s}/spp{t:05d}", r),
+                                      method(cfg.base, s), t, depth=depth,
+                                      timing_group=f"{NAME}/depth{d}") for t in cfg.targets]
+                              for r in range(st.repeats_of(method(cfg.base, s)))]
+                          for s in cfg.samplers}
+        return LadderPlan(refs, ladders)
+
+    def jobs(self, planned: LadderPlan) -> list[J.Job]:
+        """References first, then per depth and repeat every label at one spp before the
+        next spp (so that drifting machine load affects every sampler alike)."""
+        jobs = [j for r in planned.refs.values() for j in r]
+        for by_sampler in planned.ladders.values():
+            for r in range(max(len(reps) for reps in by_sampler.values())):
+                for i in range(len(next(iter(by_sampler.values()))[0])):
+                    jobs += [reps[r][i] for reps in by_sampler.values() if r < len(reps)]
+        return jobs
+
+    def measure(self, st: Study, cfg: Settings, planned: LadderPlan) -> Measured:
+        """Per-repeat times and errors against each depth's reference; a deterministic
+        label's one run stands for every repeat (:meth:`Study.per_repeat`)."""
+        points, floors = {}, {}
+        for d, by_sampler in planned.ladders.items():
+            ref, meta = st.reference(planned.refs[d])
+            floors[d] = meta
+            points[d] = {}
+            for s, reps in by_sampler.items():
+                pts = []
+                for i, target in enumerate(reps[0]):
+                    results = [st.store.get(rep[i].key) for rep in reps]
+                    images = [r.image.astype(float) for r in results]
+                    pts.append(SS.Point(
+                        results[0].spp, st.per_repeat(timing(st, r) for r in results),
+                        st.per_repeat(metrics.mse(im, ref) for im in images),
+                        st.per_repeat(metrics.relmse(im, ref) for im in images), target.spp,
+                        meta["mse_floor"], meta["relmse_floor"]))
+                points[d][s] = pts
+        return Measured(points, floors, st.width * st.height, SS.families(cfg.samplers))
+
+    def analyse(self, measured: Measured) -> SS.Analysis:
+        return SS.analyse(measured.points, measured.pixels, measured.kinds)
+
+    def report(self, st: Study, cfg: Settings, planned: LadderPlan, measured: Measured,
+               result: SS.Analysis) -> PassReport:
+        out, blocks = st.out, []
+        for d, by_sampler in measured.points.items():
+            bands = {s: ([p.spp for p in pts], [sum(p.seconds) / len(p.seconds) for p in pts],
+                         [p.expected("mse") for p in pts]) for s, pts in by_sampler.items()}
+            figures.error_bands(os.path.join(out, NAME, f"error_depth{d}.png"), bands, "MSE")
+            figures.ratio_bands(os.path.join(out, NAME, f"efficiency_depth{d}.png"),
+                                result.curves[d], "efficiency / independent",
+                                f"max_depth {d}: efficiency relative to independent")
+            blocks += [
+                report.image(
+                    f"{NAME}/error_depth{d}.png", f"max_depth {d}: expected MSE against spp "
+                    f"and against render (CPU) time per sampler, with {stats.LEVEL:.0%} bands "
+                    f"over the repeats (log-log, fitted slopes in the legend); reference: "
+                    f"{st.describe_reference(measured.floors[d])}."),
+                report.image(
+                    f"{NAME}/efficiency_depth{d}.png", f"max_depth {d}: efficiency relative "
+                    f"to independent at every count of the ladder, with {stats.LEVEL:.0%} "
+                    f"bands: where the curves cross, the order of the samplers changes with "
+                    f"the sample count."),
+                comparison_viewer(st, cfg, planned, d)]
+        blocks += [
+            report.write_table(out, f"{NAME}/samplers", TABLE_HEADER, table_rows(result.rows),
+                               f"Samplers with {cfg.base} at the largest sample count "
+                               f"(expected values over {st.repeats} runs, {stats.LEVEL:.0%} "
+                               f"intervals as _lo/_hi)"),
+            report.write_table(out, f"{NAME}/efficiency_ladder",
+                               ["max_depth", "sampler", "ladder index", "spp rendered",
+                                "efficiency / independent", "efficiency / independent_lo",
+                                "efficiency / independent_hi"], curve_rows(result.curves),
+                               "Efficiency relative to independent at every count of the "
+                               "ladder", collapsed=True)]
+        for d in measured.points:
+            mine = [c for c in result.comparisons if c.depth == d]
+            blocks += [report.write_table(
+                out, f"{NAME}/conclusion_depth{d}", SS.COMPARISON_HEADER,
+                [c.cells() for c in mine],
+                f"Conclusion at max_depth {d}: efficiency 1/({SS.METRIC_NAMES[SS.METRIC]} x "
+                f"time) of A over B at the largest count, its {stats.LEVEL:.0%} interval, "
+                f"the verdict (only where the interval excludes 1) and the counts where the "
+                f"order changes along the ladder"),
+                report.text("\n\n".join(result.conclusions[d]))]
+        summary = {
+            "rows": [r.record() for r in result.rows],
+            "conclusion": {d: s for d, s in result.conclusions.items()},
+            "comparisons": [c.record() for c in result.comparisons],
+            "best": {d: r.sampler for d, r in result.best.items()},
+            "best_at": {d: {"sampler": r.sampler, "spp": r.spp, "requested_spp": r.requested}
+                        for d, r in result.best.items()},
+            "curves": {d: {s: [dict(spp=spp, **e.fields("relative_efficiency"))
+                               for spp, e in pts] for s, pts in by.items()}
+                       for d, by in result.curves.items()}}
+        return PassReport(blocks, summary, self.jobs(planned))
+
+
+def comparison_viewer(st: Study, cfg: Settings, planned: LadderPlan, d: int) -> dict:
+    """Viewer block: every label's image at the largest count of the ladder, at max_depth d
+    (the first repeat)."""
+    ref, _ = st.reference(planned.refs[d])
+    images = [(s, st.store.get(reps[0][-1].key).image.astype(float))
+              for s, reps in planned.ladders[d].items()]
+    return report.viewer(st.out, f"Samplers at max_depth {d}, {cfg.targets[-1]} spp", images,
+                         ref, f"{cfg.base} with each sampler at max_depth {d} after the "
+                         f"largest sample count (first repeat), against the reference.")
+
+
+#: The measurement passes, in order (rendered together, then measured and reported).
+PASSES: tuple = (Efficiency(),)
+
+
+# ------------------------------------------------------------------ the study
+
+def introduction(st: Study, cfg: Settings) -> str:
+    """What the study compares, from the sampler table (no sampler named by hand)."""
+    natives = [s for s in cfg.samplers if S.split_label(s)[0].native]
+    bundled = [s for s in cfg.samplers if s not in natives]
+    fixed = [s for s in cfg.samplers if S.split_label(s)[0].is_deterministic(
+        S.split_label(s)[1])]
+    time_is = CPU_TIME if st.variant.startswith("llvm") else "wall-clock time"
+    return (
+        f"Which sampler to use with {cfg.base} on {os.path.basename(cfg.scene)} at "
+        f"{st.width}x{st.height}: Mitsuba's own samplers ({', '.join(natives)}) against the "
+        f"bundled ones ({', '.join(bundled) or 'none'}), at max_depth "
+        f"{', '.join(map(str, cfg.depths))}. Every count of the ladder "
+        f"{', '.join(map(str, cfg.targets))} spp is its own render, {st.repeats} times with "
+        f"independent randomizations"
+        + (f" ({', '.join(fixed)}: deterministic, one run)" if fixed else "")
+        + "; samplers that round the count up are compared at the count they rendered, which "
+        f"the table gives beside the requested one. Errors are expected values over the "
+        f"repeats, with the reference's own expected error subtracted. Efficiency is Veach's "
+        f"1/(error x render time) relative to independent; the verdicts use "
+        f"{SS.METRIC_NAMES[SS.METRIC]} as the error (the tables give MSE too): above 1, a "
+        f"sampler reaches a given error sooner. Render time is {time_is}, warm in exactly "
+        f"the timed configuration (a render during which a kernel compiled is rendered "
+        f"again). Intervals: {stats.LEVEL:.0%}, {stats.METHOD}.")
 
 
 def run(args) -> None:
     start = time.perf_counter()
-    st = Study(args)
-    refs, ladders = plan(st)
-    st.run(ordered(refs, ladders), f"{NAME}: renders")
-    rows, points, floors = analyse(st, refs, ladders)
-    curves = SS.curves(points)
-    sentences = SS.conclude(rows, points)
-    targets = P.doubling_targets(args.spp, args.ladder_factor)
-    blocks = [report.text(
-        f"Which sampler to use with {args.base} on {os.path.basename(args.scene)} at "
-        f"{st.width}x{st.height}: Mitsuba's independent, stratified, multijitter, orthogonal "
-        f"and ldsampler against the bundled halton with each randomization, at max_depth "
-        f"{', '.join(map(str, depths(args)))}. Every count of the ladder "
-        f"{', '.join(map(str, targets))} spp is its own render, {st.repeats} times with "
-        f"independent randomizations (plain halton:none is deterministic: one run); samplers "
-        f"that round the count up (orthogonal to a prime squared, stratified to a square) "
-        f"are compared at the count they rendered, which the table gives beside the "
-        f"requested one. Errors are expected values over the repeats, with the reference's "
-        f"own expected error subtracted. Efficiency is Veach's 1/(MSE x render time) "
-        f"relative to independent: above 1, a sampler reaches a given error sooner. Render "
-        f"time is {CPU_TIME if st.variant.startswith('llvm') else 'wall-clock time'}, warm "
-        f"in exactly the timed configuration (a render during which a kernel compiled is "
-        f"rendered again). Intervals: {stats.LEVEL:.0%}, {stats.METHOD}.")]
-    for d in points:
-        bands = {s: ([p.spp for p in pts], [sum(p.seconds) / len(p.seconds) for p in pts],
-                     [stats.mean_interval(p.mse) for p in pts]) for s, pts in points[d].items()}
-        figures.error_bands(os.path.join(args.out, NAME, f"error_depth{d}.png"), bands, "MSE")
-        figures.ratio_bands(os.path.join(args.out, NAME, f"efficiency_depth{d}.png"),
-                            curves[d], "efficiency / independent",
-                            f"max_depth {d}: efficiency relative to independent")
-        blocks.append(report.image(
-            f"{NAME}/error_depth{d}.png", f"max_depth {d}: expected MSE against spp and "
-            f"against render (CPU) time per sampler, with {stats.LEVEL:.0%} bands over the "
-            f"repeats (log-log, fitted slopes in the legend); reference: "
-            f"{st.describe_reference(floors[d])}."))
-        blocks.append(report.image(
-            f"{NAME}/efficiency_depth{d}.png", f"max_depth {d}: efficiency relative to "
-            f"independent at every count of the ladder, with {stats.LEVEL:.0%} bands: where "
-            f"the curves cross, the order of the samplers changes with the sample count."))
-        blocks.append(comparison(st, refs, ladders, d))
-    blocks += [
-        report.write_table(args.out, f"{NAME}/samplers", TABLE_HEADER, table_rows(rows),
-                           f"Samplers with {args.base} at the largest sample count "
-                           f"(expected values over {st.repeats} runs, {stats.LEVEL:.0%} "
-                           f"intervals as _lo/_hi)"),
-        report.write_table(args.out, f"{NAME}/efficiency_ladder",
-                           ["max_depth", "sampler", "ladder index", "spp rendered",
-                            "efficiency / independent", "efficiency / independent_lo",
-                            "efficiency / independent_hi"], curve_rows(curves),
-                           "Efficiency relative to independent at every count of the ladder",
-                           collapsed=True),
-        report.text("Conclusion: " + " ".join(sentences))]
+    st, cfg = Study(args), settings_of(args)
+    planned = [p.plan(st, cfg) for p in PASSES]
+    st.run([j for p, pl in zip(PASSES, planned) for j in p.jobs(pl)], f"{NAME}: renders")
+    blocks, summary, timed = [report.text(introduction(st, cfg))], {}, []
+    for p, pl in zip(PASSES, planned):
+        measured = p.measure(st, cfg, pl)
+        reported = p.report(st, cfg, pl, measured, p.analyse(measured))
+        blocks += reported.blocks
+        summary.update(reported.summary)
+        timed += reported.jobs
     settings = {"scene": args.scene, "resolution": f"{st.width}x{st.height}", "spp": args.spp,
-                "base method": str(args.base), "max_depth": ", ".join(map(str, depths(args))),
+                "base method": str(cfg.base), "max_depth": ", ".join(map(str, cfg.depths)),
                 "repeats": st.repeats, "path settings": args.depth.describe(),
                 "variant": args.variant, "seed": args.seed,
                 "reference": f"{args.reference_spp} spp of {args.reference_method}",
                 "intervals": f"{stats.LEVEL:.0%}, {stats.METHOD}",
-                "render times measured on": st.timed_on(ordered(refs, ladders))}
-    report.write_section(args.out, NAME, "Samplers: halton against Mitsuba's own", ORDER,
-                         settings, blocks, args.variant, time.perf_counter() - start)
-    files.write_json(os.path.join(args.out, NAME, "summary.json"),
-                     {"rows": [r.record() for r in rows], "conclusion": sentences,
-                      "best": {d: best_sampler(rows, d) for d in points},
-                      "halton_vs_best_native": {
-                          d: {"halton": h, "native": n, **e.fields("efficiency_ratio")}
-                          for d, (h, n, e) in SS.halton_vs_native(rows, points).items()},
-                      "curves": {d: {s: [dict(spp=spp, **e.fields("relative_efficiency"))
-                                         for spp, e in pts] for s, pts in by.items()}
-                                 for d, by in curves.items()}})
+                "verdicts": f"efficiency 1/({SS.METRIC_NAMES[SS.METRIC]} x time)",
+                "render times measured on": st.timed_on(timed)}
+    report.write_section(args.out, NAME, TITLE, ORDER, settings, blocks, args.variant,
+                         time.perf_counter() - start)
+    files.write_json(os.path.join(args.out, NAME, "summary.json"), summary)
 
 
 STUDY = register_study(StudySpec(
-    NAME, "Samplers: halton against Mitsuba's own", ORDER, build_parser, run,
+    NAME, TITLE, ORDER, build_parser, run,
     quick=("--resolution", "16x8", "--spp", "4", "--reference-spp", "16")))
