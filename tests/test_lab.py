@@ -23,6 +23,7 @@ import pytest
 import _qmc_oracle as oracle
 import integrators.path as vr_path
 from experiments.lib import lab_points as LP
+from experiments.lib import samplers as S
 from experiments.lib import lab_warps as LW
 
 
@@ -144,7 +145,7 @@ def test_points_are_what_a_render_draws(name):
         "sensor": {"type": "orthographic",
                    "film": {"type": "hdrfilm", "width": width, "height": height,
                             "rfilter": {"type": "box"}},
-                   "sampler": LP.sampler_dict(name, spp)}})
+                   "sampler": S.label_dict(name, spp, width, height)}})
     mi.render(scene, seed=seed)
     rec = scene.integrator().values
     dr.eval(rec)

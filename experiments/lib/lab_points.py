@@ -266,80 +266,115 @@ LOST = 0.5
 JOINT = 0.8
 
 
-def conclude(cd: dict, joint: dict, counts: dict, spp: int) -> list[str]:
-    """Sentences from ``cd[(sampler, pair)]`` (mean squared CD) and ``joint[(sampler,
-    pair)]`` (:func:`joint_power`) at ``spp`` requested (``counts[sampler]`` drawn):
-    which pairs each sampler stratifies, which halton loses, and what that means for
-    the sampler study."""
+#: The pair of the first bounce's emitter sample (NEE), which sets the direct light.
+NEE = (2, 3)
+#: Pairs of deeper bounces (they matter only at larger max_depth).
+DEEP = ((10, 11), (30, 31))
+
+
+@dataclass(frozen=True)
+class PointRow:
+    """One label's point set at one count: a row of the point sets' conclusion table."""
+    sampler: str
+    family: str                 # its sampler (SamplerSpec.name)
+    native: bool                # one of Mitsuba's own samplers
+    count: int                  # points drawn
+    joint: tuple                # pairs stratified jointly (2-D)
+    coordinate: tuple           # pairs stratified only per coordinate (1-D)
+    lost: tuple                 # pairs whose discrepancy is that of independent points
+    nee: float                  # discrepancy / independent points' at NEE (nan: not drawn)
+    nee_joint: float            # joint low-frequency power at NEE
+    deep: float                 # the largest ratio over the DEEP pairs (nan: none drawn)
+
+    def cells(self) -> list:
+        def pairs(ps):
+            return " ".join(f"({a},{b})" for a, b in ps) or "-"
+        return [self.sampler, "native" if self.native else "bundled", self.count,
+                pairs(self.joint), pairs(self.coordinate), pairs(self.lost),
+                f"{self.nee:.3g}", f"{self.nee_joint:.2f}", f"{self.deep:.3g}"]
+
+
+HEADER = ["sampler", "kind", "points", "stratified jointly (2-D)",
+          "only per coordinate (1-D)", "lost", f"discrepancy / independent at {NEE}",
+          f"joint power at {NEE}", "largest discrepancy / independent, deeper bounces"]
+
+
+@dataclass(frozen=True)
+class Findings:
+    spp: int                    # the count requested
+    rows: list                  # PointRow per label (the baseline left out)
+    sentences: list
+
+
+def analyse(cd: dict, joint: dict, counts: dict, spp: int, kinds: dict,
+            baseline: str = S.DEFAULT) -> Findings:
+    """The point sets' conclusion from ``cd[(label, pair)]`` (mean squared CD) and
+    ``joint[(label, pair)]`` (:func:`joint_power`) at ``spp`` requested (``counts[label]``
+    drawn); ``kinds[label]`` has the label's sampler ``name`` and whether it is ``native``
+    (the sampler table's). Pure: a table (which pairs each label stratifies) and at most
+    three sentences computed from it."""
+    names = [s for s in dict.fromkeys(s for s, _ in cd) if s != baseline]
+    pairs = sorted({p for _, p in cd}, key=PAIRS.index)
+
     def ratio(s, pair):
         return cd[(s, pair)] / random_expectation(counts[s])
+    rows = []
+    for s in names:
+        two = tuple(p for p in pairs if ratio(s, p) < LOST and joint[(s, p)] < JOINT)
+        one = tuple(p for p in pairs if ratio(s, p) < LOST and p not in two)
+        lost = tuple(p for p in pairs if ratio(s, p) >= LOST)
+        deep = [ratio(s, p) for p in DEEP if p in pairs]
+        rows.append(PointRow(s, kinds[s].name, kinds[s].native, counts[s], two, one, lost,
+                             ratio(s, NEE) if NEE in pairs else math.nan,
+                             joint[(s, NEE)] if NEE in pairs else math.nan,
+                             max(deep) if deep else math.nan))
+    within = tuple(p for p in pairs if describe_pair(*p).startswith("one next_2d"))
+    return Findings(spp, rows, sentences(rows, within, spp))
 
-    def fmt(pairs_, f, digits=2):
-        return ", ".join(f"({a},{b}) {f(p):.{digits}f}" for p in pairs_ for a, b in [p])
 
-    names = list(dict.fromkeys(s for s, _ in cd))
-    pairs = sorted({p for _, p in cd}, key=PAIRS.index)
-    within = [p for p in pairs if describe_pair(*p).startswith("one next_2d")]
-    across = [p for p in pairs if p not in within]
+def sentences(rows: list[PointRow], within: tuple, spp: int) -> list[str]:
+    """At most three sentences, from the table's rows alone: what the native samplers
+    stratify, what each bundled family's best does to the NEE sample against the best
+    native one (a prediction for the sampler study), and the deeper bounces."""
+    native = [r for r in rows if r.native]
+    bundled = [r for r in rows if not r.native]
     out = []
-    halton = [s for s in names if s.startswith("halton:") and s != "halton:none"]
-    native = [s for s in names if not s.startswith("halton") and s != "independent"]
-    def kinds(s):
-        """Pairs stratified jointly (2-D), only through each coordinate (1-D), or lost."""
-        two = [p for p in pairs if ratio(s, p) < LOST and joint[(s, p)] < JOINT]
-        one = [p for p in pairs if ratio(s, p) < LOST and p not in two]
-        lost = [p for p in pairs if ratio(s, p) >= LOST]
-        parts = [f"{label} in {', '.join(map(str, ps))}" for label, ps in
-                 (("jointly (2-D)", two), ("only per coordinate (1-D)", one)) if ps]
-        text = "stratified " + "; ".join(parts) if parts else "stratified in no pair"
-        if lost:
-            text += f"; lost in {', '.join(map(str, lost))}"
-        return text
-
-    for s in halton + native:
+    if native:
+        common = [p for p in within if all(p in r.joint for r in native)]
+        shown = native[0].joint + native[0].coordinate + native[0].lost
+        crossing = [p for p in shown if p not in within]
+        across = [r.sampler for r in native
+                  if crossing and all(p in r.joint for p in crossing)]
         out.append(
-            f"{s} at {spp} spp ({counts[s]} points): {kinds(s)} (discrepancy over that of "
-            f"independent points {fmt(pairs, lambda p: ratio(s, p))}; joint low-frequency "
-            f"power {fmt(pairs, lambda p: joint[(s, p)])}).")
-    if native and within and across:
-        both = [s for s in native if max(joint[(s, p)] for p in across) < JOINT]
-        out.append(
-            f"Mitsuba's samplers stratify each dimension's 1-D projection everywhere; "
-            f"jointly they stratify the two values of one next_2d call "
-            f"({', '.join(map(str, within))})"
-            + (f", and {', '.join(both)} also every pair across calls (an orthogonal array)"
-               if both else "") + f". Counts: ratio {LOST} or more is lost, joint power "
-            f"below {JOINT} is 2-D stratification.")
-    nee = (2, 3)
-    if nee in pairs and halton and native:
-        best = min(native, key=lambda s: ratio(s, nee))
-        h = min(halton, key=lambda s: ratio(s, nee))
-        less = ratio(h, nee) > ratio(best, nee)
-        out.append(
-            f"What it means for the sampler study: dims (2,3) are the first bounce's emitter "
-            f"sample, which sets the direct light that dominates the error at max_depth 2; "
-            f"there {h} reaches {ratio(h, nee):.3f} of independent's discrepancy and "
-            f"{best} {ratio(best, nee):.3f} (joint power {joint[(h, nee)]:.2f} against "
-            f"{joint[(best, nee)]:.2f}), so halton stratifies the NEE sample "
-            f"{'less' if less else 'more'} than the best native sampler: expect its MSE at "
-            f"max_depth 2 to be {'higher' if less else 'lower'} than {best}'s at the same "
-            f"count (the sampler study measures it, with intervals).")
-        deep = [p for p in ((10, 11), (30, 31)) if p in pairs]
-        if deep:
-            grow = {s: max(ratio(s, p) for p in deep) for s in halton + native}
-            out.append(
-                f"Deeper bounces ({', '.join(map(str, deep))}, which matter only at larger "
-                f"max_depth): halton's ratio rises to "
-                f"{', '.join(f'{grow[s]:.2f} ({s})' for s in halton)} (its bases, "
-                f"{', '.join(str(b) for b in _bases(deep))}, are large against {spp} "
-                f"samples: a base-b dimension is stratified only once the count reaches b), "
-                f"while the native samplers stay at "
-                f"{', '.join(f'{grow[s]:.2f} ({s})' for s in native)}; so at depth 8 halton's "
-                f"extra bounces are sampled little better than by independent points.")
+            f"At {spp} spp the native samplers stratify jointly (2-D) "
+            + (", ".join(map(str, common)) if common else "no pair that all of them share")
+            + (f"; {', '.join(across)} also every pair across calls (an orthogonal array)"
+               if across else "")
+            + f" (ratio {LOST} or more of independent points' discrepancy: lost; joint "
+              f"power below {JOINT}: 2-D).")
+    if native and bundled and not math.isnan(native[0].nee):
+        top = min(native, key=lambda r: r.nee)
+        best = {}
+        for r in bundled:
+            if r.family not in best or r.nee < best[r.family].nee:
+                best[r.family] = r
+        parts = [f"{r.sampler} {r.nee:.3g} (joint power {r.nee_joint:.2f}: expect "
+                 f"{'higher' if r.nee > top.nee else 'lower'} MSE than {top.sampler} at "
+                 f"max_depth 2)" for r in best.values()]
+        out.append(f"Dims {NEE}, the first bounce's emitter sample, set the direct light: "
+                   f"the best native sampler, {top.sampler}, reaches {top.nee:.3g} of "
+                   f"independent points' discrepancy (joint power {top.nee_joint:.2f}), "
+                   f"the bundled ones " + "; ".join(parts) + " (the sampler study measures "
+                   f"it).")
+    if rows and not math.isnan(rows[0].deep):
+        def span(rs):
+            lo, hi = min(r.deep for r in rs), max(r.deep for r in rs)
+            return f"{lo:.2f}" if lo == hi else f"{lo:.2f}-{hi:.2f}"
+        families = list(dict.fromkeys(r.family for r in bundled))
+        parts = [f"{f} {span([r for r in bundled if r.family == f])}" for f in families]
+        out.append(f"Deeper bounces ({', '.join(str(p) for p in DEEP)}): discrepancy over "
+                   f"independent points' "
+                   + (f"for the native samplers {span(native)}" if native else "")
+                   + ("; " if native and parts else "") + "; ".join(parts)
+                   + f" (near 1: sampled little better than by independent points).")
     return out
-
-
-def _bases(pairs_) -> list[int]:
-    from integrators import qmc
-    primes = qmc._first_primes(64)
-    return sorted({int(primes[k]) for p in pairs_ for k in p})

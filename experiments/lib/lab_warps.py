@@ -386,46 +386,95 @@ def significance(panels: int, level: float = 0.01) -> float:
     return 1.0 - (1.0 - level) ** (1.0 / max(1, panels))
 
 
-def conclude(rows: list[dict]) -> list[str]:
-    """Sentences from the panel rows (dicts with bsdf, incidence_deg, strategy,
-    p_value, rel_variance): do the densities hold, and where does the weight's
-    relative variance explode."""
+@dataclass(frozen=True)
+class StrategyRow:
+    """One strategy over every panel: a row of the warps' conclusion table."""
+    strategy: str
+    panels: int
+    rejected: int               # panels whose chi-square test rejects the density
+    lowest_p: float
+    lowest_p_at: str            # 'bsdf at incidence' of the lowest p-value
+    exploding: int              # configurations with Var[w]/E[w]^2 above EXPLODES
+    largest: float              # the largest Var[w]/E[w]^2
+    largest_at: str
+    lowest_in: int              # configurations where its Var[w]/E[w]^2 is the lowest
+
+    def cells(self) -> list:
+        return [self.strategy, self.panels, self.rejected, f"{self.lowest_p:.3g}",
+                self.lowest_p_at, self.exploding, f"{self.largest:.3g}", self.largest_at,
+                self.lowest_in]
+
+
+HEADER = ["strategy", "panels", "rejected at 1% (Sidak)", "lowest p", "lowest p at",
+          f"Var[w]/E[w]^2 > {EXPLODES:g} in", "largest Var[w]/E[w]^2", "largest at",
+          "lowest Var[w]/E[w]^2 in"]
+
+
+@dataclass(frozen=True)
+class Findings:
+    """The warps' conclusion: the table (one row per strategy) and sentences from it."""
+    alpha: float                # Sidak-corrected level of one panel's test
+    configurations: int         # (BSDF, incidence) pairs
+    rows: list                  # StrategyRow per strategy
+    rejected: list              # the panels (rows) that reject their density
+    sentences: list
+
+
+def _where(r: dict) -> str:
+    return f"{r['bsdf']} at {r['incidence_deg']:g} deg"
+
+
+def analyse(rows: list[dict]) -> Findings:
+    """The conclusion from the panel rows (dicts with bsdf, incidence_deg, strategy,
+    p_value, rel_variance): do the densities hold, and where does the weight's relative
+    variance explode. Pure: numbers in, a table and at most three sentences out."""
     alpha = significance(len(rows))
     failed = [r for r in rows if not r["p_value"] >= alpha]
-    lowest = min(rows, key=lambda r: r["p_value"])
-    out = []
-    if failed:
-        out.append(f"{len(failed)} of {len(rows)} panels reject the strategy's density at 1% "
-                   f"(Sidak over the panels: p < {alpha:.1e}): " + "; ".join(
-                       f"{r['strategy']} on {r['bsdf']} at {r['incidence_deg']:g} deg "
-                       f"(p = {r['p_value']:.1e})" for r in failed) + ".")
-    else:
-        out.append(f"Every one of the {len(rows)} panels accepts the strategy's density at 1% "
-                   f"(Sidak over the panels: p >= {alpha:.1e}; lowest p = "
-                   f"{lowest['p_value']:.3g}, {lowest['strategy']} on {lowest['bsdf']} at "
-                   f"{lowest['incidence_deg']:g} deg): the directions vr_path draws follow the "
-                   f"density it weights them by.")
-    strategies = list(dict.fromkeys(r["strategy"] for r in rows))
-    for s in strategies:
-        mine = [r for r in rows if r["strategy"] == s]
-        bad = [r for r in mine if r["rel_variance"] > EXPLODES]
-        worst = max(mine, key=lambda r: r["rel_variance"])
-        where = sorted({r["bsdf"] for r in bad})
-        out.append(f"{s}: Var[w]/E[w]^2 above {EXPLODES:g} in {len(bad)} of {len(mine)} "
-                   f"configurations" + (f" ({', '.join(where)})" if where else "")
-                   + f"; largest {worst['rel_variance']:.3g} ({worst['bsdf']} at "
-                   f"{worst['incidence_deg']:g} deg).")
-    by = {}
+    by: dict = {}
     for r in rows:
         by.setdefault((r["bsdf"], r["incidence_deg"]), {})[r["strategy"]] = r["rel_variance"]
-    wins = {}
-    for cfg, vals in by.items():
+    wins: dict = {}
+    for vals in by.values():
         best = min(vals, key=vals.get)
         wins[best] = wins.get(best, 0) + 1
-    out.append("Lowest relative variance per configuration: " + ", ".join(
-        f"{s} in {n}" for s, n in sorted(wins.items(), key=lambda kv: -kv[1]))
-        + f" of {len(by)}. Where a strategy's relative variance explodes, a bounce needs that "
-          f"many times more samples for the same error, and over several bounces the factors "
-          f"multiply: these are the configurations where the stability study sees that "
-          f"strategy's images stay dark with fireflies.")
+    table = []
+    for s in dict.fromkeys(r["strategy"] for r in rows):
+        mine = [r for r in rows if r["strategy"] == s]
+        low = min(mine, key=lambda r: r["p_value"])
+        worst = max(mine, key=lambda r: r["rel_variance"])
+        table.append(StrategyRow(s, len(mine), sum(r in failed for r in mine), low["p_value"],
+                                 _where(low), sum(r["rel_variance"] > EXPLODES for r in mine),
+                                 worst["rel_variance"], _where(worst), wins.get(s, 0)))
+    return Findings(alpha, len(by), table, failed, sentences(table, failed, alpha, len(by)))
+
+
+def sentences(table: list[StrategyRow], failed: list[dict], alpha: float,
+              configurations: int) -> list[str]:
+    """At most three sentences computed from the table (and the rejected panels)."""
+    panels = sum(r.panels for r in table)
+    if failed:
+        shown = "; ".join(f"{r['strategy']} on {_where(r)} (p = {r['p_value']:.1e})"
+                          for r in failed[:3])
+        more = f" and {len(failed) - 3} more (table)" if len(failed) > 3 else ""
+        out = [f"{len(failed)} of {panels} panels reject their strategy's density at 1% "
+               f"(Sidak: p < {alpha:.1e}): {shown}{more}."]
+    else:
+        low = min(table, key=lambda r: r.lowest_p)
+        out = [f"Every one of the {panels} panels accepts its strategy's density at 1% "
+               f"(Sidak: p >= {alpha:.1e}; lowest p = {low.lowest_p:.3g}, {low.strategy} on "
+               f"{low.lowest_p_at}): the directions vr_path draws follow the density it "
+               f"weights them by."]
+    ranked = sorted((r for r in table if r.lowest_in), key=lambda r: -r.lowest_in)
+    out.append("Lowest relative variance Var[w]/E[w]^2 per configuration: " + ", ".join(
+        f"{r.strategy} in {r.lowest_in}" for r in ranked) + f" of {configurations}.")
+    bad = [r for r in table if r.exploding]
+    if bad:
+        worst = max(bad, key=lambda r: r.largest)
+        out.append(f"Var[w]/E[w]^2 exceeds {EXPLODES:g} for " + ", ".join(
+            f"{r.strategy} in {r.exploding}" for r in bad) + f" of {configurations} "
+            f"configurations (largest {worst.largest:.3g}, {worst.strategy} on "
+            f"{worst.largest_at}): there one bounce needs that many times the samples of a "
+            f"matched strategy, and a path multiplies the factors.")
+    else:
+        out.append(f"No strategy's Var[w]/E[w]^2 exceeds {EXPLODES:g} in any configuration.")
     return out
