@@ -363,13 +363,13 @@ def sentences(rows: list[PointRow], within: tuple, spp: int) -> list[str]:
                  f"max_depth 2)" for r in best.values()]
         out.append(f"Dims {NEE}, the first bounce's emitter sample, set the direct light: "
                    f"the best native sampler, {top.sampler}, reaches {top.nee:.3g} of "
-                   f"independent points' discrepancy (joint power {top.nee_joint:.2f}), "
-                   f"the bundled ones " + "; ".join(parts) + " (the sampler study measures "
-                   f"it).")
+                   f"independent points' discrepancy (joint power {top.nee_joint:.2f}); "
+                   f"the best of each bundled sampler: " + "; ".join(parts)
+                   + " (the sampler study measures it).")
     if rows and not math.isnan(rows[0].deep):
         def span(rs):
             lo, hi = min(r.deep for r in rs), max(r.deep for r in rs)
-            return f"{lo:.2f}" if lo == hi else f"{lo:.2f}-{hi:.2f}"
+            return f"{lo:.3g}" if lo == hi else f"{lo:.3g}-{hi:.3g}"
         families = list(dict.fromkeys(r.family for r in bundled))
         parts = [f"{f} {span([r for r in bundled if r.family == f])}" for f in families]
         out.append(f"Deeper bounces ({', '.join(str(p) for p in DEEP)}): discrepancy over "

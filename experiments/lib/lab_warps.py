@@ -358,6 +358,9 @@ def compute(spec: PanelSpec, path_module=None) -> dict:
 
 SCALARS = ("p_value", "chi2", "dof", "rel_variance", "albedo", "drawn", "in_grid", "cos_min",
            "max_weight", "max_z")
+#: The scalars that are counts (a panel read back from the cache gives them as ints, as
+#: :func:`compute` does, so a rerun writes the same tables).
+INTEGERS = ("dof",)
 
 
 def cached(spec: PanelSpec, cache_dir: str) -> dict:
@@ -369,7 +372,8 @@ def cached(spec: PanelSpec, cache_dir: str) -> dict:
     path = os.path.join(cache_dir, spec.key() + ".npz")
     data = files.read_npz(path)
     if data is not None:
-        return {k: (float(v) if k in SCALARS else v) for k, v in data.items()}
+        return {k: (int(v) if k in INTEGERS else float(v) if k in SCALARS else v)
+                for k, v in data.items()}
     panel = compute(spec)
     files.write_npz(path, **{k: np.asarray(v) for k, v in panel.items()})
     return panel
