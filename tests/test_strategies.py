@@ -19,6 +19,7 @@ through every check a built-in one gets.
   hemisphere where a diffuse BSDF is not (no defensive mixture), fails the render
   agreement.
 """
+import os
 import subprocess
 import sys
 
@@ -29,31 +30,18 @@ import pytest
 
 import _blocks as B
 import integrators
+from experiments.lib import extensions
 import integrators.path as vr_path
 from conftest import ROOT
 from integrators import strategies, warps
 from test_strategy_warps import BSDFS, strategy_chi2
 
 SIGNIFICANCE = 0.01
-EXPONENT = 20.0
 
-
-class MirrorLobe(strategies.Strategy):
-    """A cos^n lobe about the mirror direction of the incident one (a user's strategy:
-    ``sample`` and ``pdf`` only, the maths from integrators.warps)."""
-
-    def __init__(self, exponent=EXPONENT):
-        self.exponent = exponent
-
-    def sample(self, bsdf, ctx, si, sample1, sample2, active):
-        wo = mi.Frame3f(mi.reflect(si.wi)).to_world(
-            warps.square_to_phong_lobe(sample2, self.exponent))
-        return strategies.weighted_direction(bsdf, ctx, si, wo,
-                                             self.pdf(bsdf, ctx, si, wo, active), active)
-
-    def pdf(self, bsdf, ctx, si, wo, active):
-        local = mi.Frame3f(mi.reflect(si.wi)).to_local(wo)
-        return warps.square_to_phong_lobe_pdf(local, self.exponent)
+#: The user strategy of the worked example (examples/mirror_lobe.py, docs/extending.md),
+#: loaded from its file as a researcher's own file is (it registers ``mirror_lobe``).
+EXAMPLE = extensions.load(os.path.join(ROOT, "examples", "mirror_lobe.py"))
+MirrorLobe = EXAMPLE.MirrorLobe
 
 
 class WrongMirrorLobe(MirrorLobe):
@@ -67,8 +55,8 @@ class WrongMirrorLobe(MirrorLobe):
 
 #: The user strategies of this module, registered for its duration (see ``user``).
 USER = {
-    "mirror_lobe": MirrorLobe,                                        # a factory (class)
-    "mirror_mix": lambda: strategies.Mixture(MirrorLobe(), strategies.cosine, 0.5),
+    "mirror_lobe_alone": MirrorLobe,                                  # a factory (class)
+    "mirror_mix": EXAMPLE.mirror_lobe,                                # the example's own
     "uniform_bsdf": strategies.Mixture(strategies.uniform, strategies.bsdf, 0.5),  # shared
     "wrong_mirror_mix": lambda: strategies.Mixture(WrongMirrorLobe(), strategies.cosine,
                                                    0.5),
@@ -80,7 +68,7 @@ def user():
     for name, strategy in USER.items():
         integrators.register_strategy(name, strategy)
     yield
-    for name in USER:
+    for name in (*USER, "mirror_lobe"):             # and the example file's own
         strategies.unregister(name)
     assert strategies.names() == strategies.BUILTIN
 
@@ -118,7 +106,7 @@ def samples(n):
 def test_builtin_strategies_in_order_and_as_objects():
     assert strategies.BUILTIN == ("uniform", "cosine", "bsdf", "mis")
     assert strategies.names()[:4] == strategies.BUILTIN
-    assert strategies.names()[4:] == tuple(USER)                # then in registration order
+    assert strategies.names()[4:] == ("mirror_lobe", *USER)   # then in registration order
     from integrators import choices
     assert choices.STRATEGIES == vr_path.STRATEGIES == strategies.BUILTIN
     for name in strategies.BUILTIN:
@@ -162,16 +150,16 @@ def test_an_object_is_shared_and_a_factory_makes_one_per_vr_path():
     assert strategies.get("uniform_bsdf") is USER["uniform_bsdf"]
     a, b = (mi.load_dict({"type": "vr_path", "strategy": "uniform_bsdf"}) for _ in range(2))
     assert a.sampling_strategy is b.sampling_strategy is USER["uniform_bsdf"]
-    for name in ("mirror_lobe", "mirror_mix"):       # a class, a zero-argument callable
+    for name in ("mirror_lobe_alone", "mirror_mix"):  # a class, a zero-argument callable
         a, b = (mi.load_dict({"type": "vr_path", "strategy": name}) for _ in range(2))
         assert a.strategy == name and a.sampling_strategy is not b.sampling_strategy
         assert type(a.sampling_strategy) is type(b.sampling_strategy)
         assert strategies.get(name) is not strategies.get(name)
-    assert isinstance(strategies.get("mirror_lobe"), MirrorLobe)
+    assert isinstance(strategies.get("mirror_lobe_alone"), MirrorLobe)
 
 
 def test_unknown_name_lists_the_registered_ones():
-    valid = "valid choices are uniform, cosine, bsdf, mis, " + ", ".join(USER)
+    valid = "valid choices are uniform, cosine, bsdf, mis, mirror_lobe, " + ", ".join(USER)
     with pytest.raises(ValueError, match=f"unknown strategy 'nope'; {valid}$"):
         strategies.get("nope")
     with pytest.raises(ValueError, match=f"unknown strategy 'nope'; {valid}$"):
@@ -281,7 +269,7 @@ def test_defaults_and_the_delta_fallback_for_a_user_strategy(name):
 
 # ------------------------------------------------------------- chi-square
 
-CHI2 = [(s, b, c) for s in ("mirror_lobe", "mirror_mix", "uniform_bsdf")
+CHI2 = [(s, b, c) for s in ("mirror_lobe_alone", "mirror_lobe", "uniform_bsdf")
         for b in ("diffuse", "phong", "roughdielectric") for c in (1.0, 0.6, -0.6)]
 
 
@@ -301,9 +289,9 @@ def test_user_strategy_with_a_wrong_density_fails_the_chi2(monkeypatch, tmp_path
 
 # ------------------------------------------------- renders through vr_path
 
-RENDERS = [("mirror_mix", False), ("mirror_mix", True), ("uniform_bsdf", False),
+RENDERS = [("mirror_lobe", False), ("mirror_lobe", True), ("uniform_bsdf", False),
            ("uniform_bsdf", True)]
-CONTROLS = [("wrong_mirror_mix", False), ("mirror_lobe", False)]
+CONTROLS = [("wrong_mirror_mix", False), ("mirror_lobe_alone", False)]
 SEEDS, SPP, SIZE, BLOCKS_PER_IMAGE = 8, 64, 32, (32 // B.BLOCK) ** 2 * 3
 ALPHA_BLOCKS = B.sidak(SIGNIFICANCE, 2 * len(RENDERS) * BLOCKS_PER_IMAGE)
 ALPHA_POOLED = B.sidak(SIGNIFICANCE, 2 * len(RENDERS) * 3)
@@ -315,7 +303,7 @@ def scene_dict():
     d = mi.cornell_box()
     d["sensor"]["film"].update(width=SIZE, height=SIZE, rfilter={"type": "box"})
     d["small-box"]["bsdf"] = {"type": "phong", "diffuse_reflectance": 0.2,
-                              "specular_reflectance": 0.6, "exponent": EXPONENT}
+                              "specular_reflectance": 0.6, "exponent": EXAMPLE.EXPONENT}
     return d
 
 
