@@ -23,7 +23,7 @@ import sys
 import time
 
 from . import common as C
-from .common import dr, mi
+from .common import mi
 
 #: Cost per sample over independent that the sampler must stay under.
 COST_TARGET = 1.10
