@@ -111,7 +111,11 @@ def test_the_better_sampler_reads_more_efficient():
     assert c.ratio.value == pytest.approx(2.0) and c.ratio.excludes(1.0)
     assert c.short_verdict() == "bund is more efficient"
     assert c.verdict.startswith("bund is more efficient than nat by 2 (95% CI")
-    assert "bund is more efficient than nat by 2 (95% CI" in better.conclusions[2][1]
+    prose = " ".join(better.conclusions[2])
+    assert "bund is more efficient than nat by 2 (95% CI" in prose
+    # the runner-up is the best native sampler: said once, not twice
+    assert "runner-up, nat (also the best native sampler)" in prose
+    assert prose.count("bund is more efficient than nat") == 1
     # negative control: the same numbers swapped read the other way
     worse = analyse(three(0.2, 0.1), FAMILIES)
     c, = of(worse, SS.BUNDLED)
@@ -126,7 +130,7 @@ def test_a_tie_is_not_distinguishable():
     c, = of(tie, SS.BUNDLED)
     assert c.ratio.value == pytest.approx(1.0)
     assert c.short_verdict() == "not distinguishable"
-    assert "bund and nat are not distinguishable at this budget" in tie.conclusions[2][1]
+    assert "nat and bund are not distinguishable at this budget" in tie.conclusions[2][0]
     # 3% apart with a 20% scatter: still no verdict; 2x apart with it: a verdict
     wide = (0.8, 1.0, 1.2)
     assert of(analyse(three(0.2 / 1.03, 0.2, wide), FAMILIES), SS.BUNDLED)[0] \
@@ -140,7 +144,7 @@ def test_one_repeat_gives_no_interval_and_no_verdict():
     assert not any(r.relative_efficiency.known for r in one.rows if r.sampler != "independent")
     c, = of(one, SS.BUNDLED)
     assert c.short_verdict() == "not distinguishable" and "1 run" in c.cells()[5]
-    assert "no interval" in one.conclusions[2][1]
+    assert "no interval" in one.conclusions[2][0]
     assert "is more efficient than" not in " ".join(one.conclusions[2])
 
 
@@ -168,6 +172,8 @@ def test_each_bundled_family_meets_the_best_native_sampler():
     assert {(c.a, c.b) for c in of(a, SS.NATIVE)} == {
         (f, n) for f in ("halton:owen", "mine") for n in ("independent", "stratified")}
     assert of(a, SS.BUNDLED)[1].short_verdict() == "orthogonal is more efficient"
+    assert a.conclusions[2][1].startswith("Against the best native sampler, orthogonal: "
+                                          "orthogonal is more efficient than mine by 1.5")
     assert a.best[2].sampler == "halton:owen"
 
 
@@ -283,3 +289,74 @@ def test_conclusions_are_short_and_come_from_the_table():
     assert (best.sampler, best.spp, best.requested) == (top.sampler, top.spp, top.requested)
     ortho = next(r for r in a.rows if r.sampler == "orthogonal")
     assert (ortho.spp, ortho.requested) == (289, 256)
+
+
+# ------------------------------------------------------------------ the reference floor
+
+def test_the_known_floor_is_subtracted():
+    """Errors measured against a noisy reference carry its own expected error (the floor):
+    the analysis reports the excess, with the interval of the raw mean shifted."""
+    floor = 0.01
+    p = ladder(0.1, -1.0, 10.0, (1,), floor=floor)[0]
+    raw = stats.mean_interval(p.mse)
+    e = p.expected("mse")
+    assert e == stats.excess_interval(p.mse, floor)
+    assert e.value == pytest.approx(0.1) and not e.bound
+    assert (e.lo, e.hi) == pytest.approx((raw.lo - floor, raw.hi - floor))
+    assert p.expected("relmse").value == pytest.approx(0.2)
+    row = next(r for r in SS.table({2: {"independent": ladder(1.0, -1.0, 10.0, floor=floor),
+                                        "x": ladder(0.1, -1.0, 10.0, floor=floor)}}, PIXELS)
+               if r.sampler == "x")
+    assert row.mse.value == pytest.approx(0.1 / 64) and row.relative_mse.value == \
+        pytest.approx(0.1)
+    # negative control: without the floor the raw mean is reported
+    assert SS.Point(1, p.seconds, p.mse, p.relmse).expected("mse").value == \
+        pytest.approx(0.1 + floor)
+
+
+def test_an_error_below_the_floor_is_a_bound_never_nan():
+    """A sampler whose raw errors scatter around the floor itself (its own error cannot be
+    told from the reference's noise): an upper bound, '< x', and no verdict against it."""
+    floor = 0.01
+    near = SS.Point(64, (1.0, 1.0, 1.0), (0.0098, 0.0101, 0.0103), (0.0198, 0.02, 0.0204), 64,
+                    floor, 0.02)
+    e = near.expected("mse")
+    assert e.bound and math.isfinite(e.value) and e.value >= 0 and e.lo == 0
+    assert e.value == pytest.approx(stats.mean_interval(near.mse).hi - floor)
+    assert e.text().startswith("< ")
+    base = SS.Point(64, (1.0, 1.0, 1.0), (0.09, 0.1, 0.11), (0.19, 0.2, 0.21), 64, floor, 0.02)
+    points = {2: {"independent": [base], "x": [near]}}
+    row = next(r for r in SS.table(points, PIXELS) if r.sampler == "x")
+    assert row.mse.bound and row.relmse.bound and row.relative_mse.bound
+    assert math.isfinite(row.relative_mse.hi) and row.relative_mse.hi < 0.1
+    a = SS.analyse(points, PIXELS, kinds(independent=NATIVE, x=BUNDLED))
+    c, = [c for c in a.comparisons if c.role == SS.BUNDLED]
+    assert c.short_verdict() == "cannot be compared (below the reference's noise)"
+    assert "cannot be compared" in c.verdict
+    assert a.best[2].sampler == "independent"           # an unknown efficiency never wins
+    # negative control: the same raw errors with a floor well below them are no bound
+    clear = SS.Point(64, near.seconds, near.mse, near.relmse, 64, 0.001, 0.002)
+    assert not clear.expected("mse").bound
+    assert clear.expected("mse").value == pytest.approx(sum(near.mse) / 3 - 0.001)
+
+
+# ------------------------------------------------------------------ relMSE decides
+
+def test_verdicts_use_relmse():
+    """A has half B's MSE but 2.5x its relMSE (its error sits in dark pixels), at the same
+    time: by relMSE B is 2.5x more efficient, and that is the verdict."""
+    points = {2: {"independent": ladder(1.0, -1.0, 10.0, rel=1.0),
+                  "a": ladder(0.1, -1.0, 10.0, rel=5.0),
+                  "b": ladder(0.2, -1.0, 10.0, rel=1.0)}}
+    assert SS.METRIC == "relmse"
+    an = SS.analyse(points, PIXELS, kinds(independent=NATIVE, b=NATIVE, a=BUNDLED))
+    c, = [c for c in an.comparisons if c.role == SS.BUNDLED]
+    assert (c.a, c.b) == ("a", "b") and c.ratio.value == pytest.approx(0.4)
+    assert c.short_verdict() == "b is more efficient"
+    rows = {r.sampler: r for r in an.rows}
+    assert rows["a"].relative_mse.value == pytest.approx(0.1)          # MSE stays reported
+    assert rows["a"].relative_relmse.value == pytest.approx(0.5)
+    assert rows["a"].relative_efficiency.value == pytest.approx(2.0)
+    # negative control: by MSE the verdict would have gone the other way
+    mse = SS.ratio(points[2]["a"][-1], points[2]["b"][-1], "mse")
+    assert mse.value == pytest.approx(2.0) and mse.excludes(1.0)

@@ -6,9 +6,11 @@ repeat (render time, MSE and relMSE against the reference) and the reference's o
 errors (the floors under them). :func:`analyse`, a pure function of those numbers, gives
 
 - :class:`Row`: each label at each depth at the largest count: expected MSE and relMSE (the
-  floor subtracted), time per sample, MSE relative to the baseline (``independent``),
-  efficiency relative to the baseline, each with its 95% interval (:mod:`.stats`), and the
-  fitted slope of MSE against spp;
+  floor subtracted through :func:`stats.excess_interval`: an upper bound, never NaN, where an
+  error cannot be told from the reference's own noise), time per sample, MSE and relMSE
+  relative to the baseline (``independent``), efficiency 1/(relMSE x time) relative to the
+  baseline (:data:`METRIC`: every verdict uses relMSE, which bright pixels do not dominate),
+  each with its 95% interval (:mod:`.stats`), and the fitted slope of MSE against spp;
 - curves: the relative efficiency at every count of the ladder;
 - per depth the conclusion table, :class:`Comparison` rows: the most efficient label against
   the runner-up; each bundled sampler family's best label against the best native sampler
@@ -31,7 +33,7 @@ from . import samplers as S
 #: The sampler every efficiency and MSE is relative to.
 BASELINE = S.DEFAULT
 #: The error of the efficiency 1/(error x time) that every verdict uses.
-METRIC = "mse"
+METRIC = "relmse"
 METRIC_NAMES = {"mse": "MSE", "relmse": "relMSE"}
 #: Roles of the conclusion table's rows.
 BEST, BUNDLED, NATIVE = "most efficient / runner-up", "bundled best / best native", \
@@ -71,8 +73,10 @@ class Point:
         return tuple(v - floor for v in getattr(self, metric))
 
     def expected(self, metric: str) -> stats.Estimate:
-        """The expected error over the repeats, the floor subtracted."""
-        return stats.mean_interval(self.net(metric))
+        """The expected error over the repeats, the floor subtracted
+        (:func:`stats.excess_interval`: an upper bound where the error cannot be told from
+        the reference's own noise, never NaN)."""
+        return stats.excess_interval(getattr(self, metric), getattr(self, metric + "_floor"))
 
 
 @dataclass(frozen=True)
@@ -86,16 +90,18 @@ class Row:
     mse: stats.Estimate
     relmse: stats.Estimate
     us_per_sample: float
-    relative_efficiency: stats.Estimate   # efficiency / the baseline's at the same depth
+    relative_efficiency: stats.Estimate   # efficiency 1/(METRIC x time) / the baseline's
     relative_mse: stats.Estimate          # MSE / the baseline's
     slope: float                          # fitted slope of log MSE against log spp
+    relative_relmse: stats.Estimate = stats.Estimate(math.nan, math.nan, math.nan, 0)
 
     def record(self) -> dict:
         """Flat fields for summary.json (intervals as ``*_lo`` / ``*_hi``)."""
         out = {"depth": self.depth, "sampler": self.sampler, "spp": self.spp,
                "requested_spp": self.requested, "repeats": self.repeats,
                "us_per_sample": self.us_per_sample, "slope": self.slope}
-        for name in ("mse", "relmse", "relative_efficiency", "relative_mse"):
+        for name in ("mse", "relmse", "relative_efficiency", "relative_mse",
+                     "relative_relmse"):
             out.update(getattr(self, name).fields(name))
         return out
 
@@ -104,9 +110,28 @@ def _base(by_sampler: dict) -> str:
     return BASELINE if BASELINE in by_sampler else next(iter(by_sampler))
 
 
+def _unknown(n: int) -> stats.Estimate:
+    return stats.Estimate(math.nan, math.nan, math.nan, n)
+
+
 def ratio(a: Point, b: Point, metric: str = METRIC) -> stats.Estimate:
-    """Efficiency 1/(error x time) of ``a`` over ``b``."""
+    """Efficiency 1/(error x time) of ``a`` over ``b``, the errors net of the reference's
+    floor; unknown (NaN: no verdict) where either error is only a bound."""
+    if a.expected(metric).bound or b.expected(metric).bound:
+        return _unknown(min(len(a.seconds), len(b.seconds)))
     return stats.efficiency_ratio(a.net(metric), a.seconds, b.net(metric), b.seconds)
+
+
+def relative(a: Point, b: Point, metric: str) -> stats.Estimate:
+    """Expected error of ``a`` over ``b``'s; an upper bound where ``a``'s error is one,
+    unknown where ``b``'s is."""
+    ea, eb = a.expected(metric), b.expected(metric)
+    if eb.bound:
+        return _unknown(eb.n)
+    if ea.bound:
+        upper = ea.hi / (eb.lo if eb.known else eb.value)
+        return stats.Estimate(upper, 0.0, upper, ea.n, ea.level, bound=True)
+    return stats.ratio_interval([a.net(metric)], [b.net(metric)])
 
 
 def table(points: dict[int, dict[str, list[Point]]], pixels: int) -> list[Row]:
@@ -120,10 +145,10 @@ def table(points: dict[int, dict[str, list[Point]]], pixels: int) -> list[Row]:
             rows.append(Row(depth, s, p.spp, p.requested or p.spp, len(p.mse),
                             p.expected("mse"), p.expected("relmse"),
                             mean_seconds / (p.spp * pixels) * 1e6, ratio(p, base),
-                            stats.ratio_interval([p.net("mse")], [base.net("mse")]),
+                            relative(p, base, "mse"),
                             metrics.loglog_slope([q.spp for q in pts],
-                                                 [sum(q.net("mse")) / len(q.mse)
-                                                  for q in pts])))
+                                                 [q.expected("mse").value for q in pts]),
+                            relative(p, base, "relmse")))
     return rows
 
 
@@ -140,7 +165,8 @@ def curves(points: dict[int, dict[str, list[Point]]]) -> dict[int, dict[str, lis
 # ------------------------------------------------------------ order along the ladder
 
 def sign(e: stats.Estimate) -> int:
-    """+1: more efficient (interval above 1), -1: less (below 1), 0: not distinguishable."""
+    """+1: more efficient (interval above 1), -1: less (below 1), 0: not distinguishable
+    (or unknown)."""
     return 0 if not e.excludes(1.0) else (1 if e.value > 1 else -1)
 
 
@@ -243,7 +269,9 @@ COMPARISON_HEADER = ["max_depth", "comparison", "A / B", "spp (A)", "efficiency 
 
 
 def _best(rows: list[Row]) -> Row:
-    return max(rows, key=lambda r: r.relative_efficiency.value)
+    """The most efficient row (an unknown efficiency counts as the lowest)."""
+    return max(rows, key=lambda r: (math.isfinite(r.relative_efficiency.value),
+                                    r.relative_efficiency.value))
 
 
 def comparisons(rows: list[Row], points: dict, kinds: dict[str, Family]) -> list[Comparison]:
@@ -274,25 +302,37 @@ def comparisons(rows: list[Row], points: dict, kinds: dict[str, Family]) -> list
     return out
 
 
+def _overtake_text(c: Comparison) -> str:
+    winner, loser, n = c.overtakes
+    last = c.changes[-1][0]
+    return (f"{winner} overtakes {loser} at the largest count ({n} spp)" if n == last else
+            f"{winner} overtakes {loser} from {n} spp")
+
+
 def sentences(table_rows: list[Comparison], limit: int = 3) -> list[str]:
     """At most three sentences about one depth, computed from its conclusion table alone:
     the winner, the bundled samplers against the best native one, and where the order
     between a bundled and a native sampler changes along the ladder."""
     out = []
-    best = [c for c in table_rows if c.role == BEST]
-    for c in best:
-        out.append(f"At max_depth {c.depth} and {c.spp} spp, {c.a} is the most efficient "
-                   f"sampler ({METRIC_NAMES[METRIC]}); against the runner-up: {c.verdict}.")
+    best = next((c for c in table_rows if c.role == BEST), None)
     bundled = [c for c in table_rows if c.role == BUNDLED]
-    if bundled:
-        out.append(f"Against the best native sampler, {bundled[0].b}: "
-                   + "; ".join(c.verdict for c in bundled) + ".")
-    moves = [c.overtakes for c in table_rows if c.role in (BUNDLED, NATIVE) and c.overtakes]
-    flips = [c for c in table_rows if c.role in (BUNDLED, NATIVE) and c.onsets]
+    same = [c for c in bundled if best is not None and {c.a, c.b} == {best.a, best.b}]
+    if best is not None:
+        runner = f"{best.b} (also the best native sampler)" if same else best.b
+        out.append(f"At max_depth {best.depth} and {best.spp} spp, {best.a} is the most "
+                   f"efficient sampler by {METRIC_NAMES[METRIC]}; against the runner-up, "
+                   f"{runner}: {best.verdict}.")
+    rest = [c for c in bundled if c not in same]
+    if rest:
+        out.append(f"Against the best native sampler, {rest[0].b}: "
+                   + "; ".join(c.verdict for c in rest) + ".")
+    ladder = [c for c in table_rows if c.role in (BUNDLED, NATIVE)]
+    moves = [c for c in ladder if c.overtakes]
+    flips = [c for c in ladder if c.onsets]
     if moves:
-        shown = "; ".join(f"{w} overtakes {loser} from {n} spp" for w, loser, n in moves[:3])
         more = f" and {len(moves) - 3} more (table)" if len(moves) > 3 else ""
-        out.append(f"Along the ladder, {shown}{more}.")
+        out.append("Along the ladder, " + "; ".join(map(_overtake_text, moves[:3]))
+                   + f"{more}.")
     elif flips:
         out.append(f"Along the ladder the order changes without a lasting winner in "
                    f"{len(flips)} comparison(s) (table).")

@@ -280,7 +280,8 @@ GUIDE = (
     "a pair that looks like independent points gains nothing.\n\n"
     "Dimension k is the k-th float drawn per sample: 0-1 the film position in the pixel "
     "(the camera's next_2d), then per bounce 6: the emitter sample (2), the BSDF lobe "
-    "choice (1), the direction (2) and Russian roulette (1). A sampler that stratifies only "
+    "choice (1), the direction (2) and Russian roulette (1).\n\n"
+    "A sampler that stratifies only "
     "the two values of one next_2d call together shows it in the pairs within one call; "
     "one that stratifies across calls (an orthogonal array, a sequence over all its "
     "dimensions) shows it in the pairs across calls too.")

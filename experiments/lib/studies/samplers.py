@@ -22,6 +22,7 @@ more entry.
 """
 from __future__ import annotations
 
+import math
 import os
 import time
 from dataclasses import dataclass
@@ -166,17 +167,25 @@ class Measured:
     kinds: dict                   # {label: SS.Family}
 
 
-TABLE_HEADER = ["max_depth", "sampler", "spp rendered", "spp requested", "repeats",
-                "MSE", "MSE_lo", "MSE_hi", "relMSE", "relMSE_lo", "relMSE_hi", "µs / sample",
-                "MSE / independent", "MSE / independent_lo", "MSE / independent_hi",
-                "efficiency / independent", "efficiency / independent_lo",
-                "efficiency / independent_hi", "MSE slope"]
+def _interval(name: str) -> list[str]:
+    return [name, f"{name}_lo", f"{name}_hi"]
+
+
+#: The error every efficiency (and so every verdict) uses, as the tables name it.
+EFFICIENCY = f"efficiency 1/({SS.METRIC_NAMES[SS.METRIC]} x time) / {SS.BASELINE}"
+TABLE_HEADER = (["max_depth", "sampler", "spp rendered", "spp requested", "repeats"]
+                + _interval("MSE") + _interval("relMSE") + ["µs / sample"]
+                + _interval(f"MSE / {SS.BASELINE}") + _interval(f"relMSE / {SS.BASELINE}")
+                + _interval(EFFICIENCY) + ["MSE slope"])
 
 
 def table_rows(rows: list[SS.Row]) -> list[list]:
-    return [[r.depth, r.sampler, r.spp, r.requested, r.repeats, *r.mse.cells(),
-             *r.relmse.cells(), f"{r.us_per_sample:.3f}",
-             *r.relative_mse.cells(), *r.relative_efficiency.cells(),
+    """Errors below the reference's own noise are bounds: their cells read '< x'."""
+    def cells(e):
+        return [f"< {stats.g(e.hi)}", "0", stats.g(e.hi)] if e.bound else e.cells()
+    return [[r.depth, r.sampler, r.spp, r.requested, r.repeats, *cells(r.mse),
+             *cells(r.relmse), f"{r.us_per_sample:.3f}", *cells(r.relative_mse),
+             *cells(r.relative_relmse), *r.relative_efficiency.cells(),
              f"{r.slope:.2f}"] for r in rows]
 
 
@@ -238,44 +247,51 @@ class Efficiency:
 
     def report(self, st: Study, cfg: Settings, planned: LadderPlan, measured: Measured,
                result: SS.Analysis) -> PassReport:
-        out, blocks = st.out, []
+        out, blocks, metric = st.out, [], SS.METRIC_NAMES[SS.METRIC]
         for d, by_sampler in measured.points.items():
             bands = {s: ([p.spp for p in pts], [sum(p.seconds) / len(p.seconds) for p in pts],
-                         [p.expected("mse") for p in pts]) for s, pts in by_sampler.items()}
-            figures.error_bands(os.path.join(out, NAME, f"error_depth{d}.png"), bands, "MSE")
-            figures.ratio_bands(os.path.join(out, NAME, f"efficiency_depth{d}.png"),
-                                result.curves[d], "efficiency / independent",
-                                f"max_depth {d}: efficiency relative to independent")
-            blocks += [
-                report.image(
-                    f"{NAME}/error_depth{d}.png", f"max_depth {d}: expected MSE against spp "
-                    f"and against render (CPU) time per sampler, with {stats.LEVEL:.0%} bands "
-                    f"over the repeats (log-log, fitted slopes in the legend); reference: "
-                    f"{st.describe_reference(measured.floors[d])}."),
-                report.image(
-                    f"{NAME}/efficiency_depth{d}.png", f"max_depth {d}: efficiency relative "
-                    f"to independent at every count of the ladder, with {stats.LEVEL:.0%} "
-                    f"bands: where the curves cross, the order of the samplers changes with "
-                    f"the sample count."),
-                comparison_viewer(st, cfg, planned, d)]
+                         [p.expected(SS.METRIC) for p in pts])
+                     for s, pts in by_sampler.items()}
+            figures.error_bands(os.path.join(out, NAME, f"error_depth{d}.png"), bands, metric)
+            blocks.append(report.image(
+                f"{NAME}/error_depth{d}.png", f"max_depth {d}: expected {metric} against "
+                f"spp and against render (CPU) time per sampler, with {stats.LEVEL:.0%} "
+                f"bands over the repeats (log-log, fitted slopes in the legend); "
+                f"reference: {st.describe_reference(measured.floors[d])}."))
+            if any(math.isfinite(e.value) for pts in result.curves[d].values() for _, e in pts):
+                figures.ratio_bands(os.path.join(out, NAME, f"efficiency_depth{d}.png"),
+                                    result.curves[d], EFFICIENCY,
+                                    f"max_depth {d}: efficiency relative to {SS.BASELINE}")
+                blocks.append(report.image(
+                    f"{NAME}/efficiency_depth{d}.png", f"max_depth {d}: {EFFICIENCY} at "
+                    f"every count of the ladder, with {stats.LEVEL:.0%} bands: where the "
+                    f"curves cross, the order of the samplers changes with the sample "
+                    f"count."))
+            else:
+                blocks.append(report.text(
+                    f"max_depth {d}: no efficiency relative to {SS.BASELINE} is known at "
+                    f"this budget (at every count an error is below the reference's own "
+                    f"noise, only a bound), so no chart of them is drawn; a better reference "
+                    f"(--reference-spp) or more repeats cure it."))
+            blocks.append(comparison_viewer(st, cfg, planned, d))
         blocks += [
             report.write_table(out, f"{NAME}/samplers", TABLE_HEADER, table_rows(result.rows),
                                f"Samplers with {cfg.base} at the largest sample count "
-                               f"(expected values over {st.repeats} runs, {stats.LEVEL:.0%} "
-                               f"intervals as _lo/_hi)"),
+                               f"(expected values over {st.repeats} runs with the "
+                               f"reference's own expected error subtracted, '< x' where an "
+                               f"error is below the reference's noise; {stats.LEVEL:.0%} "
+                               f"intervals as _lo/_hi; the efficiency uses {metric})"),
             report.write_table(out, f"{NAME}/efficiency_ladder",
-                               ["max_depth", "sampler", "ladder index", "spp rendered",
-                                "efficiency / independent", "efficiency / independent_lo",
-                                "efficiency / independent_hi"], curve_rows(result.curves),
-                               "Efficiency relative to independent at every count of the "
-                               "ladder", collapsed=True)]
+                               ["max_depth", "sampler", "ladder index", "spp rendered"]
+                               + _interval(EFFICIENCY), curve_rows(result.curves),
+                               f"{EFFICIENCY} at every count of the ladder", collapsed=True)]
         for d in measured.points:
             mine = [c for c in result.comparisons if c.depth == d]
             blocks += [report.write_table(
                 out, f"{NAME}/conclusion_depth{d}", SS.COMPARISON_HEADER,
                 [c.cells() for c in mine],
-                f"Conclusion at max_depth {d}: efficiency 1/({SS.METRIC_NAMES[SS.METRIC]} x "
-                f"time) of A over B at the largest count, its {stats.LEVEL:.0%} interval, "
+                f"Conclusion at max_depth {d}: efficiency 1/({metric} x time) of A over B at "
+                f"the largest count, its {stats.LEVEL:.0%} interval, "
                 f"the verdict (only where the interval excludes 1) and the counts where the "
                 f"order changes along the ladder"),
                 report.text("\n\n".join(result.conclusions[d]))]
@@ -310,28 +326,31 @@ PASSES: tuple = (Efficiency(),)
 # ------------------------------------------------------------------ the study
 
 def introduction(st: Study, cfg: Settings) -> str:
-    """What the study compares, from the sampler table (no sampler named by hand)."""
+    """What the study compares, from the sampler table (no sampler named by hand), in
+    paragraphs of at most 80 words."""
     natives = [s for s in cfg.samplers if S.split_label(s)[0].native]
     bundled = [s for s in cfg.samplers if s not in natives]
     fixed = [s for s in cfg.samplers if S.split_label(s)[0].is_deterministic(
         S.split_label(s)[1])]
     time_is = CPU_TIME if st.variant.startswith("llvm") else "wall-clock time"
-    return (
+    metric = SS.METRIC_NAMES[SS.METRIC]
+    return "\n\n".join([
         f"Which sampler to use with {cfg.base} on {os.path.basename(cfg.scene)} at "
         f"{st.width}x{st.height}: Mitsuba's own samplers ({', '.join(natives)}) against the "
         f"bundled ones ({', '.join(bundled) or 'none'}), at max_depth "
-        f"{', '.join(map(str, cfg.depths))}. Every count of the ladder "
-        f"{', '.join(map(str, cfg.targets))} spp is its own render, {st.repeats} times with "
-        f"independent randomizations"
+        f"{', '.join(map(str, cfg.depths))}.",
+        f"Every count of the ladder {', '.join(map(str, cfg.targets))} spp is its own "
+        f"render, {st.repeats} times with independent randomizations"
         + (f" ({', '.join(fixed)}: deterministic, one run)" if fixed else "")
-        + "; samplers that round the count up are compared at the count they rendered, which "
-        f"the table gives beside the requested one. Errors are expected values over the "
-        f"repeats, with the reference's own expected error subtracted. Efficiency is Veach's "
-        f"1/(error x render time) relative to independent; the verdicts use "
-        f"{SS.METRIC_NAMES[SS.METRIC]} as the error (the tables give MSE too): above 1, a "
-        f"sampler reaches a given error sooner. Render time is {time_is}, warm in exactly "
-        f"the timed configuration (a render during which a kernel compiled is rendered "
-        f"again). Intervals: {stats.LEVEL:.0%}, {stats.METHOD}.")
+        + ". Samplers that round the count up are compared at the count they rendered, "
+          "which the table gives beside the requested one.",
+        f"Errors are expected values over the repeats, with the reference's own expected "
+        f"error subtracted. Efficiency is Veach's 1/(error x render time) relative to "
+        f"{SS.BASELINE}: above 1, a sampler reaches a given error sooner. Every verdict "
+        f"uses {metric} as the error (the tables give MSE too). Intervals: "
+        f"{stats.LEVEL:.0%}, {stats.METHOD}.",
+        f"Render time is {time_is}, warm in exactly the timed configuration (a render "
+        f"during which a kernel compiled is rendered again)."])
 
 
 def run(args) -> None:
