@@ -1,4 +1,4 @@
-"""Sampler study: halton (each randomization) against Mitsuba's own samplers, by efficiency.
+"""Sampler study: every sampler of the sampler table, the bundled ones against Mitsuba's own.
 
 The study itself is :mod:`experiments.lib.studies.samplers`; this is its command::
 
