@@ -1,4 +1,9 @@
-"""The ``phong`` BSDF: sampling matches its pdf, weight = eval / pdf, energy, parameters."""
+"""The ``phong`` BSDF: sampling matches its pdf, weight = eval / pdf, energy, parameters.
+
+The chi-square grid (significance 0.01 over the grid) rejects a reported lobe density
+whose exponent is off by one at n = 30 (a density about 3% off near the lobe's axis):
+the negative control.
+"""
 import math
 import warnings
 
@@ -25,6 +30,23 @@ def make_phong(kd, ks, exponent):
                          ids=[f"{g[0]}-n{g[2]}-cos{g[3]}" for g in GRID])
 def test_sampling_matches_pdf(name, refl, exponent, cos_i, monkeypatch, tmp_path):
     """Chi-square, significance 0.01 over the whole grid (Sidak-corrected)."""
+    sampling_chi2(name, refl, exponent, cos_i, monkeypatch, tmp_path,
+                  seed=GRID.index((name, refl, exponent, cos_i)))
+
+
+def test_lobe_density_with_the_exponent_off_by_one_fails(monkeypatch, tmp_path):
+    """Negative control of the size of a real bug: the reported lobe density uses the
+    exponent n + 1 (the sampling keeps n), at n = 30 a density off by about 1/(n + 1)
+    = 3% near the lobe's axis, must fail the same test."""
+    from integrators import phong, warps
+    true_pdf = warps.square_to_phong_lobe_pdf
+    monkeypatch.setattr(phong.warps, "square_to_phong_lobe_pdf",
+                        lambda v, n: true_pdf(v, n + 1.0))
+    with pytest.raises(AssertionError):
+        sampling_chi2("mixed", LOBES["mixed"], 30, 0.5, monkeypatch, tmp_path)
+
+
+def sampling_chi2(name, refl, exponent, cos_i, monkeypatch, tmp_path, seed=0):
     bsdf = make_phong(*refl, exponent)
     wi = incident(cos_i)
     ctx = mi.BSDFContext()
@@ -41,8 +63,7 @@ def test_sampling_matches_pdf(name, refl, exponent, cos_i, monkeypatch, tmp_path
     def pdf(wo):
         return bsdf.pdf(ctx, interaction(wi, dr.width(wo)), wo)
 
-    run_chi2(domain, sample, pdf, 3, monkeypatch, tmp_path, test_count=len(GRID),
-             seed=GRID.index((name, refl, exponent, cos_i)))
+    run_chi2(domain, sample, pdf, 3, monkeypatch, tmp_path, test_count=len(GRID), seed=seed)
 
 
 @pytest.mark.parametrize("exponent", [0, 1, 30, 1000, 10000])
