@@ -15,11 +15,12 @@ from conftest import ROOT, scene_path
 from experiments import run_all
 from experiments.lib import jobs as J
 from experiments.lib import studies
-from experiments.lib.studies import convergence, writeup
+from experiments.lib.studies import conclusion, convergence, writeup
 from experiments.lib import execute as X
 from experiments.lib import methods as M
 from experiments.lib import metrics, report, store
 from experiments.lib import plan as P
+from experiments.lib import samplers as S
 from experiments.lib import scenes as SC
 from experiments.lib.jobs import accumulate
 
@@ -136,12 +137,21 @@ def test_ladder_images_are_the_average_of_their_passes(tmp_path, count_jobs):
     assert len({j.seed for j in jobs}) == len(jobs)
 
 
-def test_halton_passes_continue_one_sequence(tmp_path):
+CONTINUING = [n for n in S.names() if S.get(n).continues_sequence]
+
+
+@pytest.mark.parametrize("sampler", CONTINUING)
+def test_passes_of_a_continuing_sampler_continue_one_sequence(tmp_path, sampler):
+    """A ladder of stretches is exactly one render of all their samples (halton, zsobol:
+    the seed kept, the offset moved, and where the sampler needs it the whole length)."""
+    assert {"halton", "zsobol"} <= set(CONTINUING)
     st = store.JobStore(str(tmp_path))
-    stretched = _ladder("bsdf+halton", (1, 2, 4))
-    whole = _ladder("bsdf+halton", (4,), pass_spp=4)
+    stretched = _ladder(f"bsdf+{sampler}", (1, 2, 4))
+    whole = _ladder(f"bsdf+{sampler}", (4,), pass_spp=4)
     assert [j.sample_offset for j in stretched] == [0, 1, 2]
     assert len({j.seed for j in stretched + whole}) == 1
+    length = 4 if S.get(sampler).sequence_length else 0
+    assert {j.sequence_spp for j in stretched + whole} == {length}
     X.execute(stretched + whole, st, progress=False)
     np.testing.assert_allclose(accumulate(st.results(stretched))[-1].mean,
                                accumulate(st.results(whole))[-1].mean, atol=1e-5)
@@ -356,12 +366,31 @@ def _csv(path) -> list[dict]:
         return list(csv.DictReader(f))
 
 
+BOUNDS = "upper bounds (below the reference's noise)"
+
+
 def _assert_intervals(rows, *names):
-    """Every row's interval brackets its value: lo <= value <= hi, all positive."""
+    """Every row's interval brackets its value: 0 < lo <= value <= hi; an error below the
+    reference's own noise (named in the row's bounds column) is a bound: 0 = lo < value =
+    hi, never NaN; a ratio that cannot be told is n/a."""
     for row in rows:
         for name in names:
-            lo, value, hi = (float(row[f"{name}{s}"]) for s in ("_lo", "", "_hi"))
+            cells = [row[f"{name}{s}"] for s in ("_lo", "", "_hi")]
+            if cells == ["n/a"] * 3:
+                assert row[BOUNDS], (name, row)
+                continue
+            lo, value, hi = map(float, cells)
+            if name in row.get(BOUNDS, "").split(", "):
+                assert lo == 0 and value == hi >= 0, (name, row)
+                continue
             assert 0 < lo <= value * (1 + 1e-9) and value <= hi * (1 + 1e-9), (name, row)
+
+
+def _short_paragraphs(out, study):
+    """No paragraph (text or caption) of the study's section is over 80 words."""
+    blocks = json.loads((out / study / "section.json").read_text())["blocks"]
+    assert conclusion.long_paragraphs(blocks) == []
+    return blocks
 
 
 def test_convergence_end_to_end(tmp_path):
@@ -375,19 +404,31 @@ def test_convergence_end_to_end(tmp_path):
     _assert_intervals(errors, "MSE", "relMSE")
     assert (out / "convergence" / "bsdf" / "spp00004.exr").exists()
     eff = {r["method"]: r for r in _csv(out / "convergence" / "efficiency.csv")}
-    _assert_intervals(eff.values(), "MSE", "relative efficiency",
+    _assert_intervals(eff.values(), "MSE", "relMSE", "relative efficiency",
                       "equal-time relative efficiency")
     # the baseline against itself is exactly 1; the others follow from the table's own
-    # expected MSE and mean time: (MSE_u T_u) / (MSE_m T_m)
+    # expected relMSE and mean time: (relMSE_u T_u) / (relMSE_m T_m)
     assert eff["uniform"]["relative efficiency"] == "1"
     u = eff["uniform"]
     for m in ("cosine", "bsdf"):
-        ratio = (float(u["MSE"]) * float(u["seconds"])) / (float(eff[m]["MSE"])
-                                                           * float(eff[m]["seconds"]))
+        if eff[m]["relative efficiency"] == "n/a":
+            assert "relMSE" in eff[m][BOUNDS]
+            continue
+        ratio = (float(u["relMSE"]) * float(u["seconds"])) / (float(eff[m]["relMSE"])
+                                                              * float(eff[m]["seconds"]))
         assert float(eff[m]["relative efficiency"]) == pytest.approx(ratio, rel=0.02)
     summary = json.loads((out / "convergence" / "summary.json").read_text())
     assert {r["method"] for r in summary["efficiency"]} == set(eff)
     assert all("relative_efficiency_lo" in r for r in summary["efficiency"])
+    assert summary["efficiency_metric"] == "relMSE"
+    # the conclusion: a short table, and at most three sentences made from its rows
+    rows = _csv(out / "convergence" / "conclusion.csv")
+    assert 1 <= len(rows) <= 4 and summary["conclusion"] == rows
+    assert 1 <= len(summary["sentences"]) <= 3
+    for sentence in summary["sentences"]:
+        assert any(r["A vs B"].split(" vs ")[0] in sentence for r in rows)
+    blocks = _short_paragraphs(out, "convergence")
+    assert any("use relMSE" in b.get("text", "") for b in blocks)
     for name in ("sequences.png", "error_mse.png", "error_relmse.png", "equal_time.png"):
         assert (out / "convergence" / name).stat().st_size > 0
     page, links = _report_links(out)
@@ -429,8 +470,18 @@ def test_writeup_end_to_end_with_full(tmp_path):
     assert set(rmse) == {"cosine vs uniform", "bsdf vs uniform", "uniform+halton vs uniform"}
     _assert_intervals(rmse.values(), "RMSE ratio B/A", "variance ratio B/A")
     for r in rmse.values():      # the RMSE ratio is the square root of the variance ratio
-        assert float(r["RMSE ratio B/A"]) ** 2 == pytest.approx(
-            float(r["variance ratio B/A"]), rel=0.01)
+        if r["RMSE ratio B/A"] != "n/a":
+            assert float(r["RMSE ratio B/A"]) ** 2 == pytest.approx(
+                float(r["variance ratio B/A"]), rel=0.01)
+    # the conclusion names, for each pair, the method its own RMSE ratio says is better
+    for row in _csv(out / "writeup" / "conclusion.csv"):
+        a, b = row["A vs B"].split(" vs ")
+        if row["ratio"] == "n/a":
+            assert row["verdict"].startswith("cannot be told")
+        elif row["verdict"] != "not distinguishable":
+            ratio = float(rmse[row["A vs B"]]["RMSE ratio B/A"])
+            assert row["verdict"] == f"{a if ratio > 1 else b} is more accurate"
+    _short_paragraphs(out, "writeup")
     bias = (out / "writeup" / "bias_full.md").read_text()
     assert "cosine − uniform" in bias and "uniform+halton" not in bias
     # plain Halton: the deterministic check, not the z-test, and the report says why

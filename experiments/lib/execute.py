@@ -108,24 +108,38 @@ def _scene(job: Job, variant: str):
     scene = load_scene(job.scene, job.width, job.height, method, job_depth(job), spp)
     # load and first compile; a sampler that bakes its count into the kernel at the count
     # of the first pass, so that the timed render does not compile again
-    _render(scene, method.continues_sequence, spp, 0x5EED, 0)
+    _render(scene, spp, 0x5EED, sequence_state(job, 0))
     _scenes[key] = scene
     while len(_scenes) > SCENE_CACHE:
         _scenes.popitem(last=False)
     return scene
 
 
-def set_sample_offset(scene, offset: int) -> None:
-    """Make the sensor's Halton sampler start at sample index ``offset`` (no recompilation)."""
+def sequence_state(job: Job, done: int) -> dict | None:
+    """The sampler attributes that make a pass of ``job`` continue its sequence after the
+    ``done`` samples its earlier passes took (None: the sampler reseeds instead)."""
+    spec = job.method.sampler_spec
+    if not spec.continues_sequence:
+        return None
+    return spec.sequence_attributes(job.sample_offset + done, job.sequence_spp)
+
+
+def set_sequence_state(scene, state: dict) -> None:
+    """Set the sensor's sampler attributes (``sample_offset``...; no recompilation): on
+    the Python sampler object, or through ``mi.traverse`` for a sampler that exposes them
+    as parameters."""
     sampler = scene.sensors()[0].sampler()
-    if hasattr(sampler, "sample_offset"):
-        sampler.sample_offset = offset
-        return
-    import mitsuba as mi
-    params = mi.traverse(scene)
-    key = next(k for k in params.keys() if k.endswith("sampler.sample_offset"))
-    params[key] = mi.UInt32(offset)
-    params.update()
+    params = None
+    for name, value in state.items():
+        if hasattr(sampler, name):
+            setattr(sampler, name, value)
+            continue
+        import mitsuba as mi
+        params = params if params is not None else mi.traverse(scene)
+        key = next(k for k in params.keys() if k.endswith(f"sampler.{name}"))
+        params[key] = mi.UInt32(value)
+    if params is not None:
+        params.update()
 
 
 def kernels_compiled(history: list[dict]) -> int:
@@ -137,12 +151,13 @@ def kernels_compiled(history: list[dict]) -> int:
                and (not k.get("cache_hit", False) or k.get("cache_disk", False)))
 
 
-def _render(scene, continues: bool, spp: int, seed: int, offset: int):
-    """One render: (image, wall seconds, CPU seconds, kernels compiled during it)."""
+def _render(scene, spp: int, seed: int, sequence: dict | None = None):
+    """One render (``sequence``: the sampler state it continues, :func:`sequence_state`):
+    (image, wall seconds, CPU seconds, kernels compiled during it)."""
     import drjit as dr
     import mitsuba as mi
-    if continues:
-        set_sample_offset(scene, offset)
+    if sequence:
+        set_sequence_state(scene, sequence)
     dr.set_flag(dr.JitFlag.KernelHistory, True)
     dr.kernel_history_clear()
     cpu, start = time.process_time(), time.perf_counter()
@@ -154,12 +169,12 @@ def _render(scene, continues: bool, spp: int, seed: int, offset: int):
     return np.array(image, dtype=np.float64)[..., :3], seconds, cpu, compiled
 
 
-def warm_render(scene, continues: bool, spp: int, seed: int, offset: int,
+def warm_render(scene, spp: int, seed: int, sequence: dict | None = None,
                 tries: int = WARM_TRIES):
     """:func:`_render` again (same seed, same image) until a render compiled nothing;
     returns (image, seconds, cpu seconds, renders discarded, compiled in the kept one)."""
     for attempt in range(tries):
-        image, seconds, cpu, compiled = _render(scene, continues, spp, seed, offset)
+        image, seconds, cpu, compiled = _render(scene, spp, seed, sequence)
         if not compiled:
             return image, seconds, cpu, attempt, 0
     return image, seconds, cpu, tries - 1, compiled
@@ -179,7 +194,7 @@ def run_job(job: Job, variant: str) -> JobResult:
     for i, k in enumerate(job.passes()):
         seed = job.seed if continues else derive_seed(job.seed, i)
         image, seconds, cpu_seconds, discarded, compiled = warm_render(
-            scene, continues, k, seed, job.sample_offset + done)
+            scene, k, seed, sequence_state(job, done))
         recompiled += discarded
         compiled_passes += compiled > 0
         # Mitsuba's stratified, orthogonal and ldsampler round the count (e.g.

@@ -48,6 +48,8 @@ class Job:
     rr_depth: int | None = None
     hide_emitters: bool | None = None
     timing_group: str | None = None  # jobs whose times one comparison divides
+    sequence_spp: int = 0       # samples per pixel of the whole sequence a job continues
+                                # (samplers that order pixels by it, zsobol; 0: none)
 
     def passes(self) -> list[int]:
         """The spp of each pass of this job."""

@@ -43,12 +43,15 @@ def plugins_version() -> str:
 
 def make_job(prefix: str, info: SceneInfo, method: Method, width: int, height: int, spp: int,
              seed: int, depth: Depth, variant: str, sample_offset: int = 0, pass_spp: int = 0,
-             timing_group: str | None = None) -> Job:
+             timing_group: str | None = None, sequence_spp: int = 0) -> Job:
     """A :class:`Job` whose key is ``prefix`` + a hash of everything its image depends on
-    (the plugin sources and the variant included; the method by its name)."""
+    (the plugin sources and the variant included; the method by its name; the sequence's
+    length only where a sampler needs it, so other keys are as they always were)."""
     fields = dict(scene=info.path, scene_sha256=info.sha256, method=method.name, width=width,
                   height=height, spp=spp, seed=seed, sample_offset=sample_offset,
                   pass_spp=pass_spp, **dataclasses.asdict(depth))
+    if sequence_spp:
+        fields["sequence_spp"] = sequence_spp
     digest = hashlib.sha256(json.dumps([fields, variant, plugins_version()],
                                        sort_keys=True).encode()).hexdigest()[:12]
     safe = prefix.replace(":", "-").replace("+", "_")
@@ -65,13 +68,16 @@ def ladder(prefix: str, info: SceneInfo, method: Method, width: int, height: int
     images at each target accumulate the results of the first jobs (:func:`.jobs.accumulate`).
     """
     continues = method.continues_sequence
+    targets = sorted(set(int(t) for t in targets))
+    total = targets[-1] if continues and method.sampler_spec.sequence_length else 0
     jobs, done = [], 0
-    for i, target in enumerate(sorted(set(int(t) for t in targets))):
+    for i, target in enumerate(targets):
         seed = derive_seed(base_seed, prefix, 0 if continues else i)
         jobs.append(make_job(f"{prefix}/spp{done:05d}-{target:05d}", info, method, width,
                              height, target - done, seed, depth, variant,
                              sample_offset=done if continues else 0,
-                             pass_spp=pass_spp, timing_group=timing_group))
+                             pass_spp=pass_spp, timing_group=timing_group,
+                             sequence_spp=total))
         done = target
     return jobs
 

@@ -13,14 +13,14 @@ requested count (by default: what the plugin itself reports, ``sample_count()`` 
 :func:`register_sampler` adds one (a user's own Python sampler plugin, say); it then enters
 the method grammar (``bsdf+nee+mysampler``), the sampler study and the lab's point sets.
 The built-in table: Mitsuba's ``independent``, ``stratified``, ``multijitter``,
-``orthogonal`` and ``ldsampler``, and the bundled ``halton``.
+``orthogonal`` and ``ldsampler``, and the bundled ``halton`` and ``zsobol``.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 from typing import Callable
 
-from integrators.qmc import RANDOMIZATIONS as HALTON_RANDOMIZATIONS
+from integrators.qmc import RANDOMIZATIONS as QMC_RANDOMIZATIONS
 
 #: The sampler of a method that names none.
 DEFAULT = "independent"
@@ -37,6 +37,9 @@ class SamplerSpec:
     randomizations: tuple = ()             # valid RANDOMIZATION values ('' : takes none)
     deterministic: tuple = ()              # randomizations whose image is the same every run
     continues_sequence: bool = False       # jobs continue one sequence (seed kept, offset moved)
+    #: a continued sequence's whole length must be declared (``sequence_length``): the
+    #: sampler orders pixels by it (zsobol's Morton index times the sequence length)
+    sequence_length: bool = False
     bakes_spp: bool = False                # the sample count is compiled into the render kernel
     native: bool = False                   # one of Mitsuba's own samplers
     plugin: str = ""                       # Mitsuba plugin type (default: ``name``)
@@ -77,6 +80,14 @@ class SamplerSpec:
             d["randomization"] = randomization
         d.update(self.film_parameters(width, height))
         return d
+
+    def sequence_attributes(self, offset: int, total: int) -> dict:
+        """Attributes to set on the sampler before a render that continues its sequence at
+        ``offset`` (of ``total`` samples per pixel in all; 0: the render's own count)."""
+        out = {"sample_offset": offset}
+        if self.sequence_length:
+            out["sequence_length"] = total
+        return out
 
     def rendered_count(self, spp: int) -> int:
         """The count a render at ``spp`` requested takes (the plugin's own rounding; needs a
@@ -154,5 +165,11 @@ for _name, _doc in (("independent", "Mitsuba's independent (uniform random) samp
     register_sampler(SamplerSpec(_name, bakes_spp=_name != "independent", native=True,
                                  description=_doc))
 register_sampler(SamplerSpec(
-    "halton", randomizations=tuple(HALTON_RANDOMIZATIONS), deterministic=("none",),
+    "halton", randomizations=tuple(QMC_RANDOMIZATIONS), deterministic=("none",),
     continues_sequence=True, description="the bundled randomized Halton sampler"))
+register_sampler(SamplerSpec(
+    "zsobol", randomizations=tuple(QMC_RANDOMIZATIONS), deterministic=("none",),
+    continues_sequence=True, sequence_length=True,
+    film_parameters=lambda width, height: {"film_width": width},
+    description="the bundled Owen-scrambled Sobol' sampler in Morton order across pixels "
+                "(blue-noise error; counts rounded up to powers of two)"))
