@@ -36,9 +36,6 @@ from experiments.lib.study import Study, repeat_prefix
 NAME = A.NAME
 ORDER = 20
 TITLE = "Convergence, error against time, efficiency"
-#: The depth the sampler study's winner is looked up at when the scene leaves max_depth to
-#: the integrator (its default).
-DEFAULT_DEPTH = 8
 
 
 def build_parser() -> cli.Parser:
@@ -90,12 +87,14 @@ def best_combination(choice: str, out: str, max_depth: int | None) -> Best | Non
         best = summary.get("best") or {}
         if not best:
             return None
-        wanted = max_depth if max_depth is not None else DEFAULT_DEPTH
+        wanted = max_depth if max_depth is not None else A.DEFAULT_DEPTH
         key = min(best, key=lambda d: (abs(int(d) - wanted), int(d)))
         choice, depth = best[key], int(key)
-        spp = max((r.get("requested_spp", r.get("spp", 0)) for r in summary.get("rows", [])
-                   if int(r.get("depth", -1)) == depth and r.get("sampler") == choice),
-                  default=None)
+        at = (summary.get("best_at") or {}).get(key) or {}
+        spp = at.get("requested_spp") or at.get("spp") or max(
+            (r.get("requested_spp") or r.get("spp", 0) for r in summary.get("rows", [])
+             if int(r.get("depth", -1)) == depth and r.get("sampler") == choice),
+            default=None)
         section = files.read_json(os.path.join(out, "samplers", "section.json"), {})
         resolution = section.get("settings", {}).get("resolution")
     name = "bsdf+nee" if choice == "independent" else f"bsdf+nee+{choice}"
@@ -182,7 +181,7 @@ def measure(st: Study, plan: Plan, equal_jobs: dict) -> A.Measured:
             metrics.flip_mean(shown, ref))
         equal_images[name] = shown
     floor = A.Floor(meta["mse_floor"], meta["relmse_floor"])
-    return A.Measured(ladders, equal, floor, st.repeats,
+    return A.Measured(ladders, equal, floor, st.repeats, plan.targets,
                       A.Images(ref, images, equal_images),
                       {k: v for k, v in meta.items() if k != "relmse_floor_map"})
 

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 from .. import files, figures, metrics, stats
 from .. import report as rep
 from .. import jobs as J
+from . import conclusion as C
+from . import convergence_analysis as A
 from .convergence_analysis import NAME, Result
 
 
@@ -30,38 +32,45 @@ class Context:
     start: float                  # time.perf_counter() when the study began
 
 
+BOUNDS = C.BOUNDS
 ERRORS_HEADER = ["method", "spp", "repeats", "seconds", "MSE", "MSE_lo", "MSE_hi", "relMSE",
-                 "relMSE_lo", "relMSE_hi", "FLIP (first repeat)", "image"]
+                 "relMSE_lo", "relMSE_hi", "FLIP (first repeat)", "image", BOUNDS]
 SLOPES_HEADER = ["method", "MSE vs spp", "MSE vs time", "relMSE vs spp", "relMSE vs time"]
 EFFICIENCY_HEADER = ["method", "spp", "repeats", "seconds", "MSE", "MSE_lo", "MSE_hi",
                      "relMSE", "relMSE_lo", "relMSE_hi", "relative efficiency",
                      "relative efficiency_lo", "relative efficiency_hi", "equal-time spp",
                      "equal-time MSE", "equal-time MSE_lo", "equal-time MSE_hi",
+                     "equal-time relMSE", "equal-time relMSE_lo", "equal-time relMSE_hi",
                      "equal-time relative efficiency", "equal-time relative efficiency_lo",
-                     "equal-time relative efficiency_hi"]
+                     "equal-time relative efficiency_hi", BOUNDS]
 
 
 def _stem(method: str, spp: int) -> str:
     return f"{NAME}/{method}/spp{spp:05d}"
 
 
-def intro(ctx: Context) -> dict:
+def intro(ctx: Context, result: Result) -> list[dict]:
     s, st, meta = ctx.settings, ctx.st, ctx.measured.reference
-    best = s.best.method.name if s.best is not None else None
-    return rep.text(
+    return [rep.text(
         f"Progressive renders of {os.path.basename(s.scene)} at {st.width}x{st.height} "
         f"({s.depth.describe()}): each method accumulates jobs (a new seed each; Halton "
-        f"continues its sequence) to 1, 2, 4, ... {s.spp} spp (Mitsuba's stratified, "
-        f"orthogonal and ldsampler round counts up; the spp shown are those rendered), "
-        f"{st.repeats} times with independent randomizations (plain Halton, deterministic, "
-        f"once). Errors are expected values over the repeats against the reference: "
-        f"{st.describe_reference(meta)}. Times are warm render times in the timed "
-        f"configuration (JIT compilation excluded), cumulative over passes. "
-        + (f"{best} is the best combination the sampler study found (its most efficient "
-           f"sampler with bsdf+nee)." if best else
+        f"continues its sequence) to 1, 2, 4, ... {s.spp} spp, {st.repeats} times with "
+        f"independent randomizations (plain Halton, deterministic, once). Mitsuba's "
+        f"stratified, orthogonal and ldsampler round counts up; the spp shown are those "
+        f"rendered.\n\n"
+        f"Errors are expected values over the repeats against the reference: "
+        f"{st.describe_reference(meta)}; an error that cannot be told from the reference's "
+        f"noise is given as an upper bound.\n\n"
+        f"Times are warm render times in the timed configuration (JIT compilation excluded), "
+        f"cumulative over passes. Intervals: {stats.LEVEL:.0%}, {stats.METHOD}.\n\n"
+        + (result.best_note or
            "The sampler study's winner is not among the methods (run the sampler study "
-           "first, as run_all does, or give --best-sampler).")
-        + f" Intervals: {stats.LEVEL:.0%}, {stats.METHOD}.")
+           "first, as run_all does, or give --best-sampler)."))]
+
+
+def _short(e: stats.Estimate, fmt: str = "{:.2e}") -> str:
+    """A tile caption's number: '< x' for an upper bound."""
+    return ("< " if e.bound else "") + fmt.format(e.value)
 
 
 def sequences(ctx: Context, result: Result) -> list[dict]:
@@ -71,15 +80,16 @@ def sequences(ctx: Context, result: Result) -> list[dict]:
     table, grid, captions, viewers, last_notes = [], [], [], [], []
     for m, lines in result.lines.items():
         grid.append(images.ladders[m])
-        captions.append([f"MSE {x.mse.value:.2e}\nrelMSE {x.relmse.value:.2e}\n"
+        captions.append([f"MSE {_short(x.mse)}\nrelMSE {_short(x.relmse)}\n"
                          f"{x.seconds:.2f} s" for x in lines])
-        notes = [f"{x.first_seconds:.2f} s · expected relMSE {x.relmse.value:.3g} · "
+        notes = [f"{x.first_seconds:.2f} s · expected relMSE {_short(x.relmse, '{:.3g}')} · "
                  f"FLIP {x.flip:.3f}" for x in lines]
         last_notes.append(notes[-1])
         for x, image in zip(lines, images.ladders[m]):
             files.write_image(os.path.join(out, _stem(m, x.spp)), image)
             table.append([m, x.spp, x.runs, round(x.seconds, 4), *x.mse.cells(),
-                          *x.relmse.cells(), stats.g(x.flip), _stem(m, x.spp) + ".exr"])
+                          *x.relmse.cells(), stats.g(x.flip), _stem(m, x.spp) + ".exr",
+                          ", ".join(x.bounds())])
         viewers.append(rep.viewer(
             out, f"{m}: 1 to {lines[-1].spp} spp",
             [(f"{x.spp} spp", im) for x, im in zip(lines, images.ladders[m])], ref,
@@ -128,9 +138,9 @@ def equal_time(ctx: Context, result: Result) -> list[dict]:
         files.write_image(os.path.join(st.out, "equal_time", row.method), image)
         shown.append(image)
         captions.append(f"{row.equal_spp} spp, {row.equal_seconds:.2f} s\n"
-                        f"MSE {row.equal_mse.value:.2e}")
-        notes.append(f"{row.equal_spp} spp, {row.equal_seconds:.2f} s · expected MSE "
-                     f"{row.equal_mse.text()} · FLIP "
+                        f"relMSE {_short(row.equal_relmse)}")
+        notes.append(f"{row.equal_spp} spp, {row.equal_seconds:.2f} s · expected relMSE "
+                     f"{row.equal_relmse.text()} · FLIP "
                      f"{ctx.measured.equal[row.method].flip:.3f}")
     names = [row.method for row in result.efficiency]
     figures.image_grid(os.path.join(st.out, NAME, "equal_time.png"), [shown], ["equal time"],
@@ -140,25 +150,40 @@ def equal_time(ctx: Context, result: Result) -> list[dict]:
         images.reference,
         f"Equal time: each method renders the samples that fit in {s.time_budget:g} s "
         f"at the speed measured on its convergence sequences, {st.repeats} times (the first "
-        f"repeat is shown; the notes give the expected MSE over the repeats with its "
+        f"repeat is shown; the notes give the expected relMSE over the repeats with its "
         f"{stats.LEVEL:.0%} interval).", notes, figure=f"{NAME}/equal_time.png")]
 
 
 def efficiency(ctx: Context, result: Result) -> list[dict]:
     s, st = ctx.settings, ctx.st
     rows = [[r.method, r.spp, r.repeats, round(r.seconds, 3), *r.mse.cells(),
-             *r.relmse.cells(), *r.relative.cells(), r.equal_spp, *r.equal_mse.cells(),
-             *r.equal_relative.cells()] for r in result.efficiency]
+             *r.relmse.cells(), *C.ratio_cells(r.relative), r.equal_spp,
+             *r.equal_mse.cells(), *r.equal_relmse.cells(), *C.ratio_cells(r.equal_relative),
+             ", ".join(r.bounds())]
+            for r in result.efficiency]
     return [
         rep.write_table(
             st.out, f"{NAME}/efficiency", EFFICIENCY_HEADER, rows,
-            f"Veach efficiency 1/(MSE x time) after {s.spp} spp and at equal time, "
+            f"Veach efficiency 1/({A.METRIC} x time) after {s.spp} spp and at equal time, "
             f"relative to {result.base}: expected values over {st.repeats} repeats with "
-            f"{stats.LEVEL:.0%} intervals ({stats.METHOD})"),
-        rep.text(" ".join(result.sentences) + " Timings are warm render times on this "
-                    "machine and vary with its load (other processes sharing the cores slow "
-                    "every method); MSE does not."),
+            f"{stats.LEVEL:.0%} intervals ({stats.METHOD}); n/a where an error is below "
+            f"the reference's own noise"),
+        rep.text(A.WHY_METRIC + "\n\nTimings are warm render times on this machine and vary "
+                 "with its load (other processes sharing the cores slow every method); the "
+                 "errors do not."),
     ]
+
+
+def conclusion(ctx: Context, result: Result) -> list[dict]:
+    """The conclusion: a short table and at most three sentences made from its rows."""
+    if not result.conclusion:
+        return []
+    return [rep.write_table(ctx.st.out, f"{NAME}/conclusion", C.HEADER,
+                            C.rows(result.conclusion),
+                            f"Conclusion: each comparison by its ratio (above 1: A is better) "
+                            f"with its {stats.LEVEL:.0%} interval, and the counts of the "
+                            f"ladder where the interval-decided order changes"),
+            rep.text(" ".join(result.sentences))]
 
 
 def settings_table(ctx: Context) -> dict:
@@ -175,10 +200,14 @@ def settings_table(ctx: Context) -> dict:
 
 def report(ctx: Context, result: Result) -> None:
     """Write the section, its files and summary.json."""
-    blocks = [intro(ctx)] + sequences(ctx, result) + equal_time(ctx, result) \
-        + efficiency(ctx, result)
+    blocks = intro(ctx, result) + sequences(ctx, result) + equal_time(ctx, result) \
+        + efficiency(ctx, result) + conclusion(ctx, result)
     s = ctx.settings
     rep.write_section(s.out, NAME, ctx.title, ctx.order, settings_table(ctx), blocks,
                          s.variant, time.perf_counter() - ctx.start)
     files.write_json(os.path.join(s.out, NAME, "summary.json"),
-                     {"efficiency": [r.record() for r in result.efficiency]})
+                     {"efficiency": [r.record() for r in result.efficiency],
+                      "efficiency_metric": A.METRIC,
+                      "conclusion": [dict(zip(C.HEADER, row))
+                                     for row in C.rows(result.conclusion)],
+                      "sentences": result.sentences, "best_combination": result.best_note})

@@ -7,7 +7,9 @@ with every ratio, interval, verdict, table row and sentence of the report. No st
 files, no rendering: the tests feed it synthetic numbers (``tests/test_writeup.py``).
 
 The headline ratio is ``B/A`` (RMSE of B over RMSE of A at equal spp): above 1, A has
-less error.
+less error. Every expected MSE has the reference's own subtracted
+(:func:`~..stats.excess_interval`): one below the reference's noise is an upper bound,
+and the ratio of a pair with such a side cannot be told.
 """
 from __future__ import annotations
 
@@ -15,6 +17,7 @@ import math
 from dataclasses import dataclass, field
 
 from .. import stats
+from . import conclusion as C
 
 NAME = "writeup"
 
@@ -73,20 +76,29 @@ class PairResult:
     spp: int
     mse_a: stats.Estimate       # expected MSE, the reference's own subtracted
     mse_b: stats.Estimate
-    rmse_a: float               # sqrt of the expected MSE
+    rmse_a: float               # sqrt of the expected MSE (of its upper bound for a bound)
     rmse_b: float
     variance_ratio: stats.Estimate    # MSE_B / MSE_A
     rmse_ratio: stats.Estimate        # RMSE_B / RMSE_A (> 1: A has less error)
-    verdict: str
+    comparison: C.Comparison          # the conclusion's row (ratio RMSE_B / RMSE_A)
     shown_ratio: float          # RMSE_B / RMSE_A of the images shown (one run)
     rmse_shown_a: float
     rmse_shown_b: float
+
+    @property
+    def verdict(self) -> str:
+        return self.comparison.sentence()
+
+    def bounds(self) -> list[str]:
+        """Which RMSEs are only upper bounds (below the reference's noise)."""
+        return [f"RMSE {k}" for k, e in (("B", self.mse_b), ("A", self.mse_a)) if e.bound]
 
 
 @dataclass(frozen=True)
 class Result:
     pairs: list                 # [PairResult]
-    verdicts: list              # one sentence per pair
+    conclusion: list            # [conclusion.Comparison], one per pair
+    sentences: list             # at most three, made from the conclusion's rows
     bias_rows: list             # rows of the short bias table (random pairs)
     deterministic_rows: list    # rows of the short convergence check (plain Halton)
     full_rows: list
@@ -114,18 +126,21 @@ def deterministic_rows(name: str, check: dict) -> list:
 
 def compare(p: PairMeasured, floor: float) -> PairResult:
     """One pair: expected MSEs with the reference's own subtracted, their ratio B/A with
-    its interval, and the verdict."""
-    mse = {side.method: tuple(v - floor for v in side.mse) for side in (p.a, p.b)}
+    its interval (it cannot be told when either is a bound), and the verdict."""
     a, b = p.a.method, p.b.method
-    var_ratio = stats.ratio_interval([mse[b]], [mse[a]])
+    excess = {side.method: tuple(v - floor for v in side.mse) for side in (p.a, p.b)}
+    expected = {side.method: stats.excess_interval(side.mse, floor) for side in (p.a, p.b)}
+    if expected[a].bound or expected[b].bound:
+        var_ratio = C.untold(min(len(p.a.mse), len(p.b.mse)))
+    else:
+        var_ratio = stats.ratio_interval([excess[b]], [excess[a]])
     rmse_ratio = stats.Estimate(*(_sqrt(x) for x in (var_ratio.value, var_ratio.lo,
                                                      var_ratio.hi)), var_ratio.n)
-    expected = {n: stats.mean_interval(v) for n, v in mse.items()}
     rmse = {n: math.sqrt(max(e.value, 0)) for n, e in expected.items()}
-    verdict = (f"After {p.spp} spp, " + stats.verdict(a, b, var_ratio, "accurate")
-               + " (ratio of expected MSEs at equal spp).")
+    row = C.Comparison(a, b, f"RMSE B/A at {p.spp} spp", rmse_ratio, "accurate",
+                       context=f"After {p.spp} spp")
     return PairResult(a, b, p.spp, expected[a], expected[b], rmse[a], rmse[b], var_ratio,
-                      rmse_ratio, verdict, p.b.rmse_shown / p.a.rmse_shown,
+                      rmse_ratio, row, p.b.rmse_shown / p.a.rmse_shown,
                       p.a.rmse_shown, p.b.rmse_shown)
 
 
@@ -146,4 +161,6 @@ def analyse(measured: Measured, settings=None) -> Result:
         full.append(bias_row(f"{f.a} − {f.b}", f.check)
                     + [f.passes, f"{f.seconds_a:.1f}", f"{f.seconds_b:.1f}"])
         passing[(f.a, f.b)] = f.check["pass_fraction"]
-    return Result(pairs, [p.verdict for p in pairs], bias, det, full, full_det, passing)
+    table = [p.comparison for p in pairs]
+    return Result(pairs, table, [c.sentence() for c in table][:C.MAX_SENTENCES], bias, det,
+                  full, full_det, passing)

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 from .. import figures, stats
 from .. import report as rep
+from . import conclusion as C
 from .writeup_analysis import NAME, Result
 
 
@@ -21,9 +22,10 @@ class Context:
     start: float                  # time.perf_counter() when the study began
 
 
+BOUNDS = C.BOUNDS
 RMSE_HEADER = ["pair A vs B", "spp", "repeats", "RMSE B", "RMSE A", "RMSE ratio B/A",
                "RMSE ratio B/A_lo", "RMSE ratio B/A_hi", "variance ratio B/A",
-               "variance ratio B/A_lo", "variance ratio B/A_hi"]
+               "variance ratio B/A_lo", "variance ratio B/A_hi", BOUNDS]
 BIAS_HEADER = ["pair", "mean difference A − B per channel (R, G, B) ± 99% CI",
                "CI contains 0", "pixel values passing z-test", "per channel"]
 DETERMINISTIC_HEADER = ["method", "spp", "MSE against the reference",
@@ -32,7 +34,7 @@ DETERMINISTIC_HEADER = ["method", "spp", "MSE against the reference",
 DETERMINISTIC_TEXT = (
     "Plain Halton (uniform+halton) is deterministic: the same points in every pixel and every "
     "run, so its 1-spp passes are not independent samples and a z-test from their spread "
-    "does not apply. It is checked the way a deterministic sequence can be: its error "
+    "does not apply.\n\nIt is checked the way a deterministic sequence can be: its error "
     "against the reference must fall as the sequence continues (MSE at 1/4, 1/2 and all of "
     "the samples; 'converges' when the last is below the first and the fitted slope of MSE "
     "against spp is -0.5 or steeper; with the image-mean difference per channel).")
@@ -52,9 +54,8 @@ def short_figures(ctx: Context, result: Result) -> list[dict]:
     for p in result.pairs:
         rows.append([f"{p.a} vs {p.b}", p.spp, st.repeats, f"{p.rmse_b:.4f}",
                      f"{p.rmse_a:.4f}",
-                     *(f"{x:.3g}" for x in (p.rmse_ratio.value, p.rmse_ratio.lo,
-                                            p.rmse_ratio.hi, p.variance_ratio.value,
-                                            p.variance_ratio.lo, p.variance_ratio.hi))])
+                     *C.ratio_cells(p.rmse_ratio), *C.ratio_cells(p.variance_ratio),
+                     ", ".join(p.bounds())])
         img_a, img_b = images.shown[(p.a, p.spp)], images.shown[(p.b, p.spp)]
         stem = _stem(p.a, p.b, f"{p.spp}spp")
         figures.image_grid(os.path.join(s.out, NAME, stem + ".png"), [[img_b, img_a, ref]],
@@ -73,7 +74,10 @@ def short_figures(ctx: Context, result: Result) -> list[dict]:
         f"independent runs, the reference's own expected MSE ({floor:.1e}) subtracted "
         f"(ratio > 1: A has less error; {stats.LEVEL:.0%} intervals, {stats.METHOD}; plain "
         f"Halton is deterministic: one run, no spread of its own). The images below are the "
-        f"first run."), rep.text(" ".join(result.verdicts))]
+        f"first run."), rep.write_table(
+        s.out, f"{NAME}/conclusion", C.HEADER, C.rows(result.conclusion),
+        f"Conclusion: each pair by its RMSE ratio B/A at equal spp (above 1: A has less "
+        f"error) with its {stats.LEVEL:.0%} interval"), rep.text(" ".join(result.sentences))]
     if result.bias_rows:
         blocks.append(rep.write_table(
             s.out, f"{NAME}/bias_short", BIAS_HEADER, result.bias_rows,
