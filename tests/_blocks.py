@@ -256,19 +256,22 @@ def _unbiased(a: Side, b: Side, rounding: float):
 
 def _detectable(test, a: Side, b: Side, alpha: float) -> float:
     """Smallest x such that ``a`` scaled by 1 + x and by 1 - x both make the expected
-    statistic of some comparison of ``test`` reach its critical value plus POWER_Z
-    (inf if none does): the measured variances, the common means, ``a``'s means and
-    variances scaled as a uniform relative bias would."""
+    statistic of some comparison of ``test`` reach its critical value (at the measured
+    degrees of freedom) plus POWER_Z; inf if none does up to x = 1. ``a`` and ``b`` have
+    the common means (no bias): scaling ``a`` scales its means and variances as a
+    uniform relative bias would."""
+    crit = _crit(alpha, test(a, b)[1]) + POWER_Z
+
     def margin(factor):
-        stat, dof = test(a.scaled(factor), b)
-        return np.max(np.abs(stat) - (_crit(alpha, dof) + POWER_Z))
+        return np.max(np.abs(test(a.scaled(factor), b)[0]) - crit)
 
     out = []
-    for sign, top in ((1.0, 10.0), (-1.0, 1.0 - 1e-9)):
+    for sign in (1.0, -1.0):
+        top = 1.0 - 1e-9
         if margin(1.0 + sign * top) < 0:
             return np.inf
         lo, hi = 0.0, top
-        for _ in range(40):
+        for _ in range(24):
             mid = 0.5 * (lo + hi)
             lo, hi = (lo, mid) if margin(1.0 + sign * mid) >= 0 else (mid, hi)
         out.append(hi)

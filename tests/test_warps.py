@@ -143,7 +143,8 @@ def test_cosine_warp_with_a_density_off_by_3_percent_fails(monkeypatch, tmp_path
     1 + 0.03 cos(phi) (still normalised, 3% off at most)."""
     def tilted(v):
         cos_phi = v.x / dr.maximum(dr.sqrt(v.x * v.x + v.y * v.y), 1e-12)
-        return warps.square_to_cosine_hemisphere_pdf(v) * (1 + DETECTABLE_DENSITY_ERROR * cos_phi)
+        return (warps.square_to_cosine_hemisphere_pdf(v)
+                * (1 + DETECTABLE_DENSITY_ERROR * cos_phi))
     with pytest.raises(AssertionError):
         chi2_test(warps.square_to_cosine_hemisphere, tilted, monkeypatch, tmp_path)
 
