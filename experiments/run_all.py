@@ -32,9 +32,16 @@ def build_parser() -> cli.Parser:
         if study.shared is not None:
             study.shared(p)
         p.add_argument(f"--{study.name}", choices=studies.MODES, default="default",
+                       dest=mode_dest(study),
                        help=f"{study.title}: at its own default settings, tiny (quick), or "
                             f"not at all")
     return p
+
+
+def mode_dest(study: studies.StudySpec) -> str:
+    """Where ``--NAME default|quick|off`` is kept (apart from every other option's dest: a
+    study may be named like one, e.g. ``rr_depth``)."""
+    return f"study_mode_{study.name}"
 
 
 def _value(key, value) -> str:
@@ -73,7 +80,7 @@ def main(argv=None) -> None:
     args = cli.parse_args(build_parser(), argv)
     start = time.perf_counter()
     for study in studies.ordered():
-        mode = getattr(args, study.name)
+        mode = getattr(args, mode_dest(study))
         if mode == "off":
             continue
         quick = list(study.quick) if mode == "quick" else []

@@ -253,7 +253,7 @@ def test_run_all_runs_the_lab(tmp_path, monkeypatch):
     section = json.load(open(out / "lab" / "section.json"))
     assert section["settings"]["seed"] == 4 and section["settings"]["quick"] is True
     assert 'id="lab"' in (out / "index.html").read_text()
-    assert run_all.build_parser().parse_args(["--lab", "off"]).lab == "off"
+    assert run_all.build_parser().parse_args(["--lab", "off"]).study_mode_lab == "off"
 
 
 def test_help_lists_the_usual_options():
