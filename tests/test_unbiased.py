@@ -275,32 +275,6 @@ def vr_images(name, strategy, nee, seed0=5, **params):
 
 # ------------------------------------------------------------------- tests
 
-@pytest.mark.parametrize("name,strategy,nee", CASES, ids=[case_id(*c) for c in CASES])
-def test_blocks_agree_with_builtin_path(name, strategy, nee):
-    agreement = assert_blocks_agree(vr_images(name, strategy, nee), reference(name),
-                                    case_id(name, strategy, nee))
-    assert_detects_its_claim(agreement, name, nee, case_id(name, strategy, nee))
-
-
-def assert_detects_its_claim(agreement, name, nee, what):
-    claim = claimed_detectable(name, nee)
-    assert agreement.detectable <= claim, (
-        f"{what} detects only a {agreement.detectable:.2%} uniform bias, it claims "
-        f"{claim:.1%}: {agreement.describe()}")
-
-
-@pytest.mark.parametrize("name,params,strategy,nee,channels", EDGE_CASES,
-                         ids=[f"{n}-{s}-{'nee' if e else 'nonee'}" for n, _, s, e, _ in EDGE_CASES])
-def test_edge_cases_agree_with_builtin_path(name, params, strategy, nee, channels):
-    """hide_emitters with NEE (camera rays pass through area emitters), and the alpha
-    channel (valid_ray) through a ``null`` BSDF with a hidden environment."""
-    images = vr_images(name, strategy, nee, **params)
-    assert images.images.shape[-1] == channels
-    what = f"{name}, {params}, {strategy}, nee={nee}"
-    assert_detects_its_claim(assert_blocks_agree(images, reference(name, **params), what),
-                             name, nee, what)
-
-
 #: Scenes without a purely specular BSDF, at depths and rr_depths where roulette acts.
 SAME_SAMPLES = [("cbox-diffuse", {"max_depth": -1, "rr_depth": 1}),
                 ("cbox-phong", {"max_depth": -1}),
@@ -325,6 +299,32 @@ def test_bsdf_with_nee_is_mitsubas_path_sample_for_sample(name, params):
         err = np.abs(a - b) / np.maximum(np.abs(a), 1e-3)
         assert err.max() < 1e-4, (name, params, seed, float(err.max()),
                                   float(np.mean(err > 1e-4)))
+
+
+@pytest.mark.parametrize("name,strategy,nee", CASES, ids=[case_id(*c) for c in CASES])
+def test_blocks_agree_with_builtin_path(name, strategy, nee):
+    agreement = assert_blocks_agree(vr_images(name, strategy, nee), reference(name),
+                                    case_id(name, strategy, nee))
+    assert_detects_its_claim(agreement, name, nee, case_id(name, strategy, nee))
+
+
+def assert_detects_its_claim(agreement, name, nee, what):
+    claim = claimed_detectable(name, nee)
+    assert agreement.detectable <= claim, (
+        f"{what} detects only a {agreement.detectable:.2%} uniform bias, it claims "
+        f"{claim:.1%}: {agreement.describe()}")
+
+
+@pytest.mark.parametrize("name,params,strategy,nee,channels", EDGE_CASES,
+                         ids=[f"{n}-{s}-{'nee' if e else 'nonee'}" for n, _, s, e, _ in EDGE_CASES])
+def test_edge_cases_agree_with_builtin_path(name, params, strategy, nee, channels):
+    """hide_emitters with NEE (camera rays pass through area emitters), and the alpha
+    channel (valid_ray) through a ``null`` BSDF with a hidden environment."""
+    images = vr_images(name, strategy, nee, **params)
+    assert images.images.shape[-1] == channels
+    what = f"{name}, {params}, {strategy}, nee={nee}"
+    assert_detects_its_claim(assert_blocks_agree(images, reference(name, **params), what),
+                             name, nee, what)
 
 
 class TiltedUniform(strategies.HemisphereSampling):
