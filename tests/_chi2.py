@@ -16,10 +16,10 @@ import math
 import drjit as dr
 import mitsuba as mi
 
-# One definition of the chi-square grid and the interaction, shared with the lab: a cap
-# (phi, cos alpha) about an axis, the whole sphere for cos_min = -1.
-from experiments.lib.lab_warps import EqualAreaDomain as CapDomain  # noqa: F401
-from experiments.lib.lab_warps import cap_cos_min, interaction  # noqa: F401
+# One definition of the chi-square grid and the interaction, the plugins' own (shared with
+# the lab): a cap (phi, cos alpha) about an axis, the whole sphere for cos_min = -1.
+from integrators.chi2 import EqualAreaDomain as CapDomain  # noqa: F401
+from integrators.chi2 import cap_cos_min, interaction  # noqa: F401
 
 SIGNIFICANCE = 0.01
 

@@ -42,6 +42,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from integrators.chi2 import EqualAreaDomain, cap_cos_min, interaction
+
 #: Pool threshold of the chi-square test (expected count per cell), as mitsuba.chi2.
 POOL_THRESHOLD = 5.0
 #: Incidence angles of the lab (degrees from the normal).
@@ -58,7 +60,6 @@ BSDFS = tuple(
 VERSION = 1
 #: Phong exponents from which a panel's grid is a cap about the lobe (see domain_for).
 CAP_EXPONENT = 100
-CAP_LOBE_WIDTHS = 12.0
 
 
 @dataclass(frozen=True)
@@ -100,60 +101,6 @@ def plan(strategies, samples: int, seed: int, bsdfs=BSDFS, incidences=INCIDENCES
 
 # ------------------------------------------------------------------ domain
 
-class EqualAreaDomain:
-    """mitsuba.chi2 domain: (phi, cos alpha) about ``axis``, cos alpha in
-    [``cos_min``, 1], square grid (aspect 1); y grows towards the axis. The
-    default is the whole sphere about the normal (y = cos theta)."""
-
-    def __init__(self, axis=(0.0, 0.0, 1.0), cos_min: float = -1.0):
-        self.axis = tuple(float(a) for a in axis)
-        self.cos_min = float(cos_min)
-
-    def _frame(self):
-        import drjit as dr
-        import mitsuba as mi
-        return mi.Frame3f(dr.normalize(mi.Vector3f(*self.axis)))
-
-    def bounds(self):
-        import mitsuba as mi
-        return mi.ScalarBoundingBox2f([-math.pi, self.cos_min], [math.pi, 1.0])
-
-    def aspect(self):
-        return 1.0
-
-    def map_forward(self, p):
-        import drjit as dr
-        import mitsuba as mi
-        sin_t = dr.safe_sqrt(1.0 - dr.square(p.y))
-        sin_p, cos_p = dr.sincos(p.x)
-        return self._frame().to_world(mi.Vector3f(cos_p * sin_t, sin_p * sin_t, p.y))
-
-    def map_backward(self, v):
-        import drjit as dr
-        import mitsuba as mi
-        local = self._frame().to_local(v)
-        return mi.Vector2f(dr.atan2(local.y, local.x), dr.clip(local.z, self.cos_min, 1.0))
-
-    def inside(self, v):
-        """Directions inside the domain (all of them for the whole sphere)."""
-        return self._frame().to_local(v).z >= self.cos_min
-
-    def restrict(self, v, weight):
-        """Zero the weight of (and park at the axis) the directions outside the domain, so
-        that histogram and density both integrate to the mass inside it."""
-        import drjit as dr
-        import mitsuba as mi
-        inside = self.inside(v)
-        return (dr.select(inside, v, dr.normalize(mi.Vector3f(*self.axis))),
-                dr.select(inside, weight, 0.0))
-
-    def describe(self) -> str:
-        if self.cos_min <= -1.0:
-            return "whole sphere, (phi, cos theta)"
-        return (f"cap of half-angle {math.degrees(math.acos(self.cos_min)):.1f} deg about the "
-                f"mirror direction, (phi, cos alpha)")
-
-
 def domain_for(spec: "PanelSpec") -> EqualAreaDomain:
     """The grid of a panel: the whole sphere, except for Phong lobes of exponent
     >= CAP_EXPONENT, which would fall into a row or two of cells of a sphere
@@ -167,12 +114,6 @@ def domain_for(spec: "PanelSpec") -> EqualAreaDomain:
     return EqualAreaDomain((-math.sin(t), 0.0, math.cos(t)), cap_cos_min(n))
 
 
-def cap_cos_min(exponent: float, lobe_widths: float = CAP_LOBE_WIDTHS) -> float:
-    """cos of the half-angle of a cap ``lobe_widths`` Phong lobe widths wide:
-    1 - lobe_widths / (n + 1), at least -1 (the whole sphere)."""
-    return max(-1.0, 1.0 - lobe_widths / (exponent + 1.0))
-
-
 # ----------------------------------------------------------- the plugin
 
 def incident(incidence_deg: float):
@@ -180,18 +121,6 @@ def incident(incidence_deg: float):
     import mitsuba as mi
     t = math.radians(incidence_deg)
     return mi.Vector3f(math.sin(t), 0.0, math.cos(t))
-
-
-def interaction(wi, n: int):
-    """``n`` surface interactions with local incident direction ``wi``, z-up frame."""
-    import drjit as dr
-    import mitsuba as mi
-    si = dr.zeros(mi.SurfaceInteraction3f, n)
-    si.wi = wi
-    si.uv = mi.Point2f(0.5, 0.5)
-    si.sh_frame = mi.Frame3f(mi.Vector3f(0, 0, 1))
-    si.n = mi.Normal3f(0, 0, 1)
-    return si
 
 
 def variates(count: int, seed: int, dim: int = 3):
