@@ -5,7 +5,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 ARGS   ?=
 
-.PHONY: install run full test bench clean
+.PHONY: install run full test bench docs clean
 
 install: $(STAMP)
 
@@ -28,8 +28,13 @@ full: install
 test: install
 	$(BIN)/python -m pytest -q tests $(ARGS)
 
+# Benchmarks: results/bench.md and .json, and the table of docs/benchmarks.md.
 bench: install
-	$(BIN)/python -m benchmarks.run $(ARGS)
+	$(BIN)/python -m benchmarks.run --update-docs $(ARGS)
+
+# The generated parts of the docs (docs/plugins.md, option tables, examples shown).
+docs: install
+	$(BIN)/python -m tools.docs
 
 clean:
 	rm -rf results .pytest_cache

@@ -100,6 +100,31 @@ def _info():
     return SC.read_scene(scene_path("cbox.xml"))
 
 
+def test_job_keys_change_with_everything_the_image_depends_on():
+    """A job's key (its store entry) differs when any input of its image differs, and is
+    the same for the same inputs; negative control: a key that forgets one field would
+    let two different renders share a store entry (the first would be reused)."""
+    import dataclasses
+    info = _info()
+    base = dict(prefix="t/key", info=info, method=M.parse_method("bsdf+halton"), width=16,
+                height=8, spp=4, seed=3, depth=M.Depth(3, 2, False), variant="llvm_ad_rgb",
+                sample_offset=0, pass_spp=0, sequence_spp=0)
+    key = P.make_job(**base).key
+    assert P.make_job(**base).key == key
+    changes = dict(method=M.parse_method("bsdf+halton:none"), width=8, height=16, spp=5,
+                   seed=4, depth=M.Depth(4, 2, False), variant="cuda_ad_rgb", sample_offset=4,
+                   pass_spp=2, sequence_spp=8,
+                   info=dataclasses.replace(info, sha256="0" * 64),
+                   prefix="t/other")
+    for field, value in changes.items():
+        assert P.make_job(**{**base, field: value}).key != key, field
+    for field in ("max_depth", "rr_depth", "hide_emitters"):
+        depth = dataclasses.replace(base["depth"], **{field: None})
+        assert P.make_job(**{**base, "depth": depth}).key != key, field
+    moved = dataclasses.replace(info, path=info.path + ".copy.xml")
+    assert P.make_job(**{**base, "info": moved}).key != key
+
+
 def _ladder(name="uniform", targets=(1, 2, 4, 8), width=16, height=8, seed=7, **options):
     info = _info()
     return P.ladder(f"t/{name}", info, M.parse_method(name), width, height, targets, seed, info.depth,

@@ -1,0 +1,124 @@
+"""The mutants of ``make mutants`` (:mod:`tools.mutants`): realistic bugs, one each.
+
+Every entry replaces one exact piece of the source with a mistake that a careful author
+could make and that changes what the code computes (never a mere refactoring): the kind
+of bug each test family exists to catch. ``first`` names the test files to run first.
+"""
+from tools.mutants import Mutant
+
+MUTANTS = [
+    # ------------------------------------------------------------ plugins: the estimator
+    Mutant("rr-eta", "integrators/path.py",
+           "beta[rr_active] *= dr.rcp(dr.maximum(rr_prob, warps.PDF_EPSILON))",
+           "beta[rr_active] *= dr.rcp(dr.maximum(dr.minimum(beta_max, RR_MAX_PROBABILITY), "
+           "warps.PDF_EPSILON))",
+           "Russian roulette divides by a survival probability without eta^2 while the "
+           "survival test keeps it (too bright inside glass)",
+           ("tests/test_unbiased.py",)),
+    Mutant("nee-balance", "integrators/path.py",
+           "warps.power_heuristic(ds_em.pdf, vertex.em_pdf))",
+           "ds_em.pdf / (ds_em.pdf + vertex.em_pdf))",
+           "next-event estimation weighted by the balance heuristic while BSDF hits keep the "
+           "power heuristic: the two MIS weights no longer sum to one",
+           ("tests/test_unbiased.py",)),
+    Mutant("mixture-weight", "integrators/strategies.py",
+           "        return value, warps.mixture_pdf(self.weight, self.a.pdf(bsdf, ctx, si, wo, "
+           "active),\n                                        pdf_b)",
+           "        return value, warps.mixture_pdf(1.0 - self.weight, self.a.pdf(bsdf, ctx, "
+           "si, wo, active),\n                                        pdf_b)",
+           "the mixture's weight uses the other technique's share (1 - c instead of c)",
+           ("tests/test_strategy_warps.py", "tests/test_mis.py")),
+    Mutant("sided-half", "integrators/warps.py",
+           "return dr.select(both_sides, 0.5 * mirrored,",
+           "return dr.select(both_sides, mirrored,",
+           "the two-sided hemisphere density forgets the 1/2 of the side choice "
+           "(transmitting BSDFs with uniform and cosine sampling)",
+           ("tests/test_warps.py", "tests/test_strategy_warps.py")),
+    Mutant("phong-warp", "integrators/warps.py",
+           "cos_alpha = dr.power(u.x, dr.rcp(exponent + 1.0))",
+           "cos_alpha = dr.power(u.x, dr.rcp(exponent + 2.0))",
+           "the Phong lobe warp inverts the CDF of cos^(n+1) (the BRDF's normalisation taken "
+           "for the lobe's)",
+           ("tests/test_warps.py", "tests/test_phong.py")),
+    Mutant("phong-sampled-lobe-pdf", "integrators/phong.py",
+           "        pdf = self._pdf(p_glossy, wo, glossy_pdf)\n        active &=",
+           "        pdf = dr.select(glossy, p_glossy * glossy_pdf, (1.0 - p_glossy) * "
+           "warps.square_to_cosine_hemisphere_pdf(wo))\n        active &=",
+           "the writeup's bug: the density of the lobe that drew the sample instead of the "
+           "mixture's (pixels darken as spp grows)",
+           ("tests/test_phong.py",)),
+    Mutant("phong-normalisation", "integrators/phong.py",
+           "f = kd * dr.inv_pi + ks * ((n + 2.0) / (n + 1.0)) * glossy_pdf",
+           "f = kd * dr.inv_pi + ks * glossy_pdf",
+           "the glossy lobe normalised by (n + 1) / 2 pi (the sampling density's) instead of "
+           "(n + 2) / 2 pi (energy off by (n + 2) / (n + 1))",
+           ("tests/test_phong.py",)),
+    Mutant("eta-inverted", "integrators/strategies.py",
+           "return dr.select(crosses & (bs.eta > 0), bs.eta, 1.0)",
+           "return dr.select(crosses & (bs.eta > 0), dr.rcp(bs.eta), 1.0)",
+           "the relative index of refraction of a sampled crossing taken the wrong way round",
+           ("tests/test_strategy_warps.py", "tests/test_unbiased.py")),
+    # ------------------------------------------------------------ plugins: the samplers
+    Mutant("halton-dimension", "integrators/halton.py",
+           "                                  self._pixel_seed, self.randomization)\n"
+           "        self._dimension += 1",
+           "                                  self._pixel_seed, self.randomization)\n"
+           "        self._dimension += 2",
+           "halton's dimension counter advanced twice per draw (every other prime base "
+           "skipped: an off-by-one in the dimension bookkeeping)",
+           ("tests/test_halton.py",)),
+    Mutant("halton-offset", "integrators/halton.py",
+           "return self._sample_offset + self._pass_offset + self._lane_sample",
+           "return self._pass_offset + self._lane_sample",
+           "halton ignores sample_offset: a continued sequence starts over at every job",
+           ("tests/test_halton.py", "tests/test_experiments.py")),
+    Mutant("zsobol-matrix", "integrators/qmc.py",
+           "v = v ^ ((v >> 4) & 0x0F0F0F0F)",
+           "v = v ^ ((v >> 4) & 0x0F0F0F0E)",
+           "one entry of Sobol's second generator matrix wrong",
+           ("tests/test_zsobol.py",)),
+    Mutant("zsobol-dimension", "integrators/zsobol.py",
+           "                                 self.randomization)\n        self._dimension += 2",
+           "                                 self.randomization)\n        self._dimension += 1",
+           "zsobol's next_2d advances one dimension instead of two (successive pairs overlap)",
+           ("tests/test_zsobol.py",)),
+    # ------------------------------------------------------------ experiments
+    Mutant("relmse-denominator", "experiments/lib/metrics.py",
+           "    err = np.square(np.asarray(image, np.float64) - ref) / (ref * ref + eps)",
+           "    err = np.square(np.asarray(image, np.float64) - ref) / (ref + eps)",
+           "relMSE divided by ref + eps instead of ref^2 + eps",
+           ("tests/test_experiments.py",)),
+    Mutant("normal-quantile", "experiments/lib/stats.py",
+           "half = _t_quantile(dof, level) * math.sqrt(total)",
+           "half = 1.959964 * math.sqrt(total)",
+           "intervals from the normal quantile instead of Student's t (too narrow at 3-4 "
+           "repeats)",
+           ("tests/test_stats.py",)),
+    Mutant("verdict-inverted", "experiments/lib/stats.py",
+           "return ratio_interval([mse_b, seconds_b], [mse_a, seconds_a], level)",
+           "return ratio_interval([mse_a, seconds_a], [mse_b, seconds_b], level)",
+           "the efficiency ratio A / B computed as B / A (every verdict names the wrong winner)",
+           ("tests/test_convergence.py", "tests/test_samplers_study.py")),
+    Mutant("floor-forgotten", "experiments/lib/stats.py",
+           "    floor = float(floor)\n    value = float(x.mean()) - floor",
+           "    floor = 0.0\n    value = float(x.mean()) - floor",
+           "the reference's own expected error is not subtracted",
+           ("tests/test_convergence.py", "tests/test_samplers_study.py")),
+    Mutant("variance-dof", "experiments/lib/jobs.py",
+           "s2 = np.maximum(self.sq - self.spp * self.mean ** 2, 0.0) / (self.passes - 1)",
+           "s2 = np.maximum(self.sq - self.spp * self.mean ** 2, 0.0) / self.passes",
+           "the per-pixel variance of a reference from its passes divided by n, not n - 1 "
+           "(the floor under every error too small)",
+           ("tests/test_experiments.py",)),
+    Mutant("warm-timing-off", "experiments/lib/execute.py",
+           "        if not compiled:\n",
+           "        if True:\n",
+           "warm timing switched off: a render that compiled its kernel is kept and timed",
+           ("tests/test_timing.py",)),
+    Mutant("key-forgets-seed", "experiments/lib/plan.py",
+           "    digest = hashlib.sha256(json.dumps([fields, variant, plugins_version()],",
+           "    digest = hashlib.sha256(json.dumps([{k: v for k, v in fields.items() "
+           "if k != \"seed\"}, variant, plugins_version()],",
+           "a store key that forgets the seed (two repeats would share one entry)",
+           ("tests/test_experiments.py",)),
+]
