@@ -17,7 +17,7 @@ from experiments.lib import samplers as S  # noqa: E402  (the sampler table)
 from experiments.lib import scenes as SC  # noqa: E402  (scene loading)
 from experiments.lib.jobs import cpu_model  # noqa: E402  (one definition, shared)
 
-#: The checkout (the benchmarks run from it: README.md, results/); the one definition for
+#: The checkout (the benchmarks run from it: docs/benchmarks.md, results/); the one definition for
 #: the benchmarks.
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 #: The bundled default scene (package data of :mod:`scenes`).

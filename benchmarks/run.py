@@ -1,14 +1,15 @@
 """``make bench``: our plugins against Mitsuba's built-ins and the ray-casting limit.
 
 Prints one table and writes it, with the machine and versions, to
-``<out>/bench.md`` and ``<out>/bench.json`` (and, with ``--update-readme``,
-between the markers ``<!-- bench:start -->`` / ``<!-- bench:end -->`` of
-``README.md``). Every speed figure is a ratio measured in this process after a
-warm-up render (compilation excluded): the configurations are interleaved
-(A, B, A, B, ... in alternating order) and each figure is the median of the
-per-round ratios. Ratios are of process CPU time, which other processes on a
-shared machine perturb far less than wall-clock time; the wall-clock ratio is
-given next to it. On the default scene (``scenes/cbox.xml``, NEE on):
+``<out>/bench.md`` and ``<out>/bench.json`` (and, with ``--update-docs``, as
+``make bench`` runs it, into the generated ``bench`` block of ``docs/benchmarks.md``
+through :func:`tools.docs.write_benchmarks`). Every speed figure is a ratio
+measured in this process after a warm-up render (compilation excluded): the
+configurations are interleaved (A, B, A, B, ... in alternating order) and each
+figure is the median of the per-round ratios. Ratios are of process CPU time,
+which other processes on a shared machine perturb far less than wall-clock
+time; the wall-clock ratio is given next to it. On the default scene
+(``scenes/cbox.xml``, NEE on):
 
 1. ``vr_path`` (``emitter_sampling=true``, each strategy) / built-in ``path``,
    same ``max_depth`` and spp: per-sample time. Target <= 1.00.
@@ -56,8 +57,6 @@ from . import common as C
 from . import halton as H
 from .common import dr, mi
 
-README = os.path.join(C.ROOT, "README.md")
-MARK_START, MARK_END = "<!-- bench:start -->", "<!-- bench:end -->"
 RSS_LIMIT_MB = 1.5e9 / 2**20          # 1.5 GB in MiB
 RSS_FLAT = 1.10                       # "flat": peak at 10x the spp within 10 %
 
@@ -315,16 +314,11 @@ def markdown(rows: list[list[str]], res: dict) -> str:
 write_atomic = files.write_text
 
 
-def update_readme(md: str) -> bool:
-    """Put the table between the README's bench markers; False when there are none."""
-    if not os.path.isfile(README):
-        return False
-    text = open(README).read()
-    i, j = text.find(MARK_START), text.find(MARK_END)
-    if i < 0 or j < i:
-        return False
-    files.write_text(README, text[:i + len(MARK_START)] + "\n" + md + text[j:])
-    return True
+def update_docs(md: str) -> str:
+    """Put the table into docs/benchmarks.md (its generated ``bench`` block); the path."""
+    sys.path.insert(0, C.ROOT)
+    from tools import docs
+    return docs.write_benchmarks(md, C.ROOT)
 
 
 # ---------------------------------------------------------------- main
@@ -349,9 +343,9 @@ def parse_args(argv=None):
                    help="smaller images and fewer rounds for the halton_native and cluster "
                         "parts (checks that they run; not figures to quote)")
     p.add_argument("--out", default=os.path.join(C.ROOT, "results"))
-    p.add_argument("--update-readme", action="store_true",
-                   help="also put the table between the bench markers of README.md "
-                        "(by default the tracked README is left alone)")
+    p.add_argument("--update-docs", action="store_true",
+                   help="also put the table into docs/benchmarks.md (make bench does; by "
+                        "default the tracked docs are left alone)")
     args = p.parse_args(argv)
     args.skip = {s.strip() for s in args.skip.split(",") if s.strip()}
     return args
@@ -389,10 +383,10 @@ def main(argv=None) -> None:
     out_md, out_json = os.path.join(args.out, "bench.md"), os.path.join(args.out, "bench.json")
     write_atomic(out_md, "# Benchmarks\n\n" + md)
     write_atomic(out_json, json.dumps(res, indent=1, default=str) + "\n")
-    readme = update_readme(md) if args.update_readme else False
+    page = update_docs(md) if args.update_docs else None
     print()
     print(md)
-    print(f"wrote {out_md}, {out_json}" + (", README.md" if readme else "")
+    print(f"wrote {out_md}, {out_json}" + (f", {page}" if page else "")
           + f" in {res['seconds']:.0f} s")
     sys.stdout.flush()
     os._exit(0)       # skip LLVM/interpreter teardown
