@@ -88,7 +88,7 @@ class HaltonSampler(mi.Sampler):
     Sample counts: powers of two stratify dimension 0 fully, powers of three
     dimension 1; counts with both factors (72 = 2^3 3^2) stratify the pair
     into 2^a x 3^b boxes, so 81 or 72 spp can be more efficient than 64
-    (measured efficiencies: README, Benchmarks).
+    (measured efficiencies: docs/benchmarks.md).
 
     Progressive rendering: to render ``N`` samples in passes of ``k_1, k_2,
     ...`` samples, keep the seed fixed and set ``sample_offset`` to the

@@ -193,7 +193,7 @@ class VRPathIntegrator(mi.SamplingIntegrator):
     undersamples its integrand (a lobe clipped by the horizon, a diffuse part
     that a multi-lobe sampler picks rarely). How it compares with the better
     of ``cosine`` and ``bsdf`` over the stability study's Phong exponent
-    sweep: see the README.
+    sweep: see that study's section of the report (``results/index.html``).
 
     BSDFs with a Dirac delta lobe (mirrors, smooth dielectrics, ``plastic``,
     ``null``) cannot be hit by a sampled direction: at such vertices every

@@ -38,7 +38,7 @@ them as independent samples do. Probes that add this module's arithmetic
 pays that scattering, however cheap its permutation, so cheaper
 permutations (gather-free swap-or-not rounds, pbrt's cycle-walking
 ``PermutationElement``) were no faster than the table lookup. Measured
-costs: README, Benchmarks.
+costs: docs/benchmarks.md.
 
 Randomizations (pbrt-v4's ``RandomizeStrategy``):
 
