@@ -5,7 +5,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 ARGS   ?=
 
-.PHONY: install run full test bench docs clean
+.PHONY: install run full test mutants bench docs clean
 
 install: $(STAMP)
 
@@ -27,6 +27,10 @@ full: install
 
 test: install
 	$(BIN)/python -m pytest -q tests $(ARGS)
+
+# Realistic bugs applied one at a time to a copy: the tests must fail on each (long).
+mutants: install
+	$(BIN)/python -m tools.mutants $(ARGS)
 
 # Benchmarks: results/bench.md and .json, and the table of docs/benchmarks.md.
 bench: install
