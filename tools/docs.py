@@ -8,6 +8,7 @@
   docs/*.md, by KEY:
 
   - ``grammar``: the parts of the method grammar, from the strategy and sampler registries;
+  - ``forwarded``: the options ``run_all`` passes on to the studies;
   - ``options COMMAND``: the options table of ``python -m COMMAND`` from its parser
     (``options common``: the options every study takes, with their common defaults; a
     study's own table lists the options it adds or whose default or meaning differs);
@@ -312,6 +313,22 @@ def options_table(command: str) -> str:
     return "\n".join(lines) + "\n"
 
 
+def forwarded_table() -> str:
+    """What ``run_all`` passes on to the studies (:data:`experiments.run_all.SHARED`,
+    :data:`~experiments.run_all.FORWARDED`)."""
+    from experiments import run_all
+
+    def names(options) -> str:
+        return ", ".join(f"`{o}`" for o in options)
+    return "\n".join([
+        "| passed on to every study that takes it | options |", "|---|---|",
+        f"| always | {names(run_all.SHARED.values())} |",
+        f"| when given to run_all (else each study keeps its own default) | "
+        f"{names(run_all.FORWARDED.values())} |",
+        "| when given to run_all, to the study that declares it | a study's own options "
+        "in the table below (`StudySpec.forwarded`) |"]) + "\n"
+
+
 def grammar_table() -> str:
     from experiments.lib import methods as M, samplers as S
     rand = "; ".join(f"`{n}`: " + ", ".join(f"`{r}`" for r in S.get(n).randomizations)
@@ -430,6 +447,8 @@ def render(key: str, root: str = ROOT) -> str | None:
     kind, _, arg = key.partition(" ")
     if kind == "grammar":
         return grammar_table()
+    if kind == "forwarded":
+        return forwarded_table()
     if kind == "options":
         return options_table(arg)
     if kind == "include":
@@ -438,7 +457,7 @@ def render(key: str, root: str = ROOT) -> str | None:
         return fields_table(arg, root)
     if kind == "bench":
         return None
-    raise ValueError(f"unknown generated block '{key}' (grammar, options COMMAND, "
+    raise ValueError(f"unknown generated block '{key}' (grammar, forwarded, options COMMAND, "
                      f"include FILE[::NAME], fields MODULE.CLASS, bench)")
 
 
