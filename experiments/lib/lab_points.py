@@ -42,6 +42,7 @@ import numpy as np
 
 from . import files
 from . import samplers as S
+from . import screen_space as SP
 
 #: The calls of one sample, in order: ("2d", what) or ("1d", what).
 CAMERA = (("2d", "camera: film position"),)
@@ -162,14 +163,11 @@ def periodogram(points: np.ndarray, k_max: int) -> np.ndarray:
 
 
 def radial_average(spectrum: np.ndarray, k_max: int) -> tuple[np.ndarray, np.ndarray]:
-    """(frequencies 1..k_max, mean of ``spectrum`` over |k| in [f - 0.5, f + 0.5))."""
+    """(frequencies 1..k_max, mean of ``spectrum`` over |k| in [f - 0.5, f + 0.5)), by
+    :func:`.screen_space.radial_average` (the one definition)."""
     k = np.arange(-k_max, k_max + 1)
     r = np.sqrt(k[:, None] ** 2 + k[None, :] ** 2)
-    bins = np.rint(r).astype(int)
-    freqs = np.arange(1, k_max + 1)
-    flat = spectrum.reshape(-1, spectrum.shape[-2] * spectrum.shape[-1])
-    out = np.stack([flat[:, (bins == f).ravel()].mean(axis=1) for f in freqs], axis=1)
-    return freqs, out.reshape(spectrum.shape[:-2] + (len(freqs),))
+    return SP.radial_average(spectrum, r, 1, k_max)
 
 
 def power_spectrum(points: np.ndarray, k_max: int) -> tuple[np.ndarray, np.ndarray, float]:
