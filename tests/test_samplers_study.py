@@ -360,3 +360,256 @@ def test_verdicts_use_relmse():
     # negative control: by MSE the verdict would have gone the other way
     mse = SS.ratio(points[2]["a"][-1], points[2]["b"][-1], "mse")
     assert mse.value == pytest.approx(2.0) and mse.excludes(1.0)
+
+
+# ------------------------------------------------------------------ the screen-space pass
+
+COUNTS = (1, 4, 16)
+
+
+def screen(flip: float, share: float, mse: float = 0.01, us: float = 10.0, counts=COUNTS,
+           spread=SPREAD, rel: float = 2.0):
+    """A screen-space ladder: mean FLIP ``flip`` x spp^-0.5, low-frequency share ``share``,
+    MSE ``mse`` / spp, all scattered by ``spread``; ``us`` per sample."""
+    err = ladder(mse, -1.0, us, counts, spread, rel)
+    return [SS.ScreenPoint(n, tuple(flip * n ** -0.5 * f for f in spread),
+                           tuple(share * f for f in spread), e, requested=n)
+            for n, e in zip(counts, err)]
+
+
+SCREEN_FAMILIES = kinds(independent=NATIVE, nat=NATIVE, bund=BUNDLED)
+
+
+def screen_analysis(points):
+    return SS.analyse_screen({2: points}, PIXELS, SCREEN_FAMILIES, 0.0487)
+
+
+def test_lower_flip_reads_as_better_and_swapped_the_other_way():
+    better = screen_analysis({"independent": screen(0.2, 0.049), "nat": screen(0.1, 0.049),
+                              "bund": screen(0.07, 0.049)})
+    c = next(c for c in better.comparisons if (c.a, c.b, c.requested) == ("bund", "nat", 4))
+    assert c.flip.value == pytest.approx(0.7) and c.flip.hi < 1
+    assert SS.lower_sign(c.flip) == 1 and c.verdicts()[0] == "bund lower FLIP"
+    assert SS.lower_verdict("bund", "nat", c.flip, "mean FLIP").startswith(
+        "bund's mean FLIP is lower than nat's: 0.7 (95% CI")
+    assert "bund lower at 1-16 spp, ratio 0.7" in better.conclusions[2][0]
+    # negative control: the same numbers swapped
+    worse = screen_analysis({"independent": screen(0.2, 0.049), "nat": screen(0.07, 0.049),
+                             "bund": screen(0.1, 0.049)})
+    c = next(c for c in worse.comparisons if (c.a, c.b, c.requested) == ("bund", "nat", 4))
+    assert c.flip.value == pytest.approx(1 / 0.7) and c.verdicts()[0] == "nat lower FLIP"
+    assert SS.lower_verdict("bund", "nat", c.flip, "mean FLIP").startswith(
+        "bund's mean FLIP is higher than nat's")
+    assert "bund higher at 1-16 spp" in worse.conclusions[2][0]
+
+
+def test_a_flip_tie_is_not_distinguishable():
+    tie = screen_analysis({"independent": screen(0.2, 0.049), "nat": screen(0.1, 0.049),
+                           "bund": screen(0.1, 0.049)})
+    for c in tie.comparisons:
+        if c.b == "nat":
+            assert c.flip.value == pytest.approx(1.0) and c.verdicts()[0] == \
+                "not distinguishable"
+    assert "bund not distinguishable at 1-16 spp" in tie.conclusions[2][0]
+    assert "are not distinguishable in mean FLIP (ratio 1" in SS.lower_verdict(
+        "bund", "nat", tie.comparisons[-1].flip, "mean FLIP")
+    # 3% apart within a 20% scatter: a tie; 20% apart with it: a verdict
+    wide = (0.8, 1.0, 1.2)
+    near = screen_analysis({"independent": screen(0.2, 0.049, spread=wide),
+                            "nat": screen(0.1, 0.049, spread=wide),
+                            "bund": screen(0.097, 0.049, spread=wide)})
+    assert {c.verdicts()[0] for c in near.comparisons if c.b == "nat"} == \
+        {"not distinguishable"}
+    one = screen_analysis({"independent": screen(0.2, 0.049, spread=(1.0,)),
+                           "nat": screen(0.1, 0.049, spread=(1.0,)),
+                           "bund": screen(0.05, 0.049, spread=(1.0,))})
+    assert {c.verdicts()[0] for c in one.comparisons} == {"not distinguishable"}
+
+
+def test_a_bluer_error_is_found_where_it_is_below_every_native():
+    """bund's share is 0.037 at 4 spp only (0.049 at 1 and 16), against independent's and
+    nat's 0.049: bluer than every native sampler at 4 spp alone."""
+    bund = screen(0.1, 0.049)
+    bund[1] = SS.ScreenPoint(4, bund[1].flip, tuple(0.037 * f for f in SPREAD), bund[1].error,
+                             requested=4)
+    a = screen_analysis({"independent": screen(0.2, 0.049), "nat": screen(0.1, 0.049),
+                         "bund": bund})
+    at4 = [c for c in a.comparisons if c.requested == 4]
+    assert {c.verdicts()[1] for c in at4} == {"bund bluer"}
+    assert {c.verdicts()[1] for c in a.comparisons if c.requested != 4} == \
+        {"not distinguishable"}
+    assert "bund at 4 spp, share 0.049" in a.conclusions[2][1]
+    # negative control: bluer than one native but not the other is not "every native"
+    a = screen_analysis({"independent": screen(0.2, 0.049), "nat": screen(0.1, 0.037),
+                         "bund": bund})
+    assert "bund at no count" in a.conclusions[2][1]
+    rows = {(r.sampler, r.requested): r for r in a.rows}
+    assert rows[("bund", 4)].share.value == pytest.approx(0.037)
+    assert rows[("bund", 4)].share.lo < 0.037 < rows[("bund", 4)].share.hi
+
+
+def test_the_screen_efficiency_uses_mse():
+    """bund has half nat's MSE but 2.5x its relMSE at the same time: in MSE efficiency
+    bund is 2x more efficient (the verdict); by relMSE it would be nat."""
+    pts = {"independent": screen(0.2, 0.049, mse=0.1, rel=1.0),
+           "nat": screen(0.1, 0.049, mse=0.02, rel=1.0),
+           "bund": screen(0.1, 0.049, mse=0.01, rel=5.0)}
+    a = screen_analysis(pts)
+    c = next(c for c in a.comparisons if (c.a, c.b, c.requested) == ("bund", "nat", 16))
+    assert c.efficiency.value == pytest.approx(2.0) and c.verdicts()[2] == \
+        "bund more efficient"
+    assert "against the most efficient native sampler at 16 spp (nat): bund more " \
+           "efficient at 1-16 spp" in a.conclusions[2][2]
+    relmse = SS.ratio(pts["bund"][-1].error, pts["nat"][-1].error, "relmse")   # control
+    assert relmse.value == pytest.approx(0.4) and relmse.excludes(1.0)
+
+
+def test_screen_pairs_come_from_the_table_and_the_lowest_flip():
+    """Each bundled family's label with the lowest FLIP at the largest count meets every
+    native label and the other families' best; declared native instead, the pairs follow
+    the declaration (negative control: never by name)."""
+    pts = {"independent": screen(0.2, 0.049), "nat": screen(0.1, 0.049),
+           "halton:none": screen(0.12, 0.049), "halton:owen": screen(0.09, 0.049),
+           "zsobol:none": screen(0.07, 0.04), "zsobol:owen": screen(0.08, 0.037)}
+    families = kinds(independent=NATIVE, nat=NATIVE, **{
+        "halton:none": BUNDLED, "halton:owen": BUNDLED, "zsobol:none": BUNDLED,
+        "zsobol:owen": BUNDLED})
+    assert SS.screen_pairs(pts, families) == [
+        ("halton:owen", "independent"), ("halton:owen", "nat"), ("zsobol:none", "independent"),
+        ("zsobol:none", "nat"), ("halton:owen", "zsobol:none")]
+    swapped = kinds(independent=NATIVE, nat=BUNDLED, **{
+        "halton:none": NATIVE, "halton:owen": NATIVE, "zsobol:none": BUNDLED,
+        "zsobol:owen": BUNDLED})
+    assert SS.screen_pairs(pts, swapped) == [
+        ("nat", "independent"), ("nat", "halton:none"), ("nat", "halton:owen"),
+        ("zsobol:none", "independent"), ("zsobol:none", "halton:none"),
+        ("zsobol:none", "halton:owen"), ("nat", "zsobol:none")]
+
+
+def test_screen_conclusions_are_short_and_from_the_table():
+    """Three bundled families, five natives, five counts: at most three sentences of at
+    most 80 words; each verdict of the first sentence is the table's."""
+    counts = (1, 2, 4, 8, 16)
+    pts = {"independent": screen(0.2, 0.049, mse=0.1, counts=counts),
+           "stratified": screen(0.12, 0.048, mse=0.03, counts=counts),
+           "multijitter": screen(0.1, 0.049, mse=0.02, counts=counts),
+           "orthogonal": screen(0.11, 0.05, mse=0.02, us=20.0, counts=counts),
+           "ldsampler": screen(0.105, 0.047, mse=0.025, counts=counts),
+           "halton:owen": screen(0.12, 0.049, mse=0.03, counts=counts),
+           "zsobol:owen": screen(0.07, 0.037, mse=0.02, counts=counts),
+           "mine": screen(0.2, 0.049, mse=0.1, counts=counts)}
+    families = kinds(independent=NATIVE, stratified=NATIVE, multijitter=NATIVE,
+                     orthogonal=NATIVE, ldsampler=NATIVE, **{
+                         "halton:owen": BUNDLED, "zsobol:owen": BUNDLED, "mine": BUNDLED})
+    a = SS.analyse_screen({2: pts, 8: pts}, PIXELS, families, 0.0487)
+    for d in (2, 8):
+        assert 1 <= len(a.conclusions[d]) <= 3
+        for sentence in a.conclusions[d]:
+            assert len(sentence.split()) <= 80, sentence
+        assert "(multijitter)" in a.conclusions[d][0]          # the lowest native FLIP
+        assert "zsobol:owen lower at 1-16 spp" in a.conclusions[d][0]
+        assert "zsobol:owen at 1, 2, 4, 8, 16 spp" in a.conclusions[d][1]
+    assert len(a.rows) == 2 * len(pts) * len(counts)
+    assert len(a.comparisons) == 2 * (3 * 5 + 3) * len(counts)
+    cells = dict(zip(SS.SCREEN_HEADER, next(c for c in a.comparisons if (
+        c.a, c.b, c.requested) == ("zsobol:owen", "multijitter", 16)).cells()))
+    assert cells["mean FLIP A / B"] == "0.7" and cells["FLIP verdict"] == \
+        "zsobol:owen lower FLIP"
+    assert cells["share verdict"] == "zsobol:owen bluer"
+    assert cells["efficiency verdict"] == "not distinguishable"
+
+
+# ------------------------------------------------------------------ the pass's plan
+
+TINY_SCREEN = ["--resolution", "8x4", "--spp", "4", "--depths", "2", "--repeats", "2",
+               "--reference-spp", "16", "--screen-resolution", "8x8", "--screen-counts",
+               "1,2", "--screen-repeats", "2", "--screen-reference-spp", "16",
+               "--screen-samplers", "independent,zsobol:owen,zsobol:none"]
+
+
+def tiny_study(out, *argv):
+    from experiments.lib import cli
+    from experiments.lib.studies import samplers as SSt
+    from experiments.lib.study import Study
+    args = cli.parse_args(SSt.build_parser(), ["--out", str(out), *TINY_SCREEN, *argv])
+    return SSt, Study(args), SSt.settings_of(args)
+
+
+def test_the_screen_pass_plans_exactly_the_jobs_it_needs(tmp_path):
+    SSt, st, cfg = tiny_study(tmp_path)
+    sc = cfg.screen
+    assert (sc.resolution, sc.counts, sc.depths, sc.repeats, sc.reference_spp) == \
+        ((8, 8), (1, 2), (2,), 2, 16)
+    plan = SSt.ScreenSpace().plan(st, cfg)
+    ladders = plan.ladders[2]
+    assert {s: len(reps) for s, reps in ladders.items()} == {
+        "independent": 2, "zsobol:owen": 2, "zsobol:none": 1}       # deterministic: one run
+    ladder_jobs = [j for reps in ladders.values() for rep in reps for j in rep]
+    assert len(ladder_jobs) == 10 == len({j.key for j in ladder_jobs})
+    for s, reps in ladders.items():
+        for rep in reps:
+            assert [j.spp for j in rep] == [1, 2]
+            for j in rep:
+                assert (j.width, j.height, j.max_depth) == (8, 8, 2)
+                assert j.method.name == ("bsdf+nee" if s == "independent" else f"bsdf+nee+{s}")
+                assert j.key.startswith("samplers/screen-8x8-depth2/")
+    refs = plan.refs[2]
+    assert sum(j.spp for j in refs) == 16 and {j.method.name for j in refs} == {"path"}
+    assert {(j.width, j.height) for j in refs} == {(8, 8)}
+    jobs = SSt.ScreenSpace().jobs(plan)
+    assert jobs[:len(refs)] == refs and sorted(j.key for j in jobs[len(refs):]) == \
+        sorted(j.key for j in ladder_jobs)
+    # the efficiency pass's jobs do not depend on the screen options
+    _, st2, cfg2 = tiny_study(tmp_path, "--screen-counts", "4,16", "--screen-repeats", "5")
+    keys = [j.key for j in SSt.Efficiency().jobs(SSt.Efficiency().plan(st, cfg))]
+    assert keys == [j.key for j in SSt.Efficiency().jobs(SSt.Efficiency().plan(st2, cfg2))]
+    # negative controls: switched off, no pass; --max-depth replaces its depths too
+    _, st3, cfg3 = tiny_study(tmp_path, "--screen-space", "off")
+    assert SSt.ScreenSpace().plan(st3, cfg3) is None and SSt.ScreenSpace().jobs(None) == []
+    _, st4, cfg4 = tiny_study(tmp_path, "--max-depth", "3")
+    assert cfg4.screen.depths == (3,) and cfg4.depths == (3,)
+
+
+def test_bad_screen_options_name_the_valid_choices(tmp_path, capsys):
+    with pytest.raises(SystemExit):
+        tiny_study(tmp_path, "--screen-samplers", "independent,bogus")
+    err = capsys.readouterr().err
+    assert "bogus" in err and "zsobol" in err and "'default', 'all'" in err
+    with pytest.raises(SystemExit):
+        tiny_study(tmp_path, "--screen-counts", "0,4")
+    assert "invalid counts '0,4'" in capsys.readouterr().err
+
+
+def test_the_lab_plans_the_same_screen_jobs(tmp_path):
+    """The lab's error images are the sampler study's renders (first repeat): the same
+    keys, so it finds them in the store; with another seed it would not (control)."""
+    from experiments.lib.studies import lab
+    SSt, st, cfg = tiny_study(tmp_path)
+    study = {j.key for j in SSt.ScreenSpace().jobs(SSt.ScreenSpace().plan(st, cfg))}
+    config = lab.Config(screen_resolution=(8, 8), screen_counts=(2,),
+                        screen_samplers=("independent", "zsobol:owen"),
+                        screen_reference_spp=16)
+    mine = lab.plan_screen(st, config, cfg.screen.reference)
+    keys = {j.key for j in mine.refs} | {j.key for reps in mine.ladders.values()
+                                         for j in reps[0]}
+    assert len(keys) == 8 + 2 and keys <= study
+    _, other, _ = tiny_study(tmp_path, "--seed", "7")
+    moved = lab.plan_screen(other, config, cfg.screen.reference)
+    assert not {j.key for reps in moved.ladders.values() for j in reps[0]} & study
+
+
+def test_the_screen_pass_resumes_from_the_store(tmp_path):
+    SSt, st, cfg = tiny_study(tmp_path)
+    p = SSt.ScreenSpace()
+    plan = p.plan(st, cfg)
+    jobs = p.jobs(plan)
+    assert st.run(jobs) == len({j.key for j in jobs})
+    assert st.run(jobs) == 0                                # a rerun renders nothing
+    result = p.analyse(p.measure(st, cfg, plan))
+    assert len(result.rows) == 3 * 2
+    rows = {(r.sampler, r.requested): r for r in result.rows}
+    assert rows[("zsobol:none", 2)].repeats == 2            # its one run stands for both
+    assert rows[("zsobol:none", 2)].flip.lo == rows[("zsobol:none", 2)].flip.hi
+    assert all(0 < r.flip.value < 1 for r in result.rows)
+    lowest = min(("zsobol:none", "zsobol:owen"), key=lambda s: rows[(s, 2)].flip.value)
+    assert [(c.a, c.b) for c in result.comparisons] == [(lowest, "independent")] * 2

@@ -94,7 +94,9 @@ def test_a_plugin_sampler_enters_the_sampler_study_and_the_lab(tmp_path):
     plugin.write_text(PLUGIN)
     out = tmp_path / "study"
     run("samplers", "--plugin", str(plugin), "--out", str(out), "--resolution", "8x4",
-        "--spp", "4", "--depths", "2", "--repeats", "2", "--reference-spp", "16")
+        "--spp", "4", "--depths", "2", "--repeats", "2", "--reference-spp", "16",
+        "--screen-resolution", "8x8", "--screen-counts", "4", "--screen-repeats", "2",
+        "--screen-reference-spp", "16")
     table = rows(out / "samplers" / "samplers.csv")
     assert {r["sampler"] for r in table} >= {"independent", "stratified", "halton:owen",
                                              "plain"}
@@ -112,6 +114,12 @@ def test_a_plugin_sampler_enters_the_sampler_study_and_the_lab(tmp_path):
                                              "orthogonal", "ldsampler"}
     summary = json.loads((out / "samplers" / "summary.json").read_text())
     assert any(r["sampler"] == "plain" for r in summary["rows"])
+    # the screen-space pass takes it by default (it is not native), beside the others
+    screen = rows(out / "samplers" / "screen_space.csv")
+    assert {r["sampler"] for r in screen} == {"independent", "multijitter", "ldsampler",
+                                              "halton:owen", "zsobol:owen", "plain"}
+    assert any(r["A / B"].startswith("plain / ")
+               for r in rows(out / "samplers" / "screen_conclusion_depth2.csv"))
 
     lab_out = tmp_path / "lab"
     run("lab", "--quick", "--plugin", str(plugin), "--out", str(lab_out))

@@ -160,6 +160,47 @@ def error_bands(path: str, series: dict, metric: str) -> str:
     return _save(fig, path)
 
 
+def estimate_lines(path: str, curves: dict, xlabel: str, ylabel: str, title: str) -> str:
+    """Log-log lines of estimates with their intervals as bands, one per name:
+    ``curves[name] = [(x, Estimate)]``."""
+    fig, ax = plt.subplots(figsize=(7.5, 4.5))
+    for name, pts in curves.items():
+        _line(ax, [x for x, _ in pts], [e for _, e in pts], label=name)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, fontsize=10)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def spectrum_panels(path: str, panels: dict, cutoff: float, title: str) -> str:
+    """Radially averaged power spectra, one axes per panel (``panels[panel title][name] =
+    (frequencies, power)``, power relative to white noise's 1), a dotted line at 1 and a
+    dashed one at the ``cutoff`` frequency."""
+    fig, axes = plt.subplots(1, len(panels), squeeze=False, sharey=True,
+                             figsize=(4.2 * len(panels) + 0.6, 3.6))
+    for ax, (name, lines) in zip(axes[0], panels.items()):
+        for label, (freqs, power) in lines.items():
+            ax.plot(freqs, _positive(power), lw=1.0, label=label)
+        ax.axhline(1.0, color="0.4", lw=0.7, ls=":")
+        ax.axvline(cutoff, color="0.4", lw=0.7, ls="--")
+        ax.set_yscale("log")
+        ax.set_xlim(0, 0.5)
+        ax.set_xlabel("frequency |f| (cycles per pixel)", fontsize=8)
+        ax.set_title(name, fontsize=9)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.tick_params(labelsize=7)
+    axes[0][0].set_ylabel("power / its mean (white noise: 1)", fontsize=8)
+    axes[0][-1].legend(fontsize=6, loc="lower right")
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
 def ratio_bands(path: str, curves: dict, ylabel: str, title: str) -> str:
     """A ratio (efficiency relative to a baseline) against spp, one line per method with its
     interval as a band; ``curves[method] = [(spp, Estimate)]``; a dashed line at 1."""

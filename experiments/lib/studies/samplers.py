@@ -14,9 +14,19 @@ against the best native sampler and the others, with the counts where the order 
 and three sentences computed from it. Renders of one depth are interleaved (every sampler at
 one spp, then the next spp) so that changing machine load affects them alike.
 
+The screen-space pass (:class:`ScreenSpace`, options --screen-*) renders a short ladder
+(1, 4, 16 spp) on a larger image (128x128; a spectrum needs it) at max_depth 2, for a
+subset of labels by default (the baseline, multijitter, ldsampler and each bundled sampler
+at its last randomization: every FLIP of a 128x128 image costs a few tenths of a CPU
+second; --screen-samplers all for every label). Per count: mean FLIP against the
+reference, the radially averaged power spectrum of the error image and its low-frequency
+share (:mod:`experiments.lib.screen_space`: power below a quarter of Nyquist over the
+total, the reference's own white noise subtracted), and MSE efficiency; a conclusion table
+per depth (each bundled sampler's best against every native one and the other bundled
+ones, per count) and three sentences computed from it.
+
 The study is a list of measurement passes (:data:`PASSES`), each plan -> measure -> pure
-analysis -> report; a further pass (e.g. screen-space error at another resolution) is one
-more entry.
+analysis -> report.
 
     python -m experiments.samplers --help
 """
@@ -28,6 +38,9 @@ import time
 from dataclasses import dataclass
 from typing import Protocol
 
+import numpy as np
+
+from experiments.lib import execute as E
 from experiments.lib import jobs as J
 from experiments.lib import files
 from experiments.lib.studies import StudySpec, register_study
@@ -35,6 +48,7 @@ from experiments.lib import cli, figures, metrics, report, stats
 from experiments.lib import plan as P
 from experiments.lib import sampler_study as SS
 from experiments.lib import samplers as S
+from experiments.lib import screen_space as SP
 from experiments.lib.methods import Depth, Method, parse_method
 from experiments.lib.methods import method_name as _method_name
 from experiments.lib.study import Study, repeat_prefix
@@ -43,6 +57,8 @@ NAME = "samplers"
 TITLE = "Samplers: the bundled samplers against Mitsuba's own"
 ORDER = 10
 DEPTHS = (2, 8)
+#: The method every sampler drives, by default.
+BASE = "bsdf+nee"
 #: Independent runs of every count of the ladder: samplers close in efficiency (the best
 #: bundled and the best native one can be within about 10%) need more than the other
 #: studies' 3.
@@ -62,6 +78,56 @@ def base_method(text: str) -> Method:
     return m
 
 
+#: The screen-space pass's defaults: small enough for ``make run`` (every FLIP of a
+#: 128x128 image costs a few tenths of a CPU second, each native sampler compiles a kernel
+#: per count); larger settings through the --screen-* options.
+SCREEN_RESOLUTION = "128x128"
+SCREEN_COUNTS = (1, 4, 16)
+SCREEN_DEPTHS = (2,)
+SCREEN_REPEATS = 3
+SCREEN_REFERENCE_SPP = 1024
+#: Native samplers of the default pass besides the baseline: the two with the lowest FLIP
+#: in the zsobol sampler's calibration (issue 25); --screen-samplers all adds the others.
+SCREEN_NATIVES = ("multijitter", "ldsampler")
+
+
+def default_screen_labels() -> list[str]:
+    """The default pass's labels, from the sampler table: the baseline, the natives of
+    :data:`SCREEN_NATIVES`, and every sampler that is not native (bundled, or a
+    ``--plugin`` file's) at its last randomization (the table lists them weakest first)."""
+    out = [S.DEFAULT] + [n for n in SCREEN_NATIVES if n in S.names()]
+    out += [S.get(n).labels()[-1] for n in S.names() if not S.get(n).native]
+    return list(dict.fromkeys(out))
+
+
+def screen_samplers(text: str) -> tuple:
+    """--screen-samplers: 'default', 'all' or labels of the sampler table (checked)."""
+    if text in ("default", "all"):
+        return tuple(default_screen_labels() if text == "default" else S.labels())
+    labels = [x.strip() for x in text.split(",") if x.strip()]
+    for label in labels:
+        try:
+            S.split_label(label)
+        except ValueError as e:
+            raise cli.argparse.ArgumentTypeError(
+                f"invalid --screen-samplers '{text}': {e} (or 'default', 'all')") from None
+    if not labels:
+        raise cli.argparse.ArgumentTypeError("--screen-samplers names no sampler")
+    return tuple(dict.fromkeys(labels))
+
+
+def count_list(text: str) -> list[int]:
+    try:
+        counts = [int(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        counts = []
+    if not counts or any(c < 1 for c in counts):
+        raise cli.argparse.ArgumentTypeError(
+            f"invalid counts '{text}': expected comma-separated positive integers, e.g. "
+            f"1,4,16")
+    return sorted(set(counts))
+
+
 def depth_list(text: str) -> list[int]:
     try:
         depths = [int(x) for x in text.split(",") if x.strip()]
@@ -74,12 +140,34 @@ def depth_list(text: str) -> list[int]:
 
 
 def add_arguments(p: cli.Parser) -> None:
-    p.add_argument("--base", type=base_method, default="bsdf+nee",
+    p.add_argument("--base", type=base_method, default=BASE,
                    help="method the samplers drive (STRATEGY[+nee] or path)")
     p.add_argument("--depths", type=depth_list, default=",".join(map(str, DEPTHS)),
                    help="max_depth values of the study (--max-depth replaces them by one)")
     p.add_argument("--ladder-factor", type=cli.positive_int, default=4,
                    help="ratio of consecutive sample counts of the ladder")
+    g = p.add_argument_group(
+        "screen-space pass", "FLIP and the error's power spectrum on a larger image: its own "
+        "resolution, counts, depths, samplers, repeats and reference (--max-depth replaces "
+        "its depths too)")
+    g.add_argument("--screen-space", choices=("on", "off"), default="on",
+                   help="run the screen-space pass")
+    g.add_argument("--screen-resolution", type=cli.resolution, default=SCREEN_RESOLUTION,
+                   metavar="WxH", help="film resolution of the pass (a spectrum needs at "
+                                       "least 128x128)")
+    g.add_argument("--screen-counts", type=count_list, default=",".join(map(str, SCREEN_COUNTS)),
+                   help="sample counts of the pass, each a fresh render")
+    g.add_argument("--screen-depths", type=depth_list, default=",".join(map(str, SCREEN_DEPTHS)),
+                   help="max_depth values of the pass")
+    g.add_argument("--screen-samplers", type=screen_samplers, default="default",
+                   help="'default' (the baseline, " + ", ".join(SCREEN_NATIVES) + " and each "
+                        "other sampler at its last randomization), 'all' (every label) or "
+                        "comma-separated labels")
+    g.add_argument("--screen-repeats", type=cli.positive_int, default=SCREEN_REPEATS,
+                   metavar="R", help="independent randomizations of every render of the pass")
+    g.add_argument("--screen-reference-spp", type=cli.positive_int,
+                   default=SCREEN_REFERENCE_SPP,
+                   help="samples per pixel of the pass's reference (--reference-method)")
 
 
 def build_parser() -> cli.Parser:
@@ -95,6 +183,18 @@ def build_parser() -> cli.Parser:
 
 
 @dataclass(frozen=True)
+class ScreenSettings:
+    """What the screen-space pass measures."""
+    resolution: tuple             # (width, height)
+    counts: tuple                 # sample counts, each a fresh render
+    depths: tuple                 # max_depth values
+    samplers: tuple               # sampler labels
+    repeats: int                  # independent randomizations (1 for a deterministic label)
+    reference_spp: int
+    reference: Method             # the reference's method (independent sampler)
+
+
+@dataclass(frozen=True)
 class Settings:
     """What one run of the study measures (typed; the Namespace stays in :func:`run`)."""
     base: Method                  # the method every sampler drives
@@ -104,21 +204,36 @@ class Settings:
     depth: Depth                  # the scene's path settings (max_depth set per depth)
     scene: str
     resolution: tuple             # (width, height)
+    screen: ScreenSettings | None = None     # None: no screen-space pass
 
     def at(self, max_depth: int) -> Depth:
         return Depth(max_depth, self.depth.rr_depth, self.depth.hide_emitters)
 
 
 def settings_of(args) -> Settings:
-    depths = [args.max_depth] if args.max_depth is not None else list(args.depths)
-    return Settings(args.base, tuple(depths),
+    one = [args.max_depth] if args.max_depth is not None else None
+    screen = None if args.screen_space == "off" else ScreenSettings(
+        tuple(args.screen_resolution), tuple(args.screen_counts),
+        tuple(one or args.screen_depths), tuple(args.screen_samplers), args.screen_repeats,
+        args.screen_reference_spp, args.reference_method)
+    return Settings(args.base, tuple(one or args.depths),
                     tuple(P.doubling_targets(args.spp, args.ladder_factor)),
-                    tuple(S.labels()), args.depth, args.scene, tuple(args.resolution))
+                    tuple(S.labels()), args.depth, args.scene, tuple(args.resolution),
+                    screen)
 
 
 def method(base: Method, sampler: str) -> Method:
     """``base`` driven by the sampler label ``sampler``."""
     return parse_method(_method_name(base, sampler))
+
+
+def ladder_job(st: Study, cfg: Settings, root: str, d: int, label: str, count: int,
+               repeat: int, resolution: tuple, group: str) -> J.Job:
+    """Repeat ``repeat`` of ``label`` at ``count`` spp and max_depth ``d``, a fresh render,
+    named ``root/label/sppNNNNN[/rR]`` (its seed derives from the name)."""
+    return st.job(repeat_prefix(f"{root}/{label}/spp{count:05d}", repeat),
+                  method(cfg.base, label), count, depth=cfg.at(d), resolution=resolution,
+                  timing_group=group)
 
 
 def timing(st: Study, result) -> float:
@@ -204,9 +319,9 @@ class Efficiency:
         for d in cfg.depths:
             depth = cfg.at(d)
             refs[d] = st.reference_jobs(depth=depth)
-            ladders[d] = {s: [[st.job(repeat_prefix(f"{NAME}/depth{d}/{s}/spp{t:05d}", r),
-                                      method(cfg.base, s), t, depth=depth,
-                                      timing_group=f"{NAME}/depth{d}") for t in cfg.targets]
+            ladders[d] = {s: [[ladder_job(st, cfg, f"{NAME}/depth{d}", d, s, t, r,
+                                          (st.width, st.height), f"{NAME}/depth{d}")
+                               for t in cfg.targets]
                               for r in range(st.repeats_of(method(cfg.base, s)))]
                           for s in cfg.samplers}
         return LadderPlan(refs, ladders)
@@ -319,8 +434,223 @@ def comparison_viewer(st: Study, cfg: Settings, planned: LadderPlan, d: int) -> 
                          f"largest sample count (first repeat), against the reference.")
 
 
+# ------------------------------------------------------------------ screen space
+
+@dataclass(frozen=True)
+class ScreenPlan:
+    refs: dict                    # {depth: reference jobs at the pass's resolution}
+    ladders: dict                 # {depth: {label: [repeat: [job per count]]}}
+
+
+@dataclass(frozen=True)
+class ScreenMeasured:
+    points: dict                  # {depth: {label: [SS.ScreenPoint per count]}}
+    floors: dict                  # {depth: the reference's metadata, spectrum floor included}
+    pixels: int
+    kinds: dict                   # {label: SS.Family}
+    white: float                  # the low-frequency share of white noise on the grid
+
+
+def screen_reference_jobs(st: Study, sc: ScreenSettings, depth: Depth) -> list[J.Job]:
+    """The pass's reference: ``sc.reference_spp`` of ``sc.reference`` at its resolution."""
+    width, height = sc.resolution
+    return P.reference_jobs(st.info, width, height, sc.reference_spp, sc.reference, depth,
+                            st.variant, st.seed)
+
+
+def screen_ladders(st: Study, cfg: Settings, sc: ScreenSettings, d: int, labels,
+                   counts, repeats: int) -> dict:
+    """``{label: [repeat: [job per count]]}`` (one repeat for a deterministic label), named
+    by the pass's resolution (``samplers/screen-128x128-depth2/...``), so that the lab,
+    planning the same jobs, finds them in the store."""
+    root = "{}/screen-{}x{}-depth{}".format(NAME, *sc.resolution, d)
+    return {s: [[ladder_job(st, cfg, root, d, s, t, r, sc.resolution, f"{NAME}/screen/depth{d}")
+                 for t in counts]
+                for r in range(1 if method(cfg.base, s).deterministic else repeats)]
+            for s in labels}
+
+
+def screen_floor(st: Study, refs: list[J.Job]) -> float:
+    """The white power the reference's own noise adds to an error spectrum
+    (:func:`.screen_space.reference_floor` of its chunks)."""
+    chunks = st.store.results(refs)
+    return SP.reference_floor([r.image for r in chunks], [r.spp for r in chunks])
+
+
+def _replicate(values, n: int) -> tuple:
+    """A deterministic label's one value stands for every repeat."""
+    values = tuple(values)
+    return values * n if len(values) == 1 else values
+
+
+class ScreenSpace:
+    """FLIP, the error's power spectrum and MSE efficiency on a larger image
+    (:class:`ScreenSettings`), at every count of a short ladder."""
+    name = "screen"
+
+    def plan(self, st: Study, cfg: Settings) -> ScreenPlan | None:
+        sc = cfg.screen
+        if sc is None:
+            return None
+        return ScreenPlan({d: screen_reference_jobs(st, sc, cfg.at(d)) for d in sc.depths},
+                          {d: screen_ladders(st, cfg, sc, d, sc.samplers, sc.counts,
+                                             sc.repeats) for d in sc.depths})
+
+    def jobs(self, planned: ScreenPlan | None) -> list[J.Job]:
+        """References first; then per depth, in groups of labels no larger than the scenes
+        a process keeps loaded (:data:`.execute.SCENE_CACHE`), per repeat every label of
+        the group at one count before the next count."""
+        if planned is None:
+            return []
+        jobs = [j for r in planned.refs.values() for j in r]
+        for by_sampler in planned.ladders.values():
+            labels = list(by_sampler)
+            for g in range(0, len(labels), E.SCENE_CACHE):
+                group = {s: by_sampler[s] for s in labels[g:g + E.SCENE_CACHE]}
+                for r in range(max(len(reps) for reps in group.values())):
+                    for i in range(len(next(iter(group.values()))[0])):
+                        jobs += [reps[r][i] for reps in group.values() if r < len(reps)]
+        return jobs
+
+    def measure(self, st: Study, cfg: Settings, planned: ScreenPlan) -> ScreenMeasured:
+        """Per repeat: FLIP, the error's periodogram (its low-frequency share, the
+        reference's floor subtracted), MSE, relMSE and render time; spectra averaged over
+        the repeats."""
+        sc = cfg.screen
+        points, floors = {}, {}
+        for d, by_sampler in planned.ladders.items():
+            ref, meta = st.reference(planned.refs[d])
+            floor = screen_floor(st, planned.refs[d])
+            floors[d] = dict(meta, spectrum_floor=floor)
+            points[d] = {}
+            for s, reps in by_sampler.items():
+                pts = []
+                for i, target in enumerate(reps[0]):
+                    results = [st.store.get(rep[i].key) for rep in reps]
+                    images = [r.image.astype(float) for r in results]
+                    powers = [SP.periodogram(SP.error_field(im, ref)) for im in images]
+                    freqs, power = SP.spectrum(SP.normalized(np.mean(powers, axis=0), floor))
+                    error = SS.Point(
+                        results[0].spp, _replicate((timing(st, r) for r in results), sc.repeats),
+                        _replicate((metrics.mse(im, ref) for im in images), sc.repeats),
+                        _replicate((metrics.relmse(im, ref) for im in images), sc.repeats),
+                        target.spp, meta["mse_floor"], meta["relmse_floor"])
+                    pts.append(SS.ScreenPoint(
+                        results[0].spp,
+                        _replicate((metrics.flip_mean(im, ref) for im in images), sc.repeats),
+                        _replicate((SP.low_share(p, floor) for p in powers), sc.repeats),
+                        error, tuple(float(f) for f in freqs), tuple(float(v) for v in power),
+                        target.spp))
+                points[d][s] = pts
+        width, height = sc.resolution
+        return ScreenMeasured(points, floors, width * height, SS.families(sc.samplers),
+                              SP.white_share((height, width)))
+
+    def analyse(self, measured: ScreenMeasured) -> SS.ScreenAnalysis:
+        return SS.analyse_screen(measured.points, measured.pixels, measured.kinds,
+                                 measured.white)
+
+    def report(self, st: Study, cfg: Settings, planned: ScreenPlan, measured: ScreenMeasured,
+               result: SS.ScreenAnalysis) -> PassReport:
+        sc, out = cfg.screen, st.out
+        width, height = sc.resolution
+        blocks = [report.text(screen_introduction(cfg, measured))]
+        for d, by_sampler in measured.points.items():
+            curves = {s: [(p.spp, p.mean_flip()) for p in pts] for s, pts in by_sampler.items()}
+            figures.estimate_lines(os.path.join(out, NAME, f"screen_flip_depth{d}.png"),
+                                   curves, "samples per pixel (rendered)", "mean FLIP",
+                                   f"max_depth {d}, {width}x{height}: mean FLIP against the "
+                                   f"reference")
+            shown = spectrum_counts(sc.counts)
+            panels = {f"{n} spp requested": {s: (pts[sc.counts.index(n)].frequencies,
+                                                 pts[sc.counts.index(n)].power)
+                                             for s, pts in by_sampler.items()} for n in shown}
+            figures.spectrum_panels(os.path.join(out, NAME, f"screen_spectra_depth{d}.png"),
+                                    panels, SP.LOW, f"max_depth {d}: radially averaged power "
+                                    f"spectrum of the luminance error, mean over the repeats")
+            blocks += [
+                report.image(f"{NAME}/screen_flip_depth{d}.png",
+                             f"max_depth {d}: mean FLIP against spp per sampler at "
+                             f"{width}x{height}, with {stats.LEVEL:.0%} bands over the "
+                             f"repeats (lower is better); reference: "
+                             f"{st.describe_reference(measured.floors[d])}."),
+                report.image(f"{NAME}/screen_spectra_depth{d}.png",
+                             f"max_depth {d}: power spectrum of the error (render minus "
+                             f"reference, luminance, mean subtracted; the reference's white "
+                             f"noise subtracted), relative to its mean (white noise: 1), at "
+                             f"{' and '.join(map(str, shown))} spp. Dashed: "
+                             f"{SP.LOW} cycles per pixel, below which the low-frequency share "
+                             f"is taken."),
+                report.write_table(out, f"{NAME}/screen_conclusion_depth{d}",
+                                   SS.SCREEN_HEADER,
+                                   [c.cells() for c in result.comparisons if c.depth == d],
+                                   f"Screen-space conclusion at max_depth {d}: each bundled "
+                                   f"sampler's best (lowest FLIP) against every native "
+                                   f"sampler and the other bundled ones, at every count; "
+                                   f"ratios A / B with {stats.LEVEL:.0%} intervals; a verdict "
+                                   f"only where the interval excludes 1"),
+                report.text("\n\n".join(result.conclusions[d]))]
+        header = (["max_depth", "sampler", "spp rendered", "spp requested", "repeats"]
+                  + _interval("mean FLIP") + _interval("low-frequency share")
+                  + _interval("MSE") + ["µs / sample"])
+        blocks += [
+            report.write_table(out, f"{NAME}/screen_space", header, screen_table_rows(
+                result.rows), f"Every sampler and count of the screen-space pass at "
+                f"{width}x{height} (means over the repeats, {stats.LEVEL:.0%} intervals; "
+                f"low-frequency share of white noise on this grid: {result.white:.4f})"),
+            report.write_table(out, f"{NAME}/screen_spectra",
+                               ["max_depth", "sampler", "spp rendered", "frequency (cycles "
+                                "per pixel)", "power / mean"],
+                               [[d, s, p.spp, f"{f:.5g}", f"{v:.4g}"]
+                                for d, by in measured.points.items() for s, pts in by.items()
+                                for p in pts for f, v in zip(p.frequencies, p.power)],
+                               "Radially averaged error spectra (white noise: 1)",
+                               collapsed=True)]
+        summary = {"screen": {
+            "resolution": f"{width}x{height}", "counts": list(sc.counts),
+            "depths": list(sc.depths), "samplers": list(sc.samplers),
+            "repeats": sc.repeats, "reference_spp": sc.reference_spp,
+            "white_share": result.white, "low_frequency_cutoff": SP.LOW,
+            "spectrum_floor": {d: f["spectrum_floor"] for d, f in measured.floors.items()},
+            "rows": [r.record() for r in result.rows],
+            "comparisons": [c.record() for c in result.comparisons],
+            "conclusion": result.conclusions}}
+        return PassReport(blocks, summary, self.jobs(planned)[sum(
+            len(r) for r in planned.refs.values()):])
+
+
+def spectrum_counts(counts) -> list[int]:
+    """The counts whose spectra are drawn: 4 and 16 where rendered, else the last two."""
+    shown = [n for n in (4, 16) if n in counts]
+    return shown or list(counts[-2:])
+
+
+def screen_table_rows(rows: list[SS.ScreenRow]) -> list[list]:
+    def cells(e):
+        return [f"< {stats.g(e.hi)}", "0", stats.g(e.hi)] if e.bound else e.cells()
+    return [[r.depth, r.sampler, r.spp, r.requested, r.repeats, *r.flip.cells(),
+             *r.share.cells(), *cells(r.mse), f"{r.us_per_sample:.3f}"] for r in rows]
+
+
+def screen_introduction(cfg: Settings, m: ScreenMeasured) -> str:
+    """Two paragraphs of at most 80 words: what the pass renders, what it measures."""
+    sc = cfg.screen
+    width, height = sc.resolution
+    subset = (" (the default subset: the baseline, the native samplers with the lowest FLIP "
+              "in the zsobol calibration, each other sampler's last randomization; FLIP "
+              "at this size is costly)" if sc.samplers == tuple(default_screen_labels())
+              else "")
+    return (f"Screen-space pass: {', '.join(sc.samplers)}{subset} at {width}x{height}, "
+            f"max_depth {', '.join(map(str, sc.depths))}, {', '.join(map(str, sc.counts))} "
+            f"spp, {sc.repeats} repeats, against {sc.reference_spp} spp of {sc.reference}."
+            f"\n\nPer count: mean FLIP, the low-frequency share of the error's power (below "
+            f"{SP.LOW} cycles per pixel; white noise {m.white:.3f}) with the reference's own "
+            f"white noise subtracted, and MSE efficiency. FLIP is not corrected for the "
+            f"reference's noise, which pulls every FLIP ratio towards 1.")
+
+
 #: The measurement passes, in order (rendered together, then measured and reported).
-PASSES: tuple = (Efficiency(),)
+PASSES: tuple = (Efficiency(), ScreenSpace())
 
 
 # ------------------------------------------------------------------ the study
@@ -353,13 +683,24 @@ def introduction(st: Study, cfg: Settings) -> str:
         f"during which a kernel compiled is rendered again)."])
 
 
+def screen_settings_text(sc: ScreenSettings | None) -> str:
+    if sc is None:
+        return "off"
+    return (f"{sc.resolution[0]}x{sc.resolution[1]}, max_depth "
+            f"{', '.join(map(str, sc.depths))}, {', '.join(map(str, sc.counts))} spp, "
+            f"{sc.repeats} repeats, reference {sc.reference_spp} spp of {sc.reference}; "
+            f"samplers {', '.join(sc.samplers)}; verdicts by mean FLIP, low-frequency share "
+            f"and efficiency 1/(MSE x time)")
+
+
 def run(args) -> None:
     start = time.perf_counter()
     st, cfg = Study(args), settings_of(args)
-    planned = [p.plan(st, cfg) for p in PASSES]
-    st.run([j for p, pl in zip(PASSES, planned) for j in p.jobs(pl)], f"{NAME}: renders")
+    planned = [(p, p.plan(st, cfg)) for p in PASSES]
+    planned = [(p, pl) for p, pl in planned if pl is not None]      # passes switched off
+    st.run([j for p, pl in planned for j in p.jobs(pl)], f"{NAME}: renders")
     blocks, summary, timed = [report.text(introduction(st, cfg))], {}, []
-    for p, pl in zip(PASSES, planned):
+    for p, pl in planned:
         measured = p.measure(st, cfg, pl)
         reported = p.report(st, cfg, pl, measured, p.analyse(measured))
         blocks += reported.blocks
@@ -372,6 +713,7 @@ def run(args) -> None:
                 "reference": f"{args.reference_spp} spp of {args.reference_method}",
                 "intervals": f"{stats.LEVEL:.0%}, {stats.METHOD}",
                 "verdicts": f"efficiency 1/({SS.METRIC_NAMES[SS.METRIC]} x time)",
+                "screen-space pass": screen_settings_text(cfg.screen),
                 "render times measured on": st.timed_on(timed)}
     report.write_section(args.out, NAME, TITLE, ORDER, settings, blocks, args.variant,
                          time.perf_counter() - start)
@@ -380,4 +722,6 @@ def run(args) -> None:
 
 STUDY = register_study(StudySpec(
     NAME, TITLE, ORDER, build_parser, run,
-    quick=("--resolution", "16x8", "--spp", "4", "--reference-spp", "16")))
+    quick=("--resolution", "16x8", "--spp", "4", "--reference-spp", "16",
+           "--screen-resolution", "16x8", "--screen-counts", "1,4", "--screen-repeats", "2",
+           "--screen-reference-spp", "16")))
