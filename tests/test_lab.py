@@ -6,8 +6,9 @@
 - a strategy that reports a wrong density is rejected (p < 1e-6) and its
   difference image is far from noise;
 - the point sets it reports are the ones an instrumented mi.render receives;
-- ``python -m experiments.lab --quick`` writes its section and CSVs, resumes
-  from its cache, and rejects bad input with exit code 2.
+- ``python -m experiments.lab --quick`` writes its section and CSVs (the screen-space
+  error images of the sampler study's jobs among them), resumes from its cache and the
+  job store, and rejects bad input with exit code 2.
 """
 import csv
 import json
@@ -22,9 +23,11 @@ import pytest
 
 import _qmc_oracle as oracle
 import integrators.path as vr_path
+from experiments.lib import execute as X
 from experiments.lib import lab_points as LP
 from experiments.lib import samplers as S
 from experiments.lib import lab_warps as LW
+from experiments.lib.studies import samplers as SSt
 
 
 def spec(label, strategy, incidence, samples=100_000, seed=3):
@@ -210,11 +213,21 @@ def test_quick_run_writes_section_and_resumes(tmp_path, monkeypatch):
     for block in section["blocks"]:
         if block["kind"] == "image":
             assert os.path.isfile(os.path.join(out, block["src"]))
-    # a rerun computes nothing: every panel and point set comes from the cache
+    # the screen-space error images: every default label at 4 spp, rendered by the lab
+    with open(os.path.join(out, "lab", "screen.csv"), newline="") as f:
+        screen = list(csv.DictReader(f))
+    assert [(r["sampler"], r["spp requested"]) for r in screen] == [
+        (s, "4") for s in SSt.default_screen_labels()]
+    assert "made by the lab" in section["settings"]["screen-space error"]
+    # a rerun computes nothing: every panel and point set comes from the cache, every
+    # render from the store
     monkeypatch.setattr(LW, "compute", lambda *a, **k: pytest.fail("panel recomputed"))
     monkeypatch.setattr(LP, "compute", lambda *a, **k: pytest.fail("point set recomputed"))
+    monkeypatch.setattr(X, "run_job", lambda *a, **k: pytest.fail("render made again"))
     lab.STUDY.main(["--quick", "--out", out])
     assert os.path.isfile(os.path.join(out, "index.html"))
+    section = json.load(open(os.path.join(out, "lab", "section.json")))
+    assert "found in the job store" in section["settings"]["screen-space error"]
 
 
 def test_bad_input_is_one_line_exit_2(tmp_path, capsys):

@@ -178,3 +178,68 @@ def spectra(path: str, title: str, samplers: list[str], pairs: list[tuple[int, i
     fig.suptitle(title, fontsize=10)
     fig.subplots_adjust(left=0.05, right=0.99, bottom=0.16, top=0.84, wspace=0.06)
     return _save(fig, path)
+
+
+# ------------------------------------------------------------ screen-space error
+
+#: Error images are drawn from -ERROR_RANGE to +ERROR_RANGE times the median standard
+#: deviation of the row's errors at that count (one scale per count, so that the samplers'
+#: error levels compare); spectra as log10 of the power over white noise's, +-SPECTRUM_RANGE.
+ERROR_RANGE = 3.0
+SPECTRUM_RANGE = 1.0
+#: Box filter (pixels) that smooths one render's 2-D periodogram for display.
+SMOOTH = 5
+
+
+def smoothed(power: np.ndarray, size: int = SMOOTH) -> np.ndarray:
+    """A size x size periodic box average (the periodogram of one render is noisy)."""
+    out = np.zeros_like(power, dtype=float)
+    for dy in range(-(size // 2), size // 2 + 1):
+        for dx in range(-(size // 2), size // 2 + 1):
+            out += np.roll(power, (dy, dx), axis=(0, 1))
+    return out / size ** 2
+
+
+def _upscale(tile: np.ndarray, size: int) -> np.ndarray:
+    factor = max(1, size // max(tile.shape[:2]))
+    return np.repeat(np.repeat(tile, factor, 0), factor, 1)
+
+
+def error_tiles(fields: list[np.ndarray], spectra: list[np.ndarray],
+                size: int = 128) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(error image, spectrum image) RGB tiles of one count's ``fields`` (luminance errors)
+    and ``spectra`` (periodograms relative to white noise, FFT order): the errors on one
+    common scale, the spectra centred (frequency 0 in the middle), smoothed, log10."""
+    scale = ERROR_RANGE * float(np.median([np.std(f) for f in fields])) or 1.0
+    out = []
+    for f, p in zip(fields, spectra):
+        err = _colour(np.asarray(f), "RdBu_r", -scale, scale)
+        spec = np.log10(np.maximum(np.fft.fftshift(smoothed(np.asarray(p))), 1e-6))
+        out.append((_upscale(err, size), _upscale(_colour(spec, "magma", -SPECTRUM_RANGE,
+                                                          SPECTRUM_RANGE), size)))
+    return out
+
+
+def error_mosaic(path: str, title: str, labels: list[str], columns: list[str],
+                 tiles: list[list[np.ndarray]]) -> str:
+    """One row per label, one tile per column (``tiles[row][column]``, RGB arrays of one
+    size), composed in numpy and drawn with one ``imshow``."""
+    h, w = tiles[0][0].shape[:2]
+    pad = PAD
+    canvas = np.ones((len(labels) * (h + pad), len(columns) * (w + pad), 3))
+    for r, row in enumerate(tiles):
+        for c, tile in enumerate(row):
+            canvas[r * (h + pad):r * (h + pad) + h, c * (w + pad):c * (w + pad) + w] = tile
+    inches = canvas.shape[1] / 100.0
+    fig = plt.figure(figsize=(inches + 1.8, canvas.shape[0] / 100.0 + 0.7))
+    ax = fig.add_axes([1.8 / (inches + 1.8), 0.0, inches / (inches + 1.8),
+                       canvas.shape[0] / 100.0 / (canvas.shape[0] / 100.0 + 0.7)])
+    ax.imshow(canvas, interpolation="nearest")
+    ax.set_axis_off()
+    for c, name in enumerate(columns):
+        ax.text(c * (w + pad) + w / 2, -4, name, ha="center", va="bottom", fontsize=8)
+    for r, label in enumerate(labels):
+        ax.text(-6, r * (h + pad) + h / 2, label, ha="right", va="center", fontsize=8,
+                family="monospace")
+    fig.suptitle(title, fontsize=10, y=1.0)
+    return _save(fig, path)

@@ -13,7 +13,11 @@ projections, centered L2 discrepancy and radially averaged power spectra. Each
 part is plan -> measure -> pure analysis (a conclusion table and at most three
 sentences computed from it) -> report. Finished panels are cached under
 OUT/lab/cache, so a rerun (or an interrupted run, rerun) only computes what is
-missing.
+missing. Screen-space error (:mod:`experiments.lib.screen_space`): each sampler's error
+image (render minus reference, luminance) and its power spectrum at 4 and 16 spp side by
+side, from the sampler study's screen-space renders (the first repeat): the lab plans the
+same jobs, so it reads them from the job store where the sampler study made them and
+renders (and stores) only the missing ones.
 
     python -m experiments.lab --help
 """
@@ -27,12 +31,15 @@ import numpy as np
 
 from experiments.lib import files
 from experiments.lib.studies import StudySpec, register_study
-from experiments.lib import cli, report
+from experiments.lib.studies import samplers as SSt
+from experiments.lib import cli, figures, report
 from experiments.lib import lab_figures as LF
 from experiments.lib import lab_points as LP
 from experiments.lib import lab_warps as LW
 from experiments.lib import sampler_study as SS
-from experiments.lib.methods import strategies as registered_strategies
+from experiments.lib import screen_space as SP
+from experiments.lib.methods import parse_method, strategies as registered_strategies
+from experiments.lib.study import Study
 
 NAME = "lab"
 ORDER = 35
@@ -51,6 +58,12 @@ class Config:
     strategies: tuple | None = None      # None: every registered strategy
     samples: int = SAMPLES               # directions per warp panel
     seed: int = 0
+    #: screen-space error: the sampler study's renders (first repeat) at these settings
+    screen_resolution: tuple = (128, 128)
+    screen_counts: tuple = (4, 16)
+    screen_depth: int = 2
+    screen_samplers: tuple | None = None     # None: the sampler study's default labels
+    screen_reference_spp: int = SSt.SCREEN_REFERENCE_SPP
 
     def sampler_labels(self) -> list[str]:
         return list(self.samplers or LP.samplers())
@@ -58,10 +71,16 @@ class Config:
     def strategy_names(self) -> list[str]:
         return list(self.strategies or registered_strategies())
 
+    def screen_labels(self) -> list[str]:
+        return list(self.screen_samplers or SSt.default_screen_labels())
+
 
 FULL = Config()
+#: The screen-space part of --quick matches the sampler study's quick screen-space pass,
+#: so that run_all's quick run renders it once.
 QUICK = Config(bsdfs=(LW.BSDFS[1], LW.BSDFS[-1]), incidences=(60.0,), counts=(64,),
-               pixels=(4, 4), samples=QUICK_SAMPLES)
+               pixels=(4, 4), samples=QUICK_SAMPLES, screen_resolution=(16, 8),
+               screen_counts=(4,), screen_reference_spp=16)
 
 
 def build_parser() -> cli.Parser:
@@ -72,7 +91,11 @@ def build_parser() -> cli.Parser:
                         f"with --quick)")
     p.add_argument("--quick", action="store_true",
                    help="tiny run (for tests): two BSDFs at 60 degrees, every sampler at 64 "
-                        "spp on 4x4 pixels")
+                        "spp on 4x4 pixels, screen-space error at 16x8 and 4 spp")
+    p.add_argument("--screen-samplers", type=SSt.screen_samplers, default=None,
+                   help="samplers of the screen-space error images: 'default' (the sampler "
+                        "study's default screen-space labels), 'all' or comma-separated "
+                        "labels")
     return p
 
 
@@ -81,7 +104,8 @@ def parse(argv=None):
     base = QUICK if args.quick else FULL
     if args.samples is None:
         args.samples = base.samples
-    args.config = dataclasses.replace(base, samples=args.samples, seed=args.seed)
+    args.config = dataclasses.replace(base, samples=args.samples, seed=args.seed,
+                                      screen_samplers=args.screen_samplers)
     return args
 
 
@@ -262,6 +286,111 @@ def report_points(out: str, cfg: Config, m: PointsMeasured, found: LP.Findings) 
     return blocks
 
 
+# ------------------------------------------------------------- screen space
+
+@dataclasses.dataclass(frozen=True)
+class ScreenPlan:
+    refs: list                   # the reference's jobs
+    ladders: dict                # {label: [[job per count]]} (one repeat)
+
+
+@dataclasses.dataclass(frozen=True)
+class ScreenMeasured:
+    labels: list
+    counts: tuple
+    fields: dict                 # {(label, count): (H, W) luminance error, mean subtracted}
+    spectra: dict                # {(label, count): periodogram / its mean (white noise 1)}
+    radial: dict                 # {(label, count): (frequencies, radially averaged power)}
+    shares: dict                 # {(label, count): low-frequency share}
+    rendered: dict               # {(label, count): spp rendered}
+    found: int                   # of the renders, found in the store before the lab ran
+    total: int
+
+
+def plan_screen(st: Study, cfg: Config, reference) -> ScreenPlan:
+    """The sampler study's screen-space jobs at ``cfg``'s settings, first repeat only (the
+    same jobs: :func:`.studies.samplers.screen_ladders`)."""
+    labels = cfg.screen_labels()
+    screen = SSt.ScreenSettings(tuple(cfg.screen_resolution), tuple(cfg.screen_counts),
+                                (cfg.screen_depth,), tuple(labels), 1,
+                                cfg.screen_reference_spp, reference)
+    study = SSt.Settings(parse_method(SSt.BASE), (cfg.screen_depth,), (), tuple(labels),
+                         st.depth, st.info.path, (st.width, st.height), screen)
+    return ScreenPlan(SSt.screen_reference_jobs(st, screen, study.at(cfg.screen_depth)),
+                      SSt.screen_ladders(st, study, screen, cfg.screen_depth, labels,
+                                         screen.counts, 1))
+
+
+def measure_screen(st: Study, cfg: Config, planned: ScreenPlan) -> ScreenMeasured:
+    """Render what the store lacks, then each render's error field and spectrum."""
+    jobs = planned.refs + [j for reps in planned.ladders.values() for j in reps[0]]
+    found = sum(st.store.has(j.key) for j in jobs)
+    st.run(jobs, f"{NAME}: screen-space renders")
+    ref, _ = st.reference(planned.refs)
+    floor = SSt.screen_floor(st, planned.refs)
+    fields, spectra, radial, shares, rendered = {}, {}, {}, {}, {}
+    for label, reps in planned.ladders.items():
+        for job, count in zip(reps[0], cfg.screen_counts):
+            result = st.store.get(job.key)
+            field = SP.error_field(result.image.astype(float), ref)
+            power = SP.periodogram(field)
+            key = (label, count)
+            fields[key] = field
+            spectra[key] = SP.normalized(power, floor)
+            radial[key] = SP.spectrum(spectra[key])
+            shares[key] = SP.low_share(power, floor)
+            rendered[key] = result.spp
+    return ScreenMeasured(list(planned.ladders), tuple(cfg.screen_counts), fields, spectra,
+                          radial, shares, rendered, found, len(jobs))
+
+
+def screen_source(m: ScreenMeasured) -> str:
+    """Where the renders came from."""
+    if m.found == m.total:
+        return (f"all {m.total} renders found in the job store (the sampler study's "
+                f"screen-space jobs)")
+    if m.found == 0:
+        return (f"all {m.total} renders made by the lab (the sampler study's screen-space "
+                f"jobs, stored for it to reuse)")
+    return (f"{m.found} of {m.total} renders found in the job store (the sampler study's "
+            f"screen-space jobs), {m.total - m.found} made by the lab")
+
+
+def report_screen(out: str, cfg: Config, m: ScreenMeasured) -> list:
+    out_dir = os.path.join(out, NAME)
+    width, height = cfg.screen_resolution
+    by_count = {c: LF.error_tiles([m.fields[(s, c)] for s in m.labels],
+                                  [m.spectra[(s, c)] for s in m.labels]) for c in m.counts}
+    tiles = [[t for c in m.counts for t in by_count[c][r]] for r in range(len(m.labels))]
+    columns = [f"{what}, {c} spp" for c in m.counts for what in ("error", "spectrum")]
+    LF.error_mosaic(os.path.join(out_dir, "screen_errors.png"),
+                    f"Error images and their power spectra, {width}x{height}, max_depth "
+                    f"{cfg.screen_depth}", m.labels, columns, tiles)
+    figures.spectrum_panels(os.path.join(out_dir, "screen_spectra.png"),
+                            {f"{c} spp requested": {s: m.radial[(s, c)] for s in m.labels}
+                             for c in m.counts}, SP.LOW,
+                            "Radially averaged power spectra of the error images above")
+    rows = [[s, c, m.rendered[(s, c)], f"{m.shares[(s, c)]:.4g}"] for s in m.labels
+            for c in m.counts]
+    white = SP.white_share((height, width))
+    return [
+        report.image(f"{NAME}/screen_errors.png",
+                     f"Per sampler: the error (render minus reference, luminance; red too "
+                     f"bright, blue too dark, one scale per count) and its power spectrum "
+                     f"(frequency 0 in the middle, the Nyquist frequency at the edges; log "
+                     f"of the power over white noise's, smoothed over {LF.SMOOTH}x"
+                     f"{LF.SMOOTH} bins; dark centre: blue noise) at "
+                     f"{' and '.join(map(str, m.counts))} spp; {screen_source(m)}."),
+        report.image(f"{NAME}/screen_spectra.png",
+                     f"The same spectra radially averaged (white noise: 1); the low-"
+                     f"frequency share is the power left of the dashed line. One render "
+                     f"each: the sampler study gives intervals over repeats."),
+        report.write_table(out, f"{NAME}/screen", ["sampler", "spp requested",
+                                                   "spp rendered", "low-frequency share"],
+                           rows, f"Low-frequency share of each error image above (one "
+                                 f"render; white noise {white:.4f})")]
+
+
 GUIDE = (
     "How to read this section. Each warp row is one way vr_path picks the next direction. "
     "The picture is the whole sphere of directions (or, for narrow Phong lobes, a cap about "
@@ -297,8 +426,12 @@ def run(args) -> None:
     points = measure_points(plan_points(cfg), os.path.join(out_dir, "cache", "points"))
     point_found = analyse_points(points, cfg.counts[0])
     point_seconds = time.perf_counter() - start - warp_seconds
+    st = Study(args)
+    screen = measure_screen(st, cfg, plan_screen(st, cfg, args.reference_method))
+    screen_seconds = time.perf_counter() - start - warp_seconds - point_seconds
     blocks = ([report.text(GUIDE)] + report_warps(args.out, cfg, warps, warp_found)
-              + report_points(args.out, cfg, points, point_found))
+              + report_points(args.out, cfg, points, point_found)
+              + report_screen(args.out, cfg, screen))
     settings = {"samples per warp panel": cfg.samples, "seed": cfg.seed,
                 "warp grid": f"{LW.PanelSpec.res} x {LW.PanelSpec.res} cells, "
                              f"{LW.PanelSpec.ires} x {LW.PanelSpec.ires} trapezoid points "
@@ -307,10 +440,17 @@ def run(args) -> None:
                 "incidences (deg)": ", ".join(f"{i:g}" for i in cfg.incidences),
                 "point sets": f"{cfg.pixels[0]}x{cfg.pixels[1]} pixels, "
                               f"counts {', '.join(map(str, cfg.counts))} requested",
+                "screen-space error": f"{cfg.screen_resolution[0]}x"
+                                      f"{cfg.screen_resolution[1]}, max_depth "
+                                      f"{cfg.screen_depth}, "
+                                      f"{', '.join(map(str, cfg.screen_counts))} spp, "
+                                      f"reference {cfg.screen_reference_spp} spp of "
+                                      f"{args.reference_method}; {screen_source(screen)}",
                 "variant": args.variant, "quick": args.quick,
-                "wall time (s)": f"warps {warp_seconds:.1f}, point sets {point_seconds:.1f} "
-                                 f"(panels and point sets cached under {NAME}/cache/ are "
-                                 f"not recomputed)"}
+                "wall time (s)": f"warps {warp_seconds:.1f}, point sets {point_seconds:.1f}, "
+                                 f"screen space {screen_seconds:.1f} (panels and point sets "
+                                 f"cached under {NAME}/cache/ are not recomputed; renders "
+                                 f"come from the job store)"}
     report.write_section(args.out, NAME, "Sampling lab: strategies as warps, samplers as "
                          "point sets", ORDER, settings, blocks, args.variant,
                          time.perf_counter() - start)
@@ -320,7 +460,11 @@ def run(args) -> None:
         "point_conclusion": point_found.sentences,
         "point_table": [dataclasses.asdict(r) for r in point_found.rows],
         "discrepancy": [{"spp": spp, "sampler": n, "pair": list(p), "discrepancy_cd": v}
-                        for (spp, n, p), v in points.cd.items()]})
+                        for (spp, n, p), v in points.cd.items()],
+        "screen": {"source": screen_source(screen), "shares": [
+            {"sampler": s, "spp": c, "spp_rendered": screen.rendered[(s, c)],
+             "low_frequency_share": screen.shares[(s, c)]}
+            for s in screen.labels for c in screen.counts]}})
 
 
 STUDY = register_study(StudySpec(
