@@ -217,3 +217,82 @@ def ratio_bands(path: str, curves: dict, ylabel: str, title: str) -> str:
     ax.legend(fontsize=7, ncol=2)
     fig.tight_layout()
     return _save(fig, path)
+
+
+# ------------------------------------------------ the scene suite
+
+def _save_png_pdf(fig, stem: str) -> tuple[str, str]:
+    """Write ``stem.png`` and ``stem.pdf`` (matplotlib's own text, no LaTeX), atomically."""
+    for ext in ("png", "pdf"):
+        with files.atomic_path(f"{stem}.{ext}") as tmp:
+            fig.savefig(tmp, format=ext, dpi=130, bbox_inches="tight")
+    plt.close(fig)
+    return stem + ".png", stem + ".pdf"
+
+
+def matrix_heatmap(stem: str, rows: list[str], cols: list[str], values, texts, marks,
+                   title: str, label: str) -> tuple[str, str]:
+    """A rows x cols heatmap of log10 ``values`` (NaN: grey) with ``texts`` written in the
+    cells; ``marks[r][c]``: 2 outlines the winner, 1 a method tied for best."""
+    v = np.log10(np.where(np.asarray(values, float) > 0, np.asarray(values, float), np.nan))
+    span = max(1.0, float(np.nanmax(np.abs(v))) if np.isfinite(v).any() else 1.0)
+    fig, ax = plt.subplots(figsize=(1.05 * len(cols) + 2.4, 0.62 * len(rows) + 1.6))
+    cmap = plt.get_cmap("RdBu").with_extremes(bad="#dddddd")
+    im = ax.imshow(np.ma.masked_invalid(v), cmap=cmap, vmin=-span, vmax=span, aspect="auto")
+    for r in range(len(rows)):
+        for c in range(len(cols)):
+            ax.text(c, r, texts[r][c], ha="center", va="center", fontsize=6.2,
+                    color="white" if np.isfinite(v[r, c]) and abs(v[r, c]) > 0.6 * span
+                    else "black")
+            if marks[r][c]:
+                ax.add_patch(plt.Rectangle((c - 0.5, r - 0.5), 1, 1, fill=False,
+                                           lw=2.4 if marks[r][c] == 2 else 1.0, ec="k"))
+    ax.set_xticks(range(len(cols)), cols, rotation=35, ha="right", fontsize=8)
+    ax.set_yticks(range(len(rows)), rows, fontsize=8)
+    ax.set_title(title, fontsize=9)
+    fig.colorbar(im, ax=ax, fraction=0.025, label=label)
+    fig.tight_layout()
+    return _save_png_pdf(fig, stem)
+
+
+def crop_figure(stem: str, reference: np.ndarray, boxes: list[tuple[int, int, int, int]],
+                crops: list[tuple[str, np.ndarray, list[str]]], title: str) -> tuple[str, str]:
+    """The reference with its crop ``boxes`` ((x, y, w, h), drawn in colour) on top, and
+    beneath it one row per box of every method's crop with its caption lines:
+    ``crops`` = [(method, its (H, W, 3) image, [caption per box])]. The crops are one
+    mosaic image (tiles composed in numpy, magnified without interpolation), so a figure of
+    many methods stays cheap to draw."""
+    colours = ("#e8a33d", "#3dc1e8", "#c13de8")
+    n, rows = max(1, len(crops)), len(boxes)
+    tile = 96                                            # pixels per crop tile side
+    pad, cap = 8, 34                                     # gaps; room for captions
+    mosaic = np.full((rows * (tile + cap) + pad, n * (tile + pad) + pad, 3), 255, np.uint8)
+    for k, (x, y, bw, bh) in enumerate(boxes):
+        scale = max(1, tile // max(bw, bh))
+        for c, (_, image, _) in enumerate(crops):
+            t = files.tonemap(image[y:y + bh, x:x + bw])
+            t = np.repeat(np.repeat(t, scale, 0), scale, 1)[:tile, :tile]
+            r0, c0 = pad + k * (tile + cap), pad + c * (tile + pad)
+            mosaic[r0 - 2:r0 + t.shape[0] + 2, c0 - 2:c0 + t.shape[1] + 2] = \
+                (np.array(matplotlib.colors.to_rgb(colours[k % len(colours)])) * 255)
+            mosaic[r0:r0 + t.shape[0], c0:c0 + t.shape[1]] = t
+    h, w = reference.shape[:2]
+    width = max(4.0, mosaic.shape[1] / 100)
+    top = width * 0.5 * h / w
+    fig, (ax, bottom) = plt.subplots(2, 1, figsize=(width, top + mosaic.shape[0] / 100 + 0.8),
+                                     gridspec_kw={"height_ratios": [top, mosaic.shape[0] / 100]})
+    _show(ax, reference)
+    ax.set_title(title, fontsize=9)
+    for k, (x, y, bw, bh) in enumerate(boxes):
+        ax.add_patch(plt.Rectangle((x - 0.5, y - 0.5), bw, bh, fill=False, lw=1.5,
+                                   ec=colours[k % len(colours)]))
+    bottom.imshow(mosaic, interpolation="nearest")
+    bottom.axis("off")
+    for c, (name, _, captions) in enumerate(crops):
+        x = pad + c * (tile + pad) + tile / 2
+        bottom.text(x, pad - 3, name, ha="center", va="bottom", fontsize=7)
+        for k, caption in enumerate(captions):
+            bottom.text(x, pad + k * (tile + cap) + tile + 3, caption, ha="center", va="top",
+                        fontsize=6)
+    fig.tight_layout()
+    return _save_png_pdf(fig, stem)

@@ -188,6 +188,9 @@ caption { caption-side: top; text-align: left; font-weight: 600; padding-bottom:
 .meta td { text-align: left; } .files { font-family: monospace; font-size: .85em; columns: 2; }
 details { margin: .5em 0; } summary { cursor: pointer; color: #245; }
 .note { color: #555; font-size: .9em; }
+.findings { border: 2px solid #2a6; background: #f3fbf5; padding: .4em 1.2em; margin: 1em 0; }
+.findings h2 { border: 0; margin: .4em 0 .2em; font-size: 1.2em; }
+.findings li { margin: .25em 0; }
 """
 
 
@@ -249,6 +252,29 @@ def _files_html(files: list[str]) -> str:
     return "\n".join(parts)
 
 
+#: A study's ``summary.json`` may hold a list of sentences under this key: the report shows
+#: them in a findings box at the top of the page (computed from the data by the study).
+FINDINGS_KEY = "findings"
+
+
+def findings_html(out: str, sections: list[dict]) -> str:
+    """The findings boxes of every section whose ``<out>/<name>/summary.json`` has
+    :data:`FINDINGS_KEY`, in section order."""
+    boxes = []
+    for section in sections:
+        summary = read_json(os.path.join(out, section["name"], "summary.json"), {})
+        items = summary.get(FINDINGS_KEY) if isinstance(summary, dict) else None
+        if not items:
+            continue
+        rows = "".join(f"<li>{_esc(item)}</li>" for item in items)
+        boxes.append(f'<div class="findings"><h2>Findings: {_esc(section["title"])}</h2>'
+                     f'<ul>{rows}</ul><p class="note">Computed from the data '
+                     f'(<a href="{_esc(section["name"])}/summary.json">'
+                     f'{_esc(section["name"])}/summary.json</a>); details in '
+                     f'<a href="#{_esc(section["name"])}">its section</a>.</p></div>')
+    return "\n".join(boxes)
+
+
 def build_report(out: str, variant: str) -> str:
     """Write ``<out>/index.html`` from every section under ``out``; return its path."""
     sections = read_sections(out)
@@ -269,6 +295,7 @@ Comparisons open in viewers: keys 1-9 or a click on a label pick the image, Spac
 between the last two, the wheel zooms and a drag pans (all images of a comparison together),
 +/- change the exposure, e shows the error map (m: relMSE or FLIP), g shows them side by side;
 keys act on the viewer under the mouse. Click a chart to open it at full size.</p>
+{findings_html(out, sections)}
 <nav><ul>{toc}<li><a href="#versions">Versions</a></li>
 <li><a href="#files">All files</a></li></ul></nav>
 {body}
