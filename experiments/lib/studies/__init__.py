@@ -24,7 +24,7 @@ from typing import Callable
 from ..scenes import Needs, SceneInfo, unmet
 
 #: The built-in studies, modules of this package (each registers itself when imported).
-BUILTIN = ("samplers", "convergence", "writeup", "lab", "stability")
+BUILTIN = ("samplers", "convergence", "writeup", "lab", "stability", "suite")
 #: ``run_all``'s choices for every study.
 MODES = ("default", "quick", "off")
 

@@ -1,0 +1,356 @@
+"""Scene suite: every method on a set of scenes, each isolating one phenomenon, against a
+cached reference per scene; a scene x method matrix with intervals and the winner per scene.
+
+``--scenes DIR|FILE,...`` takes any folder (its ``*.xml``) or list of Mitsuba 3 scene files
+(read through Mitsuba's own parser: ``<include>``, ``<path>``, ``$`` defaults, ``<ref>``);
+default: the bundled suite, ``scenes/suite/``. Each scene's integrator and sampler are
+replaced per method, its own max_depth (and rr_depth, hide_emitters) kept unless
+``--max-depth`` etc. say otherwise. Resolution: the scene's own film, scaled so that its long
+side is at most ``--max-size`` pixels (aspect kept), unless ``--resolution`` gives one.
+
+Per scene and method (a cell), ``--repeats`` independent runs at equal spp (``--spp``) and at
+equal time: each equal-time render gets about ``--time-budget`` seconds of sample work at the
+cell's measured time per sample (its spp rounded to a power of two: Mitsuba renders powers of
+two with another kernel than other counts, and one kernel per cell keeps compilation down).
+Time per sample: every cell renders once at 1 spp (not a sampler that bakes its count into
+the kernel) and R times at each budget; a least-squares line t = a + b spp through those
+render times (CPU time of the process on LLVM, wall time on CUDA) separates the per-call
+cost a (tracing the integrator, launching kernels) from the per-sample cost b; each
+repeat's b is its longest render's time minus a, over its samples. A scene's cells run in
+groups of at most the scenes a process keeps loaded (the baseline and vr_path bsdf+nee
+first), their timed renders taking turns. Errors against the reference (from
+:mod:`experiments.lib.references`: rendered once per scene, cached, extended when too noisy)
+with its own expected error subtracted; efficiency over ``--baseline`` (Mitsuba's ``path``:
+what a user would run instead) from relMSE and time per sample.
+
+    python -m experiments.suite --help
+"""
+from __future__ import annotations
+
+import os
+import time
+
+import numpy as np
+
+import scenes as bundled
+from experiments.lib import cli, files
+from experiments.lib.execute import SCENE_CACHE
+from experiments.lib import references as R
+from experiments.lib import samplers as S
+from experiments.lib import scenes as SC
+from experiments.lib.methods import parse_method, strategies
+from experiments.lib.studies import StudySpec, register_study
+from experiments.lib.studies import suite_analysis as A
+from experiments.lib.studies import suite_plan as P
+from experiments.lib.studies import suite_report as W
+from experiments.lib.study import Study
+
+NAME, ORDER, TITLE = P.NAME, P.ORDER, P.TITLE
+#: Long side of the film when --resolution is not given (the scene's film scaled down to it).
+MAX_SIZE = 48
+#: The reference's automatic extension stops at this many times --reference-spp.
+REFERENCE_GROWTH = 8
+QUICK_DEFAULTS = {"spp": 4, "time_budget": 0.004, "reference_spp": 32, "max_size": 12,
+                  "scenes": "furnace,veach_mis", "methods": "bsdf,bsdf+nee,path"}
+FLIP_MODES = ("first", "all")
+
+
+# ------------------------------------------------------------------ options
+
+def default_methods() -> list[str]:
+    """Every vr_path strategy with and without NEE, then Mitsuba's path."""
+    names = list(strategies())
+    return [n for s in names for n in (s, f"{s}+nee")] + ["path"]
+
+
+def scene_files(text: str) -> list[str]:
+    """The scene files of ``--scenes DIR|FILE,...`` (a folder: its ``*.xml``, sorted)."""
+    out = []
+    for item in (t.strip() for t in text.split(",")):
+        if not item:
+            continue
+        if os.path.isdir(item):
+            found = sorted(os.path.join(item, n) for n in os.listdir(item)
+                           if n.endswith(".xml") and os.path.isfile(os.path.join(item, n)))
+            if not found:
+                raise cli.argparse.ArgumentTypeError(f"--scenes folder '{item}' holds no "
+                                                     f"*.xml scene file")
+            out += found
+        elif os.path.isfile(item):
+            out.append(item)
+        elif item in bundled.suite_names() or f"suite/{item}.xml" in bundled.suite_names():
+            out.append(bundled.path(item if item.endswith(".xml") else f"suite/{item}.xml"))
+        else:
+            raise cli.argparse.ArgumentTypeError(
+                f"--scenes '{item}' is neither a folder nor a scene file (nor a bundled suite "
+                f"scene: {', '.join(n[6:-4] for n in bundled.suite_names())})")
+    if not out:
+        raise cli.argparse.ArgumentTypeError("--scenes names no scene")
+    return [os.path.abspath(p) for p in dict.fromkeys(out)]
+
+
+def flip_mode(text: str) -> str:
+    if text not in FLIP_MODES:
+        raise cli.argparse.ArgumentTypeError(f"invalid --flip '{text}': choose "
+                                             f"{' or '.join(FLIP_MODES)}")
+    return text
+
+
+def add_shared(p: cli.Parser) -> None:
+    """The suite's options that run_all also takes (and passes on)."""
+    p.add_argument("--scenes", type=scene_files, default=None, metavar="DIR|FILE,...",
+                   help="the suite's scenes: folders (their *.xml) and scene files, "
+                        "comma-separated; default: the bundled suite (scenes/suite)")
+    p.add_argument("--references", default=None, metavar="DIR",
+                   help="use your own reference images: DIR/<scene name>.exr (their own "
+                        "error is unknown, nothing is subtracted)")
+    p.add_argument("--reference-cache", default=None, metavar="DIR",
+                   help="the reference store shared by every run (default: OUT/references)")
+
+
+def build_parser() -> cli.Parser:
+    p = cli.common_parser("python -m experiments.suite", __doc__.split("\n")[0], spp=16,
+                          time_budget=0.02, default_resolution="48x36",
+                          methods=default_methods(), repeats=3)
+    p.set_defaults(reference_spp=256)
+    p._option_string_actions["--resolution"].help = (
+        f"film resolution of every scene; default: each scene's own film scaled so that its "
+        f"long side is at most --max-size pixels")
+    p._option_string_actions["--time-budget"].help = (
+        "seconds of sample work of each equal-time render (CPU time on LLVM, wall time on "
+        "CUDA; the per-call cost is left out, see the module help)")
+    p._option_string_actions["--scene"].help = "not used by the suite (see --scenes)"
+    add_shared(p)
+    p.add_argument("--max-size", type=cli.positive_int, default=MAX_SIZE,
+                   help="longest film side when --resolution is not given")
+    p.add_argument("--baseline", type=cli.one_method, default="path",
+                   help="method every efficiency is relative to (one of --methods)")
+    p.add_argument("--best-sampler", default="auto", metavar="SAMPLER|auto|none",
+                   help="add bsdf+nee with this sampler to the default methods; auto: the "
+                        "sampler study's most efficient randomized sampler (OUT/samplers/"
+                        "summary.json) at the depth nearest the scenes' median max_depth")
+    p.add_argument("--reference-max-spp", type=cli.positive_int, default=None,
+                   help=f"cap of the automatic extension of a reference too noisy for the "
+                        f"comparison (default {REFERENCE_GROWTH} x --reference-spp)")
+    p.add_argument("--flip", type=flip_mode, default="first",
+                   help="FLIP of the first repeat at equal time only (the images shown), or "
+                        "of every repeat at both budgets (an interval; HDR-FLIP costs 0.1-1 s "
+                        "of CPU per 64x48 image)")
+    p.add_argument("--quick", action="store_true",
+                   help="tiny run for tests: " + ", ".join(f"{k} {v}" for k, v in
+                                                          QUICK_DEFAULTS.items()))
+    return p
+
+
+def _best_sampler(args, files_list) -> tuple[str | None, str]:
+    """(bsdf+nee+SAMPLER or None, where it was chosen)."""
+    choice = getattr(args, "best_sampler", "none")
+    if choice == "none":
+        return None, "no best sampler (--best-sampler none)"
+    if choice != "auto":
+        m = "bsdf+nee" if choice == S.DEFAULT else f"bsdf+nee+{choice}"
+        cli.one_method(m)
+        return m, f"{m} as given (--best-sampler)"
+    summary = files.read_json(os.path.join(args.out, "samplers", "summary.json"), {}) or {}
+    best = summary.get("best") or {}
+    if not best:
+        return None, ("no best sampler: the sampler study has not run (run_all runs it "
+                      "first)")
+    depths = [SC.read_scene(f).depth.max_depth for f in files_list if _reads(f)]
+    depths = [d if d is not None and d >= 0 else 8 for d in depths] or [8]
+    target = float(np.median(depths))
+    d = min(best, key=lambda k: (abs(int(k) - target), int(k)))
+    rows = [r for r in summary.get("rows", []) if str(r.get("depth")) == str(d)
+            and "relative_efficiency" in r and not _deterministic(r.get("sampler", ""))]
+    sampler = (max(rows, key=lambda r: r["relative_efficiency"])["sampler"] if rows
+               else best[d])
+    m = "bsdf+nee" if sampler == S.DEFAULT else f"bsdf+nee+{sampler}"
+    try:
+        cli.one_method(m)
+    except cli.argparse.ArgumentTypeError:
+        return None, f"no best sampler: the sampler study's '{sampler}' is not known here"
+    return m, (f"bsdf+nee with {sampler}, the sampler study's most efficient randomized "
+               f"sampler at max_depth {d} (chosen there, on its own scene and counts, not "
+               f"here)")
+
+
+def _reads(path: str) -> bool:
+    try:
+        SC.read_scene(path)
+        return True
+    except (ValueError, OSError):
+        return False
+
+
+def _deterministic(label: str) -> bool:
+    try:
+        spec, rand = S.split_label(label)
+        return spec.is_deterministic(rand)
+    except (ValueError, KeyError):
+        return True
+
+
+def parse(argv=None):
+    args = cli.parse_args(build_parser(), argv)
+    if args.quick:
+        for key, value in QUICK_DEFAULTS.items():
+            if key not in args.explicit:
+                if key == "scenes":
+                    value = scene_files(value)
+                elif key == "methods":
+                    value = cli.method_list(value)
+                setattr(args, key, value)
+    files_list = args.scenes or bundled.suite()
+    methods = list(args.methods)
+    args.best_note = "methods as given (--methods)"
+    if "methods" not in args.explicit and not args.quick:
+        best, args.best_note = _best_sampler(args, files_list)
+        if best is not None and best not in methods:
+            methods.insert(methods.index("path") if "path" in methods else len(methods), best)
+    args.methods = methods
+    args.method_objs = [parse_method(m) for m in methods]
+    if args.baseline.name not in methods:
+        build_parser().error(f"--baseline '{args.baseline}' is not one of the methods "
+                             f"({', '.join(methods)})")
+    args.user_references = {}
+    if args.references:
+        try:
+            args.user_references = R.user_references(args.references)
+        except ValueError as e:
+            build_parser().error(str(e))
+    args.scene_files = files_list
+    return args
+
+
+def settings(args) -> P.Settings:
+    """The typed settings of a parsed command line (:func:`parse`)."""
+    ref_spp = args.reference_spp
+    return P.Settings(
+        out=args.out, variant=args.variant, seed=args.seed, repeats=args.repeats,
+        executor=getattr(args, "executor", None), info=args.info, depth=args.depth,
+        scenes=tuple(args.scene_files), methods=tuple(args.method_objs),
+        baseline=args.baseline, spp=args.spp, time_budget=args.time_budget,
+        forced_resolution=tuple(args.resolution) if "resolution" in args.explicit else None,
+        max_size=args.max_size, max_depth=args.max_depth, rr_depth=args.rr_depth,
+        reference_spp=ref_spp, reference_max_spp=max(ref_spp, args.reference_max_spp or
+                                                     REFERENCE_GROWTH * ref_spp),
+        reference_method=args.reference_method,
+        reference_root=args.reference_cache or os.path.join(args.out, R.REFERENCES_DIR),
+        user_references=dict(args.user_references), flip=args.flip, best_note=args.best_note,
+        cpu_time=args.variant.startswith("llvm"))
+
+
+# ------------------------------------------------------------------ the study
+
+class Clock:
+    """Wall and CPU seconds spent in named parts of the run."""
+
+    def __init__(self):
+        self.parts: dict[str, list[float]] = {}
+
+    def add(self, part: str, wall: float, cpu: float) -> None:
+        w, c = self.parts.get(part, [0.0, 0.0])
+        self.parts[part] = [w + wall, c + cpu]
+
+    def time(self, part: str, fn, *a, **k):
+        wall, cpu = time.perf_counter(), time.process_time()
+        try:
+            return fn(*a, **k)
+        finally:
+            self.add(part, time.perf_counter() - wall, time.process_time() - cpu)
+
+
+def comparable(cfg: P.Settings, sp) -> str:
+    """Why a rendered scene cannot be compared ('' when it can)."""
+    if sp.error:
+        return sp.error
+    ok = [m for m in sp.cells if m not in sp.failed]
+    if cfg.baseline.name not in ok:
+        why = sp.failed.get(cfg.baseline.name, "not run")
+        return f"the baseline {cfg.baseline} failed: {why}"
+    if len(ok) < 2:
+        return "only the baseline rendered: " + "; ".join(
+            f"{m}: {e}" for m, e in sp.failed.items())
+    return ""
+
+
+def adequate(cfg: P.Settings, st: Study, refs: R.ReferenceStore, unit, clock: Clock) -> None:
+    """A first measurement of each scene of ``unit``; a reference too noisy for the
+    comparison is extended (once, to what its floor's 1/spp law says is needed, up to the
+    cap). A scene that cannot be compared gets its reason as its error."""
+    spp, grow = {}, []
+    for sp in unit:
+        why = comparable(cfg, sp)
+        if why:
+            sp.error = why
+            continue
+        if sp.ref is None:                      # the user's EXR: nothing to extend
+            continue
+        ref = P.reference_of(refs, sp, None)    # every chunk cached
+        spp[sp.name] = P.needed_spp(P.measure_scene(cfg, st, sp, ref, flip=False), ref.spp,
+                                    cfg.reference_max_spp)
+        if spp[sp.name] > ref.spp:
+            grow.append(sp)
+    if grow:
+        clock.time("references", P.render_references, refs, cfg, grow, spp)
+
+
+def render(cfg: P.Settings, st: Study, refs: R.ReferenceStore, plans, clock: Clock) -> None:
+    """Per scene: its reference, phase 1 and phase 2 of every cell, then its reference's
+    extension where it is too noisy. A scene's cells go in groups of at most the scenes a
+    process keeps loaded (a scene loaded again compiles again), the baseline and the timed
+    pair leading the last group, their timed renders interleaved. Locally scene by scene and
+    group by group (each stays loaded from one step to the next); on a cluster every
+    scene's step at once (they fan out)."""
+    live = [sp for sp in plans if not sp.error]
+    units = [live] if cfg.executor is not None else [[sp] for sp in live]
+    first = (cfg.baseline.name,) + A.TIMED_PAIR
+    for unit in units:
+        clock.time("references", P.render_references, refs, cfg, unit,
+                   {sp.name: cfg.reference_spp for sp in unit})
+        unit = [sp for sp in unit if not sp.error]
+        groups = []
+        for sp in unit:
+            P.plan_cells(st, cfg, sp)
+            groups += P.timing_groups(sp, first, SCENE_CACHE)
+        for batch in ([groups] if cfg.executor is not None else [[g] for g in groups]):
+            clock.time("renders", P.run_cells, st, batch, lambda c: c.phase1(),
+                       f"{NAME}: equal spp")
+            for sp, name, cell in (c for g in batch for c in g):
+                if name not in sp.failed:
+                    P.plan_equal_time(st, cfg, sp, name, cell)
+            clock.time("renders", P.run_cells, st, batch, lambda c: c.equal_time,
+                       f"{NAME}: equal time")
+        adequate(cfg, st, refs, unit, clock)
+
+
+def run_suite(cfg: P.Settings) -> dict:
+    """Plan, render, measure, analyse and report the suite; returns summary.json's data."""
+    start = time.perf_counter()
+    clock = Clock()
+    st = Study(cfg)
+    refs = R.ReferenceStore(cfg.reference_root)
+    plans = P.plan_scenes(cfg)
+    render(cfg, st, refs, plans, clock)
+    wall, cpu = time.perf_counter(), time.process_time()
+    numbers, results, viewers, ref_images = {}, {}, {}, {}
+    failed = {sp.name: sp.error for sp in plans if sp.error}
+    for sp in plans:          # the final numbers with FLIP, each scene's viewer at once
+        if sp.error:          # (its FLIPs are still in metrics' cache)
+            continue
+        ref_images[sp.name] = ref = P.reference_of(refs, sp, None)
+        numbers[sp.name] = P.measure_scene(cfg, st, sp, ref, flip=True)
+        results[sp.name] = A.analyse_scene(numbers[sp.name])
+        viewers[sp.name] = W.viewer_block(cfg, st, sp, results[sp.name], ref)
+    return W.write(cfg, st, plans, numbers, ref_images, results, viewers, failed, clock,
+                   (wall, cpu), start)
+
+
+def run(args) -> None:
+    run_suite(settings(args))
+
+
+STUDY = register_study(StudySpec(
+    NAME, TITLE, ORDER, build_parser, run, parse=parse, quick=("--quick",), shared=add_shared,
+    forwarded={"scenes": "--scenes", "references": "--references",
+               "reference_cache": "--reference-cache", "best_sampler": "--best-sampler"}))

@@ -1,0 +1,468 @@
+"""The scene suite's analysis: pure functions of numbers (tested on synthetic ones).
+
+Input per scene (:class:`SceneNumbers`): per method (:class:`Cell`) the per-repeat errors
+against the reference at equal spp and at equal time (:class:`Runs`: relMSE, relMSE with
+the top 0.1% of pixel errors rejected, MSE, FLIP, raw: the reference's own expected error,
+:class:`Floor`, is subtracted here by :func:`stats.excess_interval`), the time of each
+render's samples and the image means (the bias check); the scene's header (hypothesis,
+exact value). Output per scene (:class:`SceneResult`): every estimate with its interval,
+the efficiency over the baseline at both budgets (:class:`Ratio`: an interval, or a bound
+where an error is below the reference's noise), the winner or the methods that cannot be
+told apart, the hypothesis' verdict, vr_path's time per sample over path's, the bias
+check and at most three sentences. :func:`findings` sums up the scenes.
+
+Verdicts use relMSE at equal time; a method wins only where the interval of its
+efficiency over every other method excludes 1.
+"""
+from __future__ import annotations
+
+import dataclasses
+import fnmatch
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import stats
+
+g = stats.g
+#: The budgets every cell is measured at; the first is the one verdicts use.
+BUDGETS = ("equal_time", "equal_spp")
+BUDGET_NAMES = {"equal_time": "equal time", "equal_spp": "equal spp"}
+#: Family-wise level of a scene's bias check (Sidak over its methods).
+BIAS_LEVEL = 0.95
+#: The reference is too noisy for a comparison where its own expected relMSE exceeds this
+#: share of the smallest expected relMSE measured against it.
+FLOOR_SHARE = 0.1
+#: The vr_path method whose time per sample is compared with path's on every scene.
+TIMED_PAIR = ("bsdf+nee", "path")
+#: Longest "where each method wins" paragraph, in words.
+MAX_WORDS = 80
+
+
+# ------------------------------------------------------------------ input
+
+@dataclass(frozen=True)
+class Runs:
+    """One cell at one budget, per repeat: raw errors against the reference (its own
+    expected error not subtracted), the seconds of each render's samples (spp x time per
+    sample: the time compared), image means and their variances (the pixels' spread)."""
+    spp: int
+    relmse: tuple
+    relmse_rejected: tuple
+    mse: tuple
+    seconds: tuple
+    flip: tuple = ()          # per repeat, or the first repeat's only, or none
+    means: tuple = ()
+    mean_vars: tuple = ()
+
+
+@dataclass(frozen=True)
+class Cell:
+    method: str
+    runs: dict                # {budget: Runs}
+    ns_per_sample: tuple      # per repeat
+    overhead: float = 0.0     # fitted seconds per render call
+    deterministic: bool = False
+
+
+@dataclass(frozen=True)
+class Floor:
+    """The reference's own expected errors (0 where unknown: a user's EXR)."""
+    relmse: float
+    relmse_rejected: float
+    mse: float
+    known: bool = True
+
+
+@dataclass(frozen=True)
+class SceneNumbers:
+    name: str
+    cells: dict               # {method: Cell}
+    floor: Floor
+    baseline: str
+    favours: tuple = ()       # header patterns (none: no hypothesis)
+    over: tuple = ()
+    hypothesis: str = ""
+    exact: float | None = None
+    failed: dict = field(default_factory=dict)    # {method: error}
+
+
+# ------------------------------------------------------------------ ratios with bounds
+
+@dataclass(frozen=True)
+class Ratio:
+    """An efficiency ratio: an interval (``side`` ""), a lower bound (">": the numerator's
+    error is below the reference's noise), an upper bound ("<"), or unknown ("?")."""
+    est: stats.Estimate
+    side: str = ""
+
+    @property
+    def value(self) -> float:
+        return self.est.value
+
+    def greater(self) -> bool:
+        """Above 1 at the interval's level."""
+        if self.side == ">":
+            return self.value > 1
+        return self.side == "" and self.est.known and self.est.lo > 1
+
+    def less(self) -> bool:
+        if self.side == "<":
+            return self.value < 1
+        return self.side == "" and self.est.known and self.est.hi < 1
+
+    def score(self) -> float:
+        """For ranking: the value (a lower bound counts as its value), unknown last."""
+        return self.value if self.side != "?" and math.isfinite(self.value) else -math.inf
+
+    def text(self) -> str:
+        if self.side == "?":
+            return "unknown (both errors below the reference's noise)"
+        if self.side in "<>" and self.side:
+            return f"{self.side} {g(self.value)} (an error below the reference's noise)"
+        return self.est.text()
+
+    def short(self) -> str:
+        """'3.1 [2.0, 4.8]', '> 3.1', '1.2' (no interval), '?'."""
+        if self.side == "?":
+            return "?"
+        if self.side:
+            return f"{self.side}{g(self.value)}"
+        if not self.est.known:
+            return g(self.value)
+        return f"{g(self.value)} [{g(self.est.lo)}, {g(self.est.hi)}]"
+
+    def fields(self, name: str) -> dict:
+        return {**self.est.fields(name), f"{name}_bound": self.side}
+
+
+def _shift(values, floor: float) -> list[float]:
+    return [float(v) - floor for v in values]
+
+
+def efficiency(a: Runs, b: Runs, floor: float, metric: str = "relmse") -> Ratio:
+    """Efficiency 1/(error x time) of ``a`` over ``b`` (errors over the reference's own
+    expected error ``floor``). Where one error is below the reference's noise, its upper
+    bound gives a bound on the ratio; where both are, it is unknown."""
+    ea, eb = (getattr(r, metric) for r in (a, b))
+    xa, xb = stats.excess_interval(ea, floor), stats.excess_interval(eb, floor)
+    n = min(len(ea), len(eb))
+    if xa.bound and xb.bound or (xa.bound and xa.hi <= 0) or (xb.bound and xb.hi <= 0):
+        return Ratio(stats.Estimate(math.nan, math.nan, math.nan, n), "?")
+    if not xa.bound and not xb.bound:
+        return Ratio(stats.ratio_interval([_shift(eb, floor), list(b.seconds)],
+                                          [_shift(ea, floor), list(a.seconds)]))
+    if xa.bound:      # a's error < xa.hi: a is at least this efficient
+        r = stats.ratio_interval([_shift(eb, floor), list(b.seconds)],
+                                 [[xa.hi] * len(ea), list(a.seconds)])
+        low = r.lo if r.known else r.value
+        return Ratio(stats.Estimate(low, low, math.inf, n), ">")
+    r = stats.ratio_interval([[xb.hi] * len(eb), list(b.seconds)],
+                             [_shift(ea, floor), list(a.seconds)])
+    high = r.hi if r.known else r.value
+    return Ratio(stats.Estimate(high, 0.0, high, n), "<")
+
+
+# ------------------------------------------------------------------ the winner
+
+@dataclass(frozen=True)
+class Ranking:
+    order: tuple              # methods, best first (by the ratio's score over the baseline)
+    winner: str | None        # the best, where its interval excludes every other method
+    ties: tuple               # the best and the methods it cannot be told from
+
+    def best(self) -> tuple:
+        return (self.winner,) if self.winner else self.ties
+
+
+def rank(relative: dict, compare) -> Ranking:
+    """``relative``: {method: Ratio over the baseline}; ``compare(a, b)``: the Ratio of a
+    over b. The best (highest score) wins only where it beats every other method at the
+    interval's level; otherwise the methods it cannot be told from tie with it."""
+    order = tuple(sorted(relative, key=lambda m: relative[m].score(), reverse=True))
+    if not order:
+        return Ranking((), None, ())
+    best = order[0]
+    ties = (best,) + tuple(m for m in order[1:] if not compare(best, m).greater())
+    return Ranking(order, best if len(ties) == 1 else None, ties)
+
+
+# ------------------------------------------------------------------ the hypothesis
+
+@dataclass(frozen=True)
+class Verdict:
+    status: str               # held | failed | undecided | untestable | none
+    text: str
+    favoured: str | None = None
+
+
+def matching(patterns, methods) -> list[str]:
+    return [m for m in methods if any(fnmatch.fnmatchcase(m, p) for p in patterns)]
+
+
+def hypothesis(favours, over, relative: dict, compare) -> Verdict:
+    """Does the best method matching ``favours`` beat every method matching ``over``
+    (methods of both lists count as favoured)? held: it beats each at the interval's
+    level; failed: one of them beats it; undecided: neither (the budget cannot tell)."""
+    if not favours:
+        return Verdict("none", "the scene states no hypothesis")
+    fav = matching(favours, relative)
+    opp = [m for m in matching(over, relative) if m not in fav]
+    if not fav or not opp:
+        missing = "favours" if not fav else "over"
+        return Verdict("untestable", f"no method run matches its '{missing}' patterns "
+                                     f"({', '.join(favours if not fav else over)})")
+    top = max(fav, key=lambda m: relative[m].score())
+    ratios = {o: compare(top, o) for o in opp}
+    winners = [o for o, r in ratios.items() if r.less()]
+    if winners:
+        o = winners[0]
+        return Verdict("failed", f"{o} is more efficient than {top}, the best favoured "
+                                 f"method (ratio {ratios[o].text()})", top)
+    unclear = [o for o, r in ratios.items() if not r.greater()]
+    if unclear:
+        return Verdict("undecided", f"{top}, the best favoured method, cannot be told from "
+                                    f"{_names(unclear)} at this budget", top)
+    weakest = min(ratios, key=lambda o: ratios[o].score())
+    return Verdict("held", f"{top} beats every method it should beat (by the least against "
+                           f"{weakest}: {ratios[weakest].text()})", top)
+
+
+def _names(methods, limit: int = 4) -> str:
+    methods = list(methods)
+    if len(methods) > limit:
+        return ", ".join(methods[:limit]) + f" and {len(methods) - limit} more"
+    return " and ".join([", ".join(methods[:-1]), methods[-1]]) if len(methods) > 1 \
+        else (methods[0] if methods else "none")
+
+
+# ------------------------------------------------------------------ bias
+
+@dataclass(frozen=True)
+class Bias:
+    mean: float
+    lo: float
+    hi: float
+    exact: float
+    level: float
+    checked: bool = True      # False: a deterministic method (pixel errors not independent)
+
+    @property
+    def inside(self) -> bool:
+        return self.lo <= self.exact <= self.hi
+
+    def text(self) -> str:
+        if not self.checked:
+            return f"{self.mean:.5g} (deterministic: no interval from the pixels' spread)"
+        return f"{self.mean:.5g} ({self.level:.2%} CI {self.lo:.5g}-{self.hi:.5g})"
+
+
+def bias(cell: Cell, exact: float, level: float) -> Bias:
+    """The mean of every render of ``cell`` (weighted by spp) with its ``level`` interval
+    from the pixels' spread (pixels are independent estimates where the scene has one
+    value everywhere), against ``exact``."""
+    from scipy.stats import norm
+    runs = [r for r in cell.runs.values() if r.means]
+    w = np.array([r.spp for r in runs for _ in r.means], float)
+    m = np.array([x for r in runs for x in r.means], float)
+    v = np.array([x for r in runs for x in r.mean_vars], float)
+    mean = float(np.sum(w * m) / np.sum(w))
+    se = float(math.sqrt(np.sum(w * w * v)) / np.sum(w))
+    z = float(norm.ppf(0.5 + level / 2))
+    return Bias(mean, mean - z * se, mean + z * se, exact, level, not cell.deterministic)
+
+
+# ------------------------------------------------------------------ one scene
+
+@dataclass(frozen=True)
+class CellResult:
+    method: str
+    errors: dict              # {budget: {metric: Estimate}}
+    relative: dict            # {budget: Ratio over the baseline}
+    ns_per_sample: stats.Estimate
+    spp: dict                 # {budget: spp rendered}
+    bias: Bias | None = None
+
+
+@dataclass(frozen=True)
+class SceneResult:
+    name: str
+    baseline: str
+    cells: dict               # {method: CellResult}
+    ranking: Ranking
+    verdict: Verdict
+    time_ratio: stats.Estimate | None     # TIMED_PAIR[0] / TIMED_PAIR[1] per sample
+    floor_share: float        # the reference's own relMSE over the smallest measured
+    floor_known: bool
+    sentences: tuple
+    failed: dict
+
+    @property
+    def reference_adequate(self) -> bool:
+        return not self.floor_known or self.floor_share <= FLOOR_SHARE
+
+    def bounds(self) -> list[str]:
+        """Methods whose equal-time relMSE is below the reference's noise."""
+        return [m for m, c in self.cells.items() if c.errors["equal_time"]["relmse"].bound]
+
+
+METRICS = ("relmse", "relmse_rejected", "mse", "flip")
+
+
+def _errors(runs: Runs, floor: Floor) -> dict:
+    out = {k: stats.excess_interval(getattr(runs, k), getattr(floor, k))
+           for k in ("relmse", "relmse_rejected", "mse")}
+    out["flip"] = (stats.mean_interval(runs.flip) if runs.flip and min(runs.flip) > 0
+                   else stats.Estimate(math.nan, math.nan, math.nan, len(runs.flip)))
+    return out
+
+
+def floor_share(numbers: SceneNumbers) -> float:
+    """The reference's own expected relMSE over the smallest expected relMSE measured
+    against it (raw, at either budget)."""
+    raw = [float(np.mean(r.relmse)) for c in numbers.cells.values() for r in c.runs.values()]
+    smallest = min((x for x in raw if x > 0), default=math.inf)
+    return numbers.floor.relmse / smallest if math.isfinite(smallest) else 0.0
+
+
+def analyse_scene(numbers: SceneNumbers) -> SceneResult:
+    cells, floor, base = numbers.cells, numbers.floor, numbers.baseline
+
+    def compare(a: str, b: str, budget: str = BUDGETS[0]) -> Ratio:
+        return efficiency(cells[a].runs[budget], cells[b].runs[budget], floor.relmse)
+
+    relative = {b: {m: compare(m, base, b) for m in cells} for b in BUDGETS}
+    ranking = rank(relative[BUDGETS[0]], compare)
+    verdict = hypothesis(numbers.favours, numbers.over, relative[BUDGETS[0]], compare)
+    level = BIAS_LEVEL ** (1 / max(1, len(cells)))
+    results = {m: CellResult(
+        m, {b: _errors(c.runs[b], floor) for b in BUDGETS}, {b: relative[b][m] for b in BUDGETS},
+        stats.mean_interval(c.ns_per_sample), {b: c.runs[b].spp for b in BUDGETS},
+        bias(c, numbers.exact, level) if numbers.exact is not None else None)
+        for m, c in cells.items()}
+    a, b = TIMED_PAIR
+    time_ratio = (stats.ratio_interval([list(cells[a].ns_per_sample)],
+                                       [list(cells[b].ns_per_sample)])
+                  if a in cells and b in cells else None)
+    share = floor_share(numbers)
+    partial = SceneResult(numbers.name, base, results, ranking, verdict, time_ratio, share,
+                          floor.known, (), dict(numbers.failed))
+    return dataclasses.replace(partial, sentences=tuple(sentences(partial)))
+
+
+# ------------------------------------------------------------------ words
+
+VERDICT_WORDS = {"held": "held", "failed": "failed", "undecided": "is undecided",
+                 "untestable": "cannot be tested"}
+
+
+def _words(text: str) -> int:
+    return len(text.split())
+
+
+def sentences(r: SceneResult) -> list[str]:
+    """Where each method wins on this scene: at most three sentences, at most
+    :data:`MAX_WORDS` words together (the last ones are dropped to fit)."""
+    rank, base = r.ranking, r.baseline
+    out = []
+    if rank.winner:
+        w = rank.winner
+        vs = (f"{r.cells[w].relative['equal_time'].text()} times {base}'s efficiency"
+              if w != base else "ahead of every other method")
+        out.append(f"On {r.name}, {w} wins at equal time: {vs}.")
+    elif rank.ties:
+        lead = rank.ties[0]
+        best = (f"{lead}, {g(r.cells[lead].relative['equal_time'].value)} times {base}"
+                if lead != base else f"{base} itself")
+        out.append(f"On {r.name}, {_names(rank.ties)} cannot be told apart at equal time "
+                   f"(best estimate: {best}).")
+    if r.verdict.status != "none":
+        out.append(f"Its hypothesis {VERDICT_WORDS[r.verdict.status]}: {r.verdict.text}.")
+    if r.time_ratio is not None:
+        a, b = TIMED_PAIR
+        out.append(f"vr_path {a} takes {r.time_ratio.text()} of {b}'s time per sample.")
+    while len(out) > 1 and _words(" ".join(out)) > MAX_WORDS:
+        out.pop()
+    return out[:3]
+
+
+def findings(results: list[SceneResult], failed_scenes: dict) -> list[str]:
+    """The report's findings box: the best method per scene and the overall picture."""
+    if not results:
+        return [f"No scene could be compared ({len(failed_scenes)} failed)."]
+    best = "; ".join(f"{r.name}: " + (r.ranking.winner or
+                                      f"{_names(r.ranking.ties)} (cannot be told apart)")
+                     for r in results)
+    out = [f"Best method per scene at equal time (relMSE efficiency, 95% intervals): {best}."]
+    methods = list(dict.fromkeys(m for r in results for m in r.cells))
+    top = {m: sum(m in r.ranking.best() for r in results) for m in methods}
+    leaders = sorted((m for m in methods if top[m]), key=lambda m: -top[m])[:4]
+    if leaders:
+        out.append("Best or tied for best most often: " + ", ".join(
+            f"{m} ({top[m]} of {len(results)} scenes)" for m in leaders) + ".")
+    gm = {}
+    for m in methods:
+        logs = [math.log(r.cells[m].relative["equal_time"].value) for r in results
+                if m in r.cells and r.cells[m].relative["equal_time"].side == ""
+                and r.cells[m].relative["equal_time"].value > 0]
+        if logs:
+            gm[m] = (math.exp(sum(logs) / len(logs)), len(logs))
+    if gm:
+        base = results[0].baseline
+        order = sorted(gm, key=lambda m: -gm[m][0])
+        shown = order[:3] + [m for m in order[-2:] if m not in order[:3]]
+        out.append(f"Geometric mean of the equal-time efficiency over {base} across scenes: "
+                   + ", ".join(f"{m} {g(gm[m][0])} ({gm[m][1]} scenes)" for m in shown) + ".")
+    status = {}
+    for r in results:
+        status.setdefault(r.verdict.status, []).append(r.name)
+    words = {"held": "held", "failed": "failed", "undecided": "undecided",
+             "untestable": "could not be tested", "none": "stated none"}
+    out.append("Hypotheses: " + "; ".join(f"{words[s]} on {', '.join(n)}"
+                                          for s, n in status.items()) + ".")
+    checks = [(r.name, m, c.bias) for r in results for m, c in r.cells.items() if c.bias]
+    if checks:
+        outside = [f"{m} on {n} ({b.text()}, exact {g(b.exact)})" for n, m, b in checks
+                   if b.checked and not b.inside]
+        scenes_checked = sorted({n for n, _, _ in checks})
+        out.append(f"Bias check ({', '.join(scenes_checked)}): " + (
+            "the exact value lies inside every method's interval." if not outside else
+            "the exact value lies outside the interval of " + "; ".join(outside) + "."))
+    noisy = [r.name for r in results if not r.reference_adequate]
+    if noisy:
+        out.append(f"The reference is too noisy for a full comparison on {', '.join(noisy)} "
+                   f"(see the suite section).")
+    if failed_scenes:
+        out.append(f"Not compared: {', '.join(failed_scenes)} (errors in the suite section).")
+    return out
+
+
+# ------------------------------------------------------------------ crops
+
+def _window_means(image: np.ndarray, size: int) -> np.ndarray:
+    """Mean of every ``size`` x ``size`` window of a 2-D array (summed-area table)."""
+    s = np.pad(np.cumsum(np.cumsum(image, 0), 1), ((1, 0), (1, 0)))
+    return (s[size:, size:] - s[:-size, size:] - s[size:, :-size] + s[:-size, :-size]) \
+        / (size * size)
+
+
+def crop_boxes(maps: list[np.ndarray], size: int) -> list[tuple[int, int, int, int]]:
+    """Two ``size`` x ``size`` crops ((x, y, w, h)) of per-method error maps (H, W): first
+    where the errors are largest (their mean over the methods), then, not overlapping it,
+    where the methods differ most (the spread of their log window means, each floored at
+    1% of the mean window error, so that windows every method renders almost exactly do
+    not count)."""
+    h, w = maps[0].shape
+    size = max(1, min(size, h, w))
+    windows = np.stack([_window_means(np.asarray(m, float), size) for m in maps])
+    level = windows.mean(axis=0)
+    y0, x0 = np.unravel_index(int(np.argmax(level)), level.shape)
+    floor = 0.01 * float(level.mean()) + 1e-30
+    spread = np.log10(np.maximum(windows, floor)).std(axis=0)
+    ys, xs = np.indices(spread.shape)
+    apart = (np.abs(ys - y0) >= size) | (np.abs(xs - x0) >= size)
+    if apart.any():
+        spread = np.where(apart, spread, -np.inf)
+    y1, x1 = np.unravel_index(int(np.argmax(spread)), spread.shape)
+    return [(int(x0), int(y0), size, size), (int(x1), int(y1), size, size)]

@@ -1,0 +1,294 @@
+"""The scene suite's report: matrix heatmap and tables, a viewer and a crop figure per scene,
+the sentences, the findings box (summary.json) and the section in index.html."""
+from __future__ import annotations
+
+import math
+import os
+import time
+
+import numpy as np
+
+from .. import figures, files, metrics, report, stats
+from ..execute import SCENE_CACHE
+from . import suite_analysis as A
+from .suite_plan import NAME, ORDER, TITLE
+
+g = stats.g
+BASELINE_WHY = ("Mitsuba's own path tracer (next-event estimation + MIS), what a user would "
+                "run instead")
+
+
+def _cells(e: stats.Estimate) -> list[str]:
+    """[value, lo, hi] cells; a bound (an error below the reference's noise) as '<hi'."""
+    return [f"<{g(e.hi)}", "0", g(e.hi)] if e.bound else e.cells()
+
+
+def _safe(x):
+    """NaN and infinities as None in summary.json."""
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    if isinstance(x, dict):
+        return {k: _safe(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_safe(v) for v in x]
+    return x
+
+
+# ------------------------------------------------------------------ the matrix
+
+def matrix(results: dict, methods: list[str]) -> tuple[list, list, list, list]:
+    """(values, heatmap texts, marks, table rows) of the scene x method matrix of
+    equal-time efficiency over the baseline."""
+    values, texts, marks, rows = [], [], [], []
+    for name, r in results.items():
+        v, t, k, row = [], [], [], [name]
+        for m in methods:
+            c = r.cells.get(m)
+            if c is None:
+                v.append(math.nan), t.append("failed" if m in r.failed else "-"), k.append(0)
+                row.append("failed" if m in r.failed else "")
+                continue
+            ratio = c.relative["equal_time"]
+            v.append(ratio.value if ratio.side in ("", ">", "<") else math.nan)
+            if ratio.side == "" and ratio.est.known:
+                t.append(f"{g(ratio.value)}\n{g(ratio.est.lo)}-{g(ratio.est.hi)}")
+            else:
+                t.append(ratio.short())
+            k.append(2 if r.ranking.winner == m else 1 if m in r.ranking.ties else 0)
+            row.append(ratio.short())
+        values.append(v), texts.append(t), marks.append(k), rows.append(row)
+    return values, texts, marks, rows
+
+
+CELL_HEADER = ["scene", "method", "budget", "spp", "repeats", "relMSE", "relMSE_lo",
+               "relMSE_hi", "relMSE rejected", "relMSE rejected_lo",
+               "relMSE rejected_hi", "MSE", "MSE_lo", "MSE_hi", "FLIP", "FLIP_lo", "FLIP_hi",
+               "ns per sample", "ns per sample_lo", "ns per sample_hi",
+               "efficiency / baseline", "efficiency / baseline_lo",
+               "efficiency / baseline_hi", "efficiency bound"]
+
+
+def cell_rows(results: dict) -> tuple[list[list], list[dict]]:
+    rows, records = [], []
+    for name, r in results.items():
+        for m, c in r.cells.items():
+            for b in A.BUDGETS:
+                e, rel = c.errors[b], c.relative[b]
+                rows.append([name, m, A.BUDGET_NAMES[b], c.spp[b], e["relmse"].n,
+                             *_cells(e["relmse"]), *_cells(e["relmse_rejected"]),
+                             *_cells(e["mse"]), *_cells(e["flip"]), *c.ns_per_sample.cells(),
+                             *rel.est.cells(), rel.side])
+                records.append({"scene": name, "method": m, "budget": b, "spp": c.spp[b],
+                                **{k: v for key in A.METRICS for k, v in
+                                   e[key].fields(key).items()},
+                                **{f"{k}_bound": e[k].bound for k in A.METRICS},
+                                **c.ns_per_sample.fields("ns_per_sample"),
+                                **rel.fields("efficiency")})
+    return rows, records
+
+
+# ------------------------------------------------------------------ per scene
+
+def scene_row(r: A.SceneResult, header, numbers: A.SceneNumbers, ref) -> list:
+    best = r.ranking.winner or ", ".join(r.ranking.ties) + " (cannot be told apart)"
+    ratio = r.time_ratio.text() if r.time_ratio is not None else "-"
+    reference = (f"{ref.spp} spp, own relMSE {g(numbers.floor.relmse)} = "
+                 f"{r.floor_share:.1%} of the smallest measured"
+                 + ("" if r.reference_adequate else " (too noisy)")
+                 if ref.floor_known else f"user's EXR (own error unknown)")
+    return [r.name, header.isolates if header else "(no header)", best, r.verdict.status,
+            r.verdict.text, ratio, reference]
+
+
+def bias_rows(results: dict) -> list[list]:
+    return [[name, m, f"{c.bias.mean:.5g}", f"{c.bias.lo:.5g}", f"{c.bias.hi:.5g}",
+             g(c.bias.exact), f"{c.bias.level:.4f}",
+             ("yes" if c.bias.inside else "NO") if c.bias.checked else "not checked"]
+            for name, r in results.items() for m, c in r.cells.items() if c.bias]
+
+
+def images_of(st, sp, methods) -> list[tuple[str, np.ndarray]]:
+    """The first repeat's equal-time image of every compared method."""
+    return [(m, st.store.get(sp.cells[m].equal_time[0].key).image.astype(np.float64))
+            for m in methods]
+
+
+def error_maps(st, sp, methods, ref) -> list[np.ndarray]:
+    """Per method the relMSE map averaged over its equal-time repeats."""
+    return [np.mean([metrics.relmse_map(st.store.get(j.key).image.astype(np.float64), ref)
+                     for j in sp.cells[m].equal_time], axis=0) for m in methods]
+
+
+def crop_block(cfg, st, sp, r: A.SceneResult, ref) -> dict:
+    methods = list(r.cells)
+    maps = error_maps(st, sp, methods, ref.image)
+    boxes = A.crop_boxes(maps, max(4, min(sp.width, sp.height) // 3))
+    crops = []
+    for (m, image), emap in zip(images_of(st, sp, methods), maps):
+        first = metrics.relmse_map(image, ref.image)
+        caps = [f"relMSE {g(float(first[y:y + h, x:x + w].mean()))}\n"
+                f"x{r.cells[m].relative['equal_time'].short().split(' [')[0]}"
+                for x, y, w, h in boxes]
+        crops.append((m, image, caps))
+    stem = os.path.join(cfg.out, NAME, "crops", sp.name)
+    figures.crop_figure(stem, ref.image, boxes, crops,
+                        f"{sp.name}: reference and the equal-time crops (first repeat)")
+    return report.image(
+        f"{NAME}/crops/{sp.name}.png",
+        f"{sp.name}: the reference with two crops chosen from the data (orange: where the "
+        f"errors are largest; blue: where the methods differ most), each method's "
+        f"equal-time crop beneath with the crop's relMSE (first repeat) and the method's "
+        f"equal-time efficiency over {r.baseline} ('x'); PDF: {NAME}/crops/{sp.name}.pdf")
+
+
+def viewer_block(cfg, st, sp, r: A.SceneResult, ref) -> dict:
+    images = images_of(st, sp, list(r.cells))
+    notes = [f"{r.cells[m].spp['equal_time']} spp · relMSE "
+             f"{r.cells[m].errors['equal_time']['relmse'].text()} · x"
+             f"{r.cells[m].relative['equal_time'].short()} over {r.baseline}" for m, _ in images]
+    return report.viewer(cfg.out, f"{sp.name}: equal time", images, ref.image,
+                         f"{sp.name} at equal time ({cfg.time_budget:g} s of samples each; "
+                         f"first repeat shown) and its reference: {ref.describe()}.", notes)
+
+
+# ------------------------------------------------------------------ the section
+
+def intro(cfg, plans, numbers) -> str:
+    methods = ", ".join(m.name for m in cfg.methods)
+    films = sorted({f"{sp.width}x{sp.height}" for sp in plans if sp.width})
+    return (
+        f"{len(plans)} scenes x {len(cfg.methods)} methods ({methods}). {cfg.best_note}. "
+        f"Films: {', '.join(films) or '-'} ("
+        + (f"--resolution {cfg.forced_resolution[0]}x{cfg.forced_resolution[1]}"
+           if cfg.forced_resolution else
+           f"each scene's own film scaled so that its long side is at most {cfg.max_size} "
+           f"pixels, aspect kept") + "). "
+        f"Each cell is rendered {cfg.repeats} times at equal spp ({cfg.spp}) and {cfg.repeats} "
+        f"times at equal time (about {cfg.time_budget:g} s of sample work each at the cell's own "
+        f"time per sample, the spp rounded to a power of two), independent seeds (a "
+        f"deterministic sampler once). Time per sample: "
+        f"{'process CPU time' if cfg.cpu_time else 'wall time'} of every render of the cell "
+        f"(1 spp once, then each budget), fitted by a line t = a + b spp; a is the per-call "
+        f"cost (tracing, kernel launch), b the per-sample cost, and each repeat's time is its "
+        f"longest render's minus a. A scene's methods are timed in groups of at most "
+        f"{SCENE_CACHE} (the scenes a process keeps loaded), the baseline and "
+        f"{A.TIMED_PAIR[0]} in the first, their renders taking turns; the intervals count the "
+        f"spread of the repeats, not a drift of the machine's load between groups. "
+        f"Errors are expected values over the repeats "
+        f"against a reference per scene ({cfg.reference_method}, at least "
+        f"{cfg.reference_spp} spp, extended up to {cfg.reference_max_spp} spp where its own "
+        f"relMSE exceeds {A.FLOOR_SHARE:.0%} of the smallest error measured against it), "
+        f"cached in {cfg.reference_root} and shared by every run, its own expected error "
+        f"(the spread of its chunks) subtracted: an error that cannot be told from it is "
+        f"reported as an upper bound. relMSE rejected: without the top "
+        f"{metrics.OUTLIER_SHARE:.1%} of the pixels' errors. Efficiency = 1/(relMSE x time per "
+        f"render) over the baseline {cfg.baseline} ({BASELINE_WHY}); verdicts use relMSE at "
+        f"equal time; MSE is in the tables. A method wins a scene only where the "
+        f"{stats.LEVEL:.0%} interval of its efficiency over every other method excludes 1. "
+        f"FLIP (HDR): {'every repeat' if cfg.flip == 'all' else 'the first equal-time repeat only (the image shown; --flip all gives intervals)'}. "
+        f"Intervals: {stats.LEVEL:.0%}, {stats.METHOD}.")
+
+
+def timing_text(clock, analysis: tuple[float, float], cfg) -> str:
+    parts = dict(clock.parts)
+    parts["analysis and report"] = [analysis[0], analysis[1]]
+    total_w = sum(v[0] for v in parts.values())
+    return ("Wall time of the suite: " + ", ".join(
+        f"{k} {v[0]:.1f} s (CPU {v[1]:.1f} s)" for k, v in parts.items())
+        + f"; total {total_w:.1f} s. Renders include loading each scene per method, "
+          f"compiling its kernels and the untimed warm-up renders; CPU time counts every "
+          f"thread of this process.")
+
+
+def write(cfg, st, plans, numbers, refs, results, viewers, failed, clock, since,
+          start) -> dict:
+    out, blocks = cfg.out, []
+    by_name = {sp.name: sp for sp in plans}
+    methods = [m.name for m in cfg.methods]
+    blocks.append(report.text(intro(cfg, plans, numbers)))
+    found = A.findings(list(results.values()), failed)
+    blocks.append(report.text("Findings (also at the top of the report): " + " ".join(found)))
+    if results:
+        values, texts, marks, rows = matrix(results, methods)
+        figures.matrix_heatmap(
+            os.path.join(out, NAME, "matrix"), list(results), methods, values, texts, marks,
+            f"Equal-time efficiency over {cfg.baseline} (relMSE; 95% interval beneath)",
+            f"log10 efficiency / {cfg.baseline}")
+        blocks += [
+            report.image(f"{NAME}/matrix.png", f"Scene x method: equal-time efficiency "
+                         f"1/(relMSE x time) over {cfg.baseline} with its {stats.LEVEL:.0%} "
+                         f"interval; thick outline: the scene's winner, thin: the methods it "
+                         f"cannot be told from; '>x'/'<x': a bound (an error below the "
+                         f"reference's noise). PDF: {NAME}/matrix.pdf"),
+            report.write_table(out, f"{NAME}/matrix", ["scene"] + methods, rows,
+                               f"Equal-time efficiency over {cfg.baseline}: value "
+                               f"[{stats.LEVEL:.0%} interval]")]
+        blocks.append(report.write_table(
+            out, f"{NAME}/scenes", ["scene", "isolates", "best at equal time", "hypothesis",
+                                    "why", f"{A.TIMED_PAIR[0]} / {A.TIMED_PAIR[1]} time per "
+                                    f"sample", "reference"],
+            [scene_row(r, by_name[n].header, numbers[n], refs[n]) for n, r in results.items()],
+            "Per scene: the winner (or the methods that cannot be told apart), the "
+            "hypothesis of its header, vr_path's time per sample over path's, the reference"))
+        biases = bias_rows(results)
+        if biases:
+            blocks.append(report.write_table(
+                out, f"{NAME}/bias", ["scene", "method", "mean", "lo", "hi", "exact", "level",
+                                      "exact inside"], biases,
+                "Bias check: the image mean of every render of each method (weighted by spp) "
+                "with its interval from the pixels' spread, at a level that makes the "
+                f"scene's check {A.BIAS_LEVEL:.0%} family-wise (Sidak over its methods)"))
+        rows, records = cell_rows(results)
+        blocks.append(report.write_table(out, f"{NAME}/cells", CELL_HEADER, rows,
+                                         "Every cell at both budgets, with intervals",
+                                         collapsed=True))
+    for name, r in results.items():
+        sp, ref = by_name[name], refs[name]
+        head = by_name[name].header
+        lead = f"{name}" + (f" (isolates {head.isolates})" if head else "") + ": "
+        extra = [] if r.reference_adequate else [
+            f"The reference is too noisy for this comparison even at {ref.spp} spp (its own "
+            f"relMSE is {r.floor_share:.0%} of the smallest measured); bounded errors: "
+            f"{', '.join(r.bounds()) or 'none'}."]
+        if sp.header_note:
+            extra.append(f"Note: {sp.header_note}.")
+        blocks += [report.text(lead + " ".join(list(r.sentences) + extra)),
+                   viewers[name], crop_block(cfg, st, sp, r, ref)]
+    fails = [[n, "(scene)", e] for n, e in failed.items()]
+    fails += [[n, m, e] for n, r in results.items() for m, e in r.failed.items()]
+    if fails:
+        blocks.append(report.write_table(out, f"{NAME}/failures", ["scene", "method", "error"],
+                                         fails, "Scenes and methods that could not be "
+                                                "compared, with their errors (the others ran)"))
+    analysis = (time.perf_counter() - since[0], time.process_time() - since[1])
+    blocks.append(report.text(timing_text(clock, analysis, cfg)))
+    summary = _safe({
+        "findings": found, "baseline": cfg.baseline.name, "methods": methods,
+        "scenes": [{"name": n, "winner": r.ranking.winner, "ties": list(r.ranking.ties),
+                    "order": list(r.ranking.order), "hypothesis": r.verdict.status,
+                    "hypothesis_text": r.verdict.text, "sentences": list(r.sentences),
+                    "reference_spp": refs[n].spp, "reference_floor_share": r.floor_share,
+                    "reference_adequate": r.reference_adequate,
+                    **(r.time_ratio.fields("time_ratio") if r.time_ratio else {}),
+                    "failed": r.failed} for n, r in results.items()],
+        "cells": cell_rows(results)[1] if results else [],
+        "failed_scenes": failed,
+        "timing": {k: {"wall": v[0], "cpu": v[1]} for k, v in
+                   {**clock.parts, "analysis": list(analysis)}.items()}})
+    files.write_json(os.path.join(out, NAME, "summary.json"), summary)
+    settings = {"scenes": ", ".join(cfg.scenes), "methods": ", ".join(methods),
+                "baseline": cfg.baseline.name, "equal spp": cfg.spp,
+                "equal time (s of samples)": cfg.time_budget, "repeats": cfg.repeats,
+                "resolution": ("x".join(map(str, cfg.forced_resolution))
+                               if cfg.forced_resolution else f"own film, long side <= "
+                                                             f"{cfg.max_size}"),
+                "reference": f"{cfg.reference_method}, >= {cfg.reference_spp} spp (cap "
+                             f"{cfg.reference_max_spp}), chunks of {cfg.reference_chunk}",
+                "reference store": cfg.reference_root, "variant": cfg.variant,
+                "seed": cfg.seed, "intervals": f"{stats.LEVEL:.0%}, {stats.METHOD}",
+                "render times measured on": st.timed_on(
+                    [j for sp in plans for c in sp.cells.values() for j in c.all()
+                     if st.store.has(j.key)])}
+    report.write_section(out, NAME, TITLE, ORDER, settings, blocks, cfg.variant,
+                         time.perf_counter() - start)
+    return summary

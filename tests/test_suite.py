@@ -1,0 +1,290 @@
+"""The scene suite (experiments/lib/studies/suite*.py): end to end on two bundled scenes at
+tiny settings (report, matrix, viewers, crops, findings, the furnace's exact value inside
+every method's interval), resuming and extending its references, scenes that fail to load
+or that vr_path refuses, a folder of scenes written here, bad arguments; and its analysis
+on synthetic numbers (winner and ties, the hypothesis, bounds below the reference's noise,
+relMSE with outliers rejected), each with a negative control."""
+from __future__ import annotations
+
+import html
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+import scenes
+from experiments.lib import execute as X
+from experiments.lib import metrics, stats
+from experiments.lib.studies import suite as S
+from experiments.lib.studies import suite_analysis as A
+
+QUICK = ["--quick", "--seed", "3"]
+FURNACE = scenes.path("suite/furnace.xml")
+
+
+@pytest.fixture
+def count_jobs(monkeypatch):
+    calls = []
+    real = X.run_job
+
+    def counting(job, variant):
+        calls.append(job.key)
+        return real(job, variant)
+    monkeypatch.setattr(X, "run_job", counting)
+    return calls
+
+
+@pytest.fixture(scope="module")
+def quick_run(tmp_path_factory):
+    """The suite's quick run (2 bundled scenes, 3 methods, tiny films), once."""
+    out = tmp_path_factory.mktemp("suite") / "r"
+    S.STUDY.main(QUICK + ["--out", str(out)])
+    return out
+
+
+def _summary(out):
+    return json.loads((out / "suite" / "summary.json").read_text())
+
+
+# ------------------------------------------------------------------ end to end
+
+def test_quick_run_writes_the_report(quick_run):
+    out, summary = quick_run, _summary(quick_run)
+    assert [s["name"] for s in summary["scenes"]] == ["furnace", "veach_mis"]
+    for name in ("matrix.png", "matrix.pdf", "matrix.csv", "matrix.md", "cells.csv",
+                 "scenes.csv", "crops/furnace.png", "crops/veach_mis.pdf"):
+        assert (out / "suite" / name).exists(), name
+    assert (out / "suite" / "crops" / "furnace.pdf").read_bytes()[:4] == b"%PDF"
+    section = json.loads((out / "suite" / "section.json").read_text())
+    viewers = [b for b in section["blocks"] if b["kind"] == "viewer"]
+    assert [v["manifest"]["title"] for v in viewers] == ["furnace: equal time",
+                                                         "veach_mis: equal time"]
+    assert [i["label"] for i in viewers[0]["manifest"]["images"]] == \
+        ["bsdf", "bsdf+nee", "path", "reference"]
+    # the findings box at the top of the page, from summary.json
+    page = (out / "index.html").read_text()
+    assert page.index('class="findings"') < page.index("<nav>")
+    assert html.escape(summary["findings"][0]) in page
+    # per scene at most three sentences, at most 80 words
+    for s in summary["scenes"]:
+        assert 1 <= len(s["sentences"]) <= 3 and len(" ".join(s["sentences"]).split()) <= 80
+
+
+def test_quick_run_numbers_follow_from_each_other(quick_run):
+    summary = _summary(quick_run)
+    cells = {(c["scene"], c["method"], c["budget"]): c for c in summary["cells"]}
+    pixels = {"furnace": 12 * 12, "veach_mis": 12 * 9}
+    for (scene, method, budget), c in cells.items():
+        for k in ("relmse", "mse", "efficiency", "ns_per_sample"):
+            if c.get(f"{k}_lo") is not None and not c.get(f"{k}_bound"):
+                assert c[f"{k}_lo"] <= c[k] <= c[f"{k}_hi"], (scene, method, k)
+        base = cells[(scene, "path", budget)]
+        if not c["relmse_bound"] and not base["relmse_bound"]:
+            # efficiency over the baseline = (relMSE x seconds of samples) of path over its
+            expected = (base["relmse"] * base["spp"] * base["ns_per_sample"]) / \
+                       (c["relmse"] * c["spp"] * c["ns_per_sample"])
+            assert c["efficiency"] == pytest.approx(expected, rel=1e-6)
+        if budget == "equal_time":       # equal time: about the budget's seconds of samples
+            seconds = c["spp"] * c["ns_per_sample"] * pixels[scene] * 1e-9
+            assert 0.1 < seconds / S.QUICK_DEFAULTS["time_budget"] < 10, (scene, method)
+    assert cells[("furnace", "path", "equal_time")]["efficiency"] == pytest.approx(1.0)
+
+
+def test_furnace_exact_value_inside_every_methods_interval(quick_run):
+    rows = (quick_run / "suite" / "bias.csv").read_text().splitlines()[1:]
+    checks = [r.split(",") for r in rows]
+    assert {c[1] for c in checks} == {"bsdf", "bsdf+nee", "path"}
+    for scene, method, mean, lo, hi, exact, level, inside in checks:
+        assert float(lo) <= 2.0 <= float(hi) and inside == "yes", method
+        # negative control: the check would see a 4% bias (an albedo of 0.52 for 0.5)
+        assert float(hi) < 2.0 * 1.04 and float(lo) > 2.0 / 1.04, method
+
+
+def test_a_second_run_renders_nothing_and_more_spp_extend_the_reference(quick_run, tmp_path,
+                                                                       count_jobs):
+    out = tmp_path / "r"
+    shutil.copytree(quick_run, out)
+    S.STUDY.main(QUICK + ["--out", str(out)])
+    assert count_jobs == []
+    made = {p.parent.name: json.loads(p.read_text())
+            for p in (out / "references").glob("*/reference.json")}
+    assert len(made) == 2
+    more = 2 * max(m["spp"] for m in made.values())
+    S.STUDY.main(QUICK + ["--out", str(out), "--reference-spp", str(more)])
+    after = {p.parent.name: json.loads(p.read_text())
+             for p in (out / "references").glob("*/reference.json")}
+    expected = sorted(f"{key}/chunk-{i:05d}" for key, m in made.items()
+                      for i in range(m["chunks"], after[key]["chunks"]))
+    assert expected and sorted(count_jobs) == expected          # only the new chunks
+    assert all(after[k]["spp"] >= more for k in after)
+    assert {s["reference_spp"] for s in _summary(out)["scenes"]} == \
+        {m["spp"] for m in after.values()}
+
+
+# ------------------------------------------------------------------ robustness
+
+MEDIUM = """
+    <shape type="sphere">
+        <point name="center" x="0" y="0" z="-0.5"/>
+        <float name="radius" value="0.1"/>
+        <bsdf type="null"/>
+        <medium type="homogeneous" name="interior">
+            <rgb name="albedo" value="0.5"/>
+            <float name="sigma_t" value="1"/>
+        </medium>
+    </shape>
+</scene>"""
+MISSING = """
+    <shape type="obj"><string name="filename" value="nope_missing.obj"/></shape>
+</scene>"""
+
+
+def test_broken_scenes_do_not_stop_the_others(tmp_path):
+    text = open(FURNACE).read()
+    (tmp_path / "medium.xml").write_text(text.replace("</scene>", MEDIUM))
+    (tmp_path / "missing.xml").write_text(text.replace("</scene>", MISSING))
+    (tmp_path / "broken.xml").write_text(text[:len(text) // 2])
+    shutil.copy(FURNACE, tmp_path / "furnace.xml")
+    out = tmp_path / "r"
+    S.STUDY.main(QUICK + ["--out", str(out), "--scenes", str(tmp_path),
+                          "--methods", "bsdf,path"])
+    summary = _summary(out)
+    assert [s["name"] for s in summary["scenes"]] == ["furnace"]
+    failed = summary["failed_scenes"]
+    assert set(failed) == {"broken", "medium", "missing"}
+    assert "does not parse" in failed["broken"]
+    assert "participating medium" in failed["medium"]
+    assert "nope_missing.obj" in failed["missing"]
+    table = (out / "suite" / "failures.csv").read_text()
+    assert all(name in table for name in failed)
+
+
+def test_scenes_folder_with_include_and_path(tmp_path):
+    """Two scenes written here: one takes its sensor from a fragment found through <path>."""
+    folder = tmp_path / "mine"
+    (folder / "parts").mkdir(parents=True)
+    text = open(FURNACE).read()
+    start, end = text.index("<sensor"), text.index("</sensor>") + len("</sensor>")
+    defaults = "".join(line + "\n" for line in text.splitlines() if "<default " in line)
+    (folder / "parts" / "camera.xml").write_text(
+        f'<scene version="3.0.0">\n{defaults}{text[start:end]}\n</scene>\n')
+    (folder / "split.xml").write_text(
+        text[:start] + '<path value="parts"/>\n<include filename="camera.xml"/>\n' + text[end:])
+    shutil.copy(FURNACE, folder / "plain.xml")
+    out = tmp_path / "r"
+    S.STUDY.main(QUICK + ["--out", str(out), "--scenes", str(folder),
+                          "--methods", "bsdf,path"])
+    summary = _summary(out)
+    assert [s["name"] for s in summary["scenes"]] == ["plain", "split"]
+    assert summary["failed_scenes"] == {}
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--scenes", "/no/such/folder"], "neither a folder nor a scene file"),
+    (["--scenes", "EMPTY"], "holds no *.xml"),
+    (["--methods", "bsdf,nosuch"], "unknown method 'nosuch'"),
+    (["--baseline", "cosine", "--methods", "bsdf,path"], "is not one of the methods"),
+])
+def test_bad_arguments_exit_2_with_one_line(tmp_path, capsys, argv, message):
+    argv = [str(tmp_path) if a == "EMPTY" else a for a in argv]
+    with pytest.raises(SystemExit) as e:
+        S.parse(argv + ["--out", str(tmp_path / "r")])
+    assert e.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err and len(err.splitlines()) == 1
+
+
+# ------------------------------------------------------------------ analysis
+
+def runs(err, secs=(1.0, 1.0, 1.0), spp=16):
+    return A.Runs(spp, tuple(err), tuple(err), tuple(err), tuple(secs))
+
+
+def numbers(errors: dict, floor=0.0, favours=(), over=()) -> A.SceneNumbers:
+    cells = {m: A.Cell(m, {b: runs(e) for b in A.BUDGETS}, (100.0, 101.0, 99.0))
+             for m, e in errors.items()}
+    return A.SceneNumbers("s", cells, A.Floor(floor, floor, floor), "path", favours, over)
+
+
+TIGHT = (1.0, 1.1, 0.9)            # 10% spread over three repeats
+
+
+def test_winner_only_where_its_interval_excludes_the_others():
+    r = A.analyse_scene(numbers({"path": [2 * x for x in TIGHT], "bsdf": [4 * x for x in TIGHT],
+                                 "bsdf+nee": list(TIGHT)}))
+    assert r.ranking.winner == "bsdf+nee" and r.ranking.ties == ("bsdf+nee",)
+    assert r.cells["bsdf+nee"].relative["equal_time"].value == pytest.approx(2.0)
+    # negative control: a runner-up within 5% cannot be told apart, so no winner
+    r = A.analyse_scene(numbers({"path": [1.05 * x for x in TIGHT], "bsdf": [4 * x for x in TIGHT],
+                                 "bsdf+nee": list(TIGHT)}))
+    assert r.ranking.winner is None and set(r.ranking.ties) == {"bsdf+nee", "path"}
+    # and a wide spread (few repeats, heavy tails) cannot be told apart either
+    r = A.analyse_scene(numbers({"path": [0.2, 2.0, 6.0], "bsdf+nee": list(TIGHT)}))
+    assert r.ranking.winner is None
+
+
+def test_hypothesis_held_failed_or_undecided():
+    errors = {"path": [2 * x for x in TIGHT], "uniform": [8 * x for x in TIGHT],
+              "bsdf+nee": list(TIGHT)}
+    held = A.analyse_scene(numbers(errors, favours=("bsdf+nee*",), over=("uniform",)))
+    assert held.verdict.status == "held" and held.verdict.favoured == "bsdf+nee"
+    failed = A.analyse_scene(numbers(errors, favours=("uniform",), over=("bsdf*", "path")))
+    assert failed.verdict.status == "failed"
+    close = dict(errors, uniform=[1.03 * x for x in TIGHT])
+    undecided = A.analyse_scene(numbers(close, favours=("bsdf+nee",), over=("uniform",)))
+    assert undecided.verdict.status == "undecided"
+    assert A.analyse_scene(numbers(errors)).verdict.status == "none"
+    assert A.analyse_scene(numbers(errors, favours=("zsobol*",), over=("uniform",))) \
+        .verdict.status == "untestable"
+
+
+def test_an_error_below_the_references_noise_is_a_bound_not_nan():
+    floor = 0.5
+    below = [0.45, 0.52, 0.49]                      # raw errors: no more than the floor
+    e = stats.excess_interval(below, floor)
+    assert e.bound and e.lo == 0 and np.isfinite(e.value) and e.value >= 0
+    assert "below the reference's own noise" in e.text()
+    r = A.analyse_scene(numbers({"path": [2.0, 2.1, 1.9], "bsdf+nee": below}, floor=floor))
+    ratio = r.cells["bsdf+nee"].relative["equal_time"]
+    assert ratio.side == ">" and np.isfinite(ratio.value) and ratio.value > 1
+    assert r.cells["bsdf+nee"].errors["equal_time"]["relmse"].bound
+    assert r.bounds() == ["bsdf+nee"] and r.ranking.order[0] == "bsdf+nee"
+    # the reference is then too noisy for the comparison, and the suite asks for more
+    assert not r.reference_adequate
+    assert S.P.needed_spp(numbers({"path": [2.0] * 3, "bsdf+nee": below}, floor=floor),
+                          256, 8192) == 8192                        # all it may: the cap
+    # a floor half the smallest measured error: 19 times the samples bring it to 5%
+    assert S.P.needed_spp(numbers({"path": [2.0] * 3, "bsdf+nee": [1.0] * 3}, floor=0.5),
+                          256, 10 ** 6) == 256 * 32
+    # negative control: errors well above the floor are intervals, with no bound
+    r = A.analyse_scene(numbers({"path": [2.0, 2.1, 1.9], "bsdf+nee": [1.0, 1.05, 0.95]},
+                                floor=0.01))
+    assert r.cells["bsdf+nee"].relative["equal_time"].side == "" and r.reference_adequate
+
+
+def test_relmse_rejected_against_a_hand_computed_case():
+    ref = np.ones((25, 40, 3))                      # 1000 pixels: the top 1 is rejected
+    image = ref + 0.1
+    image[3, 7] = 50.0                              # one firefly
+    kept = 0.1 ** 2 / (1 + metrics.RELMSE_EPS)      # every other pixel's relMSE
+    assert metrics.relmse_rejected(image, ref) == pytest.approx(kept, rel=1e-12)
+    firefly = 49.0 ** 2 / (1 + metrics.RELMSE_EPS)
+    assert metrics.relmse(image, ref) == pytest.approx((999 * kept + firefly) / 1000)
+    # the floor is subtracted over the kept pixels only
+    floor = np.full_like(ref, 0.001)
+    floor[3, 7] = 7.0
+    assert metrics.relmse_rejected(image, ref, floor_map=floor) == \
+        pytest.approx(kept - 0.001, rel=1e-9)
+    # negative control: nothing rejected, the firefly rules
+    assert metrics.relmse_rejected(image, ref, share=0.0) > 10 * kept
+
+
+def test_crop_boxes_follow_the_data():
+    base = np.full((24, 32), 1e-3)
+    a, b = base.copy(), base.copy()
+    a[2:8, 20:26] = 1.0                             # the methods differ here
+    b[14:22, 2:10] = a[14:22, 2:10] = 5.0           # both are worst here
+    (x0, y0, s, _), (x1, y1, _, _) = A.crop_boxes([a, b], 6)
+    assert 2 <= x0 <= 4 and 14 <= y0 <= 16 and s == 6       # the largest errors
+    assert (x1, y1) == (20, 2)                              # where the methods differ
