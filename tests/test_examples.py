@@ -107,6 +107,24 @@ def test_sampler_example_is_unbiased_per_block():
     assert not B.agree(ours.scaled(0.98), theirs, blocks, pooled).passed
 
 
+# ------------------------------------------------------------------ (c) a scene
+
+def test_scene_example_runs_in_the_suite_beside_a_bundled_scene(tmp_path):
+    """One XML file in a folder of one's own: the suite takes it with --scenes, reads its
+    hypothesis from its header and judges every method on it."""
+    import scenes
+    out = tmp_path / "out"
+    folder = os.path.join(EXAMPLES, "scenes")
+    assert scenes.header(os.path.join(folder, "two_lights.xml")) is not None
+    run(tmp_path, "experiments.suite", "--scenes",
+        f"{folder},{scenes.path('suite/furnace.xml')}", "--methods", "bsdf,bsdf+nee,path",
+        "--resolution", "16x12", "--spp", "4", "--reference-spp", "32", "--repeats", "2",
+        "--time-budget", "0.004", "--out", str(out))
+    summary = (out / "suite" / "summary.md").read_text()
+    assert "two_lights" in summary and "furnace" in summary
+    assert "glossy floor lit by two lights" in summary      # its header's 'isolates'
+
+
 # ------------------------------------------------------------------ (d) a study
 
 def test_study_example_runs_in_run_all_with_the_built_in_studies_off(tmp_path):
