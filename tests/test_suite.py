@@ -122,6 +122,19 @@ def test_a_second_run_renders_nothing_and_more_spp_extend_the_reference(quick_ru
         {m["spp"] for m in after.values()}
 
 
+def test_a_users_reference_is_used_with_its_error_unknown(quick_run, tmp_path):
+    exr = next((quick_run / "references").glob("furnace-*/reference.exr"))
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    shutil.copy(exr, mine / "furnace.exr")
+    out = tmp_path / "r"
+    S.STUDY.main(QUICK + ["--out", str(out), "--scenes", "furnace", "--methods", "bsdf,path",
+                          "--references", str(mine)])
+    assert not (out / "references").exists()               # nothing rendered for it
+    row = (out / "suite" / "scenes.csv").read_text().splitlines()[1]
+    assert "user's EXR (own error unknown)" in row
+
+
 # ------------------------------------------------------------------ robustness
 
 MEDIUM = """
