@@ -12,11 +12,12 @@ Per scene and method (a cell), ``--repeats`` independent runs at equal spp (``--
 equal time: each equal-time render gets about ``--time-budget`` seconds of sample work at the
 cell's measured time per sample (its spp rounded to a power of two: Mitsuba renders powers of
 two with another kernel than other counts, and one kernel per cell keeps compilation down).
-Time per sample: every cell renders once at 1 spp (not a sampler that bakes its count into
-the kernel) and R times at each budget; a least-squares line t = a + b spp through those
-render times (CPU time of the process on LLVM, wall time on CUDA) separates the per-call
-cost a (tracing the integrator, launching kernels) from the per-sample cost b; each
-repeat's b is its longest render's time minus a, over its samples. A scene's cells run in
+Time per sample: render times (CPU time of the process on LLVM, wall time on CUDA) follow
+t = a + b spp, a the per-call cost (tracing the integrator, launching kernels), b the
+per-sample cost; each repeat renders at both budgets (never the same count), and its b is
+the difference of the two times over the difference of the counts, so a cancels and the
+spread over the repeats is b's own. A 1-spp probe per cell (not for a sampler that bakes
+its count into the kernel) plans the equal-time count. A scene's cells run in
 groups of at most the scenes a process keeps loaded (the baseline and vr_path bsdf+nee
 first), their timed renders taking turns. Errors against the reference (from
 :mod:`experiments.lib.references`: rendered once per scene, cached, extended when too noisy)
@@ -50,7 +51,7 @@ NAME, ORDER, TITLE = P.NAME, P.ORDER, P.TITLE
 MAX_SIZE = 48
 #: The reference's automatic extension stops at this many times --reference-spp.
 REFERENCE_GROWTH = 8
-QUICK_DEFAULTS = {"spp": 4, "time_budget": 0.004, "reference_spp": 32, "max_size": 12,
+QUICK_DEFAULTS = {"spp": 4, "time_budget": 0.02, "reference_spp": 32, "max_size": 12,
                   "scenes": "furnace,veach_mis", "methods": "bsdf,bsdf+nee,path"}
 FLIP_MODES = ("first", "all")
 

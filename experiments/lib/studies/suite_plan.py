@@ -30,6 +30,9 @@ ORDER = 50
 TITLE = "Scene suite: every method on scenes that each isolate one phenomenon"
 #: Largest equal-time sample count (a very cheap scene would otherwise render thousands).
 MAX_EQUAL_TIME_SPP = 4096
+#: The equal-time count is planned as if at least this share of an equal-spp render's time
+#: were its samples.
+PLAN_SHARE = 0.25
 
 
 @dataclass(frozen=True)
@@ -187,26 +190,41 @@ def fit_time(points: list[tuple[int, float]]) -> tuple[float, float]:
 
 
 def per_sample(cfg: Settings, st: Study, cell: CellJobs) -> tuple[float, list[float]]:
-    """(a, [b per repeat]) of a cell: the fitted per-call seconds, and per repeat the
-    seconds per spp (whole film) of its longest render with a taken off (at least 5% of
-    the render's time per spp, where timing noise would make it smaller)."""
+    """(a, [b per repeat]) of a cell: the per-call seconds a and, per repeat, the seconds
+    per spp (whole film) b. With both budgets rendered, each repeat's b is the difference
+    of its two renders' times over the difference of their counts (the per-call cost
+    cancels; the spread over the repeats is b's own uncertainty), and a what remains of
+    the shorter renders. Before phase 2 (to plan it): the line through the 1-spp probe and
+    the equal-spp renders (without a probe, a sampler that bakes its count: their time per
+    spp, an upper bound), and at least :data:`PLAN_SHARE` of their time per spp (a noisy
+    probe would otherwise plan thousands of samples)."""
     results = {j.key: st.store.get(j.key) for j in cell.all()}
-    a, _ = fit_time([(results[j.key].spp, timing(cfg, results[j.key])) for j in cell.all()])
-    per_repeat = []
-    for r in range(len(cell.equal_spp)):
-        runs = [cell.equal_spp[r]] + ([cell.equal_time[r]] if cell.equal_time else [])
-        longest = max((results[j.key] for j in runs), key=lambda x: x.spp)
-        t = timing(cfg, longest)
-        per_repeat.append(max(t - a, 0.05 * t) / longest.spp)
-    return a, per_repeat
+
+    def point(job):
+        return results[job.key].spp, timing(cfg, results[job.key])
+
+    if not cell.equal_time:           # at least a quarter of the equal-spp time is samples
+        a, b = fit_time([point(j) for j in cell.phase1()])
+        floor = PLAN_SHARE * float(np.mean([t / n for n, t in map(point, cell.equal_spp)]))
+        return a, [max(b, floor)] * len(cell.equal_spp)
+    pairs = [sorted((point(s), point(t))) for s, t in zip(cell.equal_spp, cell.equal_time)]
+    b = [(t1 - t0) / (n1 - n0) if n1 != n0 else t1 / n1 for (n0, t0), (n1, t1) in pairs]
+    a = float(np.mean([t0 for (_, t0), _ in pairs]) - np.mean(b) *
+              np.mean([n0 for (n0, _), _ in pairs]))
+    return a, b
 
 
 def equal_time_spp(cfg: Settings, b: list[float]) -> int:
     """Samples per pixel of an equal-time render: --time-budget seconds of samples at ``b``
     seconds per spp, rounded to the nearest power of two (Mitsuba renders a power-of-two
-    count with another kernel than any other count: this keeps one kernel per cell)."""
+    count with another kernel than any other count: this keeps one kernel per cell), and
+    never the equal-spp count (the two counts give the time per sample), but the power
+    of two next to it on the budget's side."""
     spp = cfg.time_budget / max(float(np.mean(b)), 1e-12)
-    return int(min(MAX_EQUAL_TIME_SPP, 2 ** max(0, round(math.log2(max(spp, 1.0))))))
+    m = 2 ** max(0, round(math.log2(max(spp, 1.0))))
+    if m == cfg.spp:
+        m = 2 * m if spp >= cfg.spp or m == 1 else m // 2
+    return int(min(MAX_EQUAL_TIME_SPP, m))
 
 
 def plan_equal_time(st: Study, cfg: Settings, sp: ScenePlan, name: str,
