@@ -153,7 +153,8 @@ def kernels_compiled(history: list[dict]) -> int:
 
 def _render(scene, spp: int, seed: int, sequence: dict | None = None):
     """One render (``sequence``: the sampler state it continues, :func:`sequence_state`):
-    (image, wall seconds, CPU seconds, kernels compiled during it)."""
+    (image, wall seconds, CPU seconds, kernels compiled during it, seconds its kernels
+    executed)."""
     import drjit as dr
     import mitsuba as mi
     if sequence:
@@ -165,19 +166,22 @@ def _render(scene, spp: int, seed: int, sequence: dict | None = None):
     dr.eval(image)
     dr.sync_thread()
     seconds, cpu = time.perf_counter() - start, time.process_time() - cpu
-    compiled = kernels_compiled(dr.kernel_history())
-    return np.array(image, dtype=np.float64)[..., :3], seconds, cpu, compiled
+    history = dr.kernel_history()
+    kernel = sum(k.get("execution_time", 0.0) for k in history) / 1000   # ms -> s
+    return (np.array(image, dtype=np.float64)[..., :3], seconds, cpu,
+            kernels_compiled(history), kernel)
 
 
 def warm_render(scene, spp: int, seed: int, sequence: dict | None = None,
                 tries: int = WARM_TRIES):
     """:func:`_render` again (same seed, same image) until a render compiled nothing;
-    returns (image, seconds, cpu seconds, renders discarded, compiled in the kept one)."""
+    returns (image, seconds, cpu seconds, renders discarded, compiled in the kept one,
+    kernel seconds)."""
     for attempt in range(tries):
-        image, seconds, cpu, compiled = _render(scene, spp, seed, sequence)
+        image, seconds, cpu, compiled, kernel = _render(scene, spp, seed, sequence)
         if not compiled:
-            return image, seconds, cpu, attempt, 0
-    return image, seconds, cpu, tries - 1, compiled
+            return image, seconds, cpu, attempt, 0, kernel
+    return image, seconds, cpu, tries - 1, compiled, kernel
 
 
 def run_job(job: Job, variant: str) -> JobResult:
@@ -190,11 +194,12 @@ def run_job(job: Job, variant: str) -> JobResult:
     continues = job.method.continues_sequence
     mean = np.zeros((job.height, job.width, 3))
     sq = np.zeros_like(mean)
-    done, times, cpu, recompiled, compiled_passes = 0, [], 0.0, 0, 0
+    done, times, cpu, recompiled, compiled_passes, kernels = 0, [], 0.0, 0, 0, 0.0
     for i, k in enumerate(job.passes()):
         seed = job.seed if continues else derive_seed(job.seed, i)
-        image, seconds, cpu_seconds, discarded, compiled = warm_render(
+        image, seconds, cpu_seconds, discarded, compiled, kernel = warm_render(
             scene, k, seed, sequence_state(job, done))
+        kernels += kernel
         recompiled += discarded
         compiled_passes += compiled > 0
         # Mitsuba's stratified, orthogonal and ldsampler round the count (e.g.
@@ -209,7 +214,7 @@ def run_job(job: Job, variant: str) -> JobResult:
                      passes=len(times), seconds=float(sum(times)), pass_seconds=times,
                      cpu_seconds=cpu, host=socket.gethostname(),
                      cpu=f"{cpu_model()} ({os.cpu_count()} cores)", recompiled=recompiled,
-                     compiled_passes=compiled_passes)
+                     compiled_passes=compiled_passes, kernel_seconds=kernels)
 
 
 class LocalExecutor:

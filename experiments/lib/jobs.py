@@ -77,12 +77,14 @@ class JobResult:
     cpu: str = ""
     recompiled: int = 0          # renders discarded because a kernel compiled during them
     compiled_passes: int = 0     # timed passes that compiled even after the warm tries
+    kernel_seconds: float = 0.0  # execution time of the timed passes' kernels (Dr.Jit's
+                                 # kernel history): the sample work, no tracing or launch
 
     def metadata(self) -> dict:
         return {"spp": self.spp, "passes": self.passes, "seconds": self.seconds,
                 "pass_seconds": list(self.pass_seconds), "cpu_seconds": self.cpu_seconds,
                 "host": self.host, "cpu": self.cpu, "recompiled": self.recompiled,
-                "compiled_passes": self.compiled_passes}
+                "compiled_passes": self.compiled_passes, "kernel_seconds": self.kernel_seconds}
 
 
 def cpu_model() -> str:
