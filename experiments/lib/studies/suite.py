@@ -12,14 +12,12 @@ Per scene and method (a cell), ``--repeats`` independent runs at equal spp (``--
 equal time: each equal-time render gets about ``--time-budget`` seconds of sample work at the
 cell's measured time per sample (its spp rounded to a power of two: Mitsuba renders powers of
 two with another kernel than other counts, and one kernel per cell keeps compilation down).
-Time per sample: render times (CPU time of the process on LLVM, wall time on CUDA) follow
-t = a + b spp, a the per-call cost (tracing the integrator, launching kernels), b the
-per-sample cost; each repeat renders at both budgets (never the same count), and its b is
-the difference of the two times over the difference of the counts, so a cancels and the
-spread over the repeats is b's own. A 1-spp probe per cell (not for a sampler that bakes
-its count into the kernel) plans the equal-time count. A scene's cells run in
-groups of at most the scenes a process keeps loaded (the baseline and vr_path bsdf+nee
-first), their timed renders taking turns. Errors against the reference (from
+Time per sample: the execution time of each render's kernels (Dr.Jit's kernel history:
+the sample work, without tracing the integrator or launching kernels, a fixed cost per
+render call that can swamp the samples of a small render), over its samples, per repeat
+summed over both budgets' renders. A scene's cells run in groups of at most the scenes a
+process keeps loaded (the baseline and vr_path bsdf+nee lead the last), their timed
+renders taking turns. Errors against the reference (from
 :mod:`experiments.lib.references`: rendered once per scene, cached, extended when too noisy)
 with its own expected error subtracted; efficiency over ``--baseline`` (Mitsuba's ``path``:
 what a user would run instead) from relMSE and time per sample.
@@ -118,8 +116,8 @@ def build_parser() -> cli.Parser:
         f"film resolution of every scene; default: each scene's own film scaled so that its "
         f"long side is at most --max-size pixels")
     p._option_string_actions["--time-budget"].help = (
-        "seconds of sample work of each equal-time render (CPU time on LLVM, wall time on "
-        "CUDA; the per-call cost is left out, see the module help)")
+        "seconds of sample work (kernel execution time) of each equal-time render; the "
+        "per-call cost is left out, see the module help")
     p._option_string_actions["--scene"].help = "not used by the suite (see --scenes)"
     add_shared(p)
     p.add_argument("--max-size", type=cli.positive_int, default=MAX_SIZE,
@@ -237,8 +235,7 @@ def settings(args) -> P.Settings:
                                                      REFERENCE_GROWTH * ref_spp),
         reference_method=args.reference_method,
         reference_root=args.reference_cache or os.path.join(args.out, R.REFERENCES_DIR),
-        user_references=dict(args.user_references), flip=args.flip, best_note=args.best_note,
-        cpu_time=args.variant.startswith("llvm"))
+        user_references=dict(args.user_references), flip=args.flip, best_note=args.best_note)
 
 
 # ------------------------------------------------------------------ the study
@@ -315,7 +312,7 @@ def render(cfg: P.Settings, st: Study, refs: R.ReferenceStore, plans, clock: Clo
             P.plan_cells(st, cfg, sp)
             groups += P.timing_groups(sp, first, SCENE_CACHE)
         for batch in ([groups] if cfg.executor is not None else [[g] for g in groups]):
-            clock.time("renders", P.run_cells, st, batch, lambda c: c.phase1(),
+            clock.time("renders", P.run_cells, st, batch, lambda c: c.equal_spp,
                        f"{NAME}: equal spp")
             for sp, name, cell in (c for g in batch for c in g):
                 if name not in sp.failed:

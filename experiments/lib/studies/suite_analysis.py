@@ -283,6 +283,7 @@ class CellResult:
     ns_per_sample: stats.Estimate
     spp: dict                 # {budget: spp rendered}
     bias: Bias | None = None
+    overhead: float = 0.0     # seconds per render call besides the samples
 
 
 @dataclass(frozen=True)
@@ -339,7 +340,7 @@ def analyse_scene(numbers: SceneNumbers) -> SceneResult:
     results = {m: CellResult(
         m, {b: _errors(c.runs[b], floor) for b in BUDGETS}, {b: relative[b][m] for b in BUDGETS},
         stats.mean_interval(c.ns_per_sample), {b: c.runs[b].spp for b in BUDGETS},
-        bias(c, numbers.exact, level) if numbers.exact is not None else None)
+        bias(c, numbers.exact, level) if numbers.exact is not None else None, c.overhead)
         for m, c in cells.items()}
     a, b = TIMED_PAIR
     time_ratio = (stats.ratio_interval([list(cells[a].ns_per_sample)],

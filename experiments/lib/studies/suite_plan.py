@@ -1,7 +1,7 @@
 """The scene suite's plan and measurements: scenes, cells, jobs, times, numbers.
 
 Data flows one way: :func:`plan_scenes` reads every scene file (or records why it cannot),
-:func:`plan_cells` plans phase 1 of every cell (a 1-spp probe and R runs at equal spp),
+:func:`plan_cells` plans phase 1 of every cell (R runs at equal spp),
 :func:`plan_equal_time` phase 2 (R runs with the time budget's samples at the time per
 sample phase 1 measured), :func:`run_cells` renders them through the study's executor
 (cell by cell where a batch fails, so one broken scene or method stops nothing else), and
@@ -30,9 +30,6 @@ ORDER = 50
 TITLE = "Scene suite: every method on scenes that each isolate one phenomenon"
 #: Largest equal-time sample count (a very cheap scene would otherwise render thousands).
 MAX_EQUAL_TIME_SPP = 4096
-#: The equal-time count is planned as if at least this share of an equal-spp render's time
-#: were its samples.
-PLAN_SHARE = 0.25
 
 
 @dataclass(frozen=True)
@@ -61,7 +58,6 @@ class Settings:
     user_references: dict               # {scene name: EXR path}
     flip: str = "first"
     best_note: str = ""
-    cpu_time: bool = True               # compare CPU time (LLVM), else wall time
     reference_chunk: int = R.DEFAULT_CHUNK_SPP
     resolution: tuple = (1, 1)          # Study's film: unused (every job names its own)
 
@@ -89,15 +85,11 @@ class ScenePlan:
 @dataclass
 class CellJobs:
     method: Method
-    probe: Job | None             # 1 spp (none for a sampler that bakes its count: it
-    equal_spp: list               # would compile a kernel for that count alone)
-    equal_time: list = field(default_factory=list)
-
-    def phase1(self) -> list:
-        return ([self.probe] if self.probe else []) + self.equal_spp
+    equal_spp: list               # R runs at --spp
+    equal_time: list = field(default_factory=list)   # R runs at the time budget's spp
 
     def all(self) -> list:
-        return self.phase1() + self.equal_time
+        return self.equal_spp + self.equal_time
 
 
 def film(cfg: Settings, info: SC.SceneInfo, user_exr: str | None) -> tuple[int, int]:
@@ -161,70 +153,41 @@ def plan_scenes(cfg: Settings) -> list[ScenePlan]:
 
 
 def plan_cells(st: Study, cfg: Settings, sp: ScenePlan) -> None:
-    """Per method: one 1-spp probe (the per-call cost; not for a sampler that bakes its
-    count into the kernel) and R runs at equal spp (phase 1)."""
-    group = f"{NAME}/{sp.name}"
+    """Per method: R runs at equal spp (phase 1)."""
     for m in cfg.methods:
-        prefix = f"{NAME}/{sp.name}/{m.name}"
-        opts = dict(info=sp.info, depth=sp.depth, resolution=(sp.width, sp.height),
-                    timing_group=group)
-        probe = None if m.sampler_spec.bakes_spp else st.job(f"{prefix}/probe", m, 1, **opts)
-        sp.cells[m.name] = CellJobs(
-            m, probe, [st.job(repeat_prefix(f"{prefix}/equal-spp", r), m, cfg.spp, **opts)
-                       for r in range(st.repeats_of(m))])
+        sp.cells[m.name] = CellJobs(m, [st.job(
+            repeat_prefix(f"{NAME}/{sp.name}/{m.name}/equal-spp", r), m, cfg.spp,
+            info=sp.info, depth=sp.depth, resolution=(sp.width, sp.height),
+            timing_group=f"{NAME}/{sp.name}") for r in range(st.repeats_of(m))])
 
 
-def timing(cfg: Settings, result) -> float:
-    return result.cpu_seconds if cfg.cpu_time and result.cpu_seconds > 0 else result.seconds
-
-
-def fit_time(points: list[tuple[int, float]]) -> tuple[float, float]:
-    """(a, b) of the least-squares line t = a + b spp through (spp, seconds) points (a = 0
-    and b = mean t / spp where they share one count)."""
-    x = np.array([p[0] for p in points], float)
-    t = np.array([p[1] for p in points], float)
-    if np.unique(x).size < 2:
-        return 0.0, float(np.mean(t / x))
-    b, a = np.polyfit(x, t, 1)
-    return float(a), float(b)
+def sample_seconds(result) -> float:
+    """The seconds of a render's sample work: its kernels' execution time (Dr.Jit's kernel
+    history; no tracing of the integrator, no launch), or its render time where a result
+    has none recorded."""
+    return result.kernel_seconds if result.kernel_seconds > 0 else result.seconds
 
 
 def per_sample(cfg: Settings, st: Study, cell: CellJobs) -> tuple[float, list[float]]:
-    """(a, [b per repeat]) of a cell: the per-call seconds a and, per repeat, the seconds
-    per spp (whole film) b. With both budgets rendered, each repeat's b is the difference
-    of its two renders' times over the difference of their counts (the per-call cost
-    cancels; the spread over the repeats is b's own uncertainty), and a what remains of
-    the shorter renders. Before phase 2 (to plan it): the line through the 1-spp probe and
-    the equal-spp renders (without a probe, a sampler that bakes its count: their time per
-    spp, an upper bound), and at least :data:`PLAN_SHARE` of their time per spp (a noisy
-    probe would otherwise plan thousands of samples)."""
-    results = {j.key: st.store.get(j.key) for j in cell.all()}
-
-    def point(job):
-        return results[job.key].spp, timing(cfg, results[job.key])
-
-    if not cell.equal_time:           # at least a quarter of the equal-spp time is samples
-        a, b = fit_time([point(j) for j in cell.phase1()])
-        floor = PLAN_SHARE * float(np.mean([t / n for n, t in map(point, cell.equal_spp)]))
-        return a, [max(b, floor)] * len(cell.equal_spp)
-    pairs = [sorted((point(s), point(t))) for s, t in zip(cell.equal_spp, cell.equal_time)]
-    b = [(t1 - t0) / (n1 - n0) if n1 != n0 else t1 / n1 for (n0, t0), (n1, t1) in pairs]
-    a = float(np.mean([t0 for (_, t0), _ in pairs]) - np.mean(b) *
-              np.mean([n0 for (n0, _), _ in pairs]))
+    """(a, [b per repeat]) of a cell: a the mean per-call seconds of its renders (render
+    time minus kernel time: tracing, launching), b per repeat the kernel seconds per spp
+    (whole film) of the repeat's renders at both budgets (phase 1 alone before phase 2)."""
+    results = [st.store.get(j.key) for j in cell.all()]
+    a = float(np.mean([r.seconds - sample_seconds(r) for r in results]))
+    b = []
+    for r in range(len(cell.equal_spp)):
+        runs = [st.store.get(j.key) for j in ([cell.equal_spp[r]] + (
+            [cell.equal_time[r]] if cell.equal_time else []))]
+        b.append(sum(map(sample_seconds, runs)) / sum(x.spp for x in runs))
     return a, b
 
 
 def equal_time_spp(cfg: Settings, b: list[float]) -> int:
     """Samples per pixel of an equal-time render: --time-budget seconds of samples at ``b``
     seconds per spp, rounded to the nearest power of two (Mitsuba renders a power-of-two
-    count with another kernel than any other count: this keeps one kernel per cell), and
-    never the equal-spp count (the two counts give the time per sample), but the power
-    of two next to it on the budget's side."""
+    count with another kernel than any other count: this keeps one kernel per cell)."""
     spp = cfg.time_budget / max(float(np.mean(b)), 1e-12)
-    m = 2 ** max(0, round(math.log2(max(spp, 1.0))))
-    if m == cfg.spp:
-        m = 2 * m if spp >= cfg.spp or m == 1 else m // 2
-    return int(min(MAX_EQUAL_TIME_SPP, m))
+    return int(min(MAX_EQUAL_TIME_SPP, 2 ** max(0, round(math.log2(max(spp, 1.0))))))
 
 
 def plan_equal_time(st: Study, cfg: Settings, sp: ScenePlan, name: str,

@@ -63,7 +63,7 @@ def matrix(results: dict, methods: list[str]) -> tuple[list, list, list, list]:
 CELL_HEADER = ["scene", "method", "budget", "spp", "repeats", "relMSE", "relMSE_lo",
                "relMSE_hi", "relMSE rejected", "relMSE rejected_lo",
                "relMSE rejected_hi", "MSE", "MSE_lo", "MSE_hi", "FLIP", "FLIP_lo", "FLIP_hi",
-               "ns per sample", "ns per sample_lo", "ns per sample_hi",
+               "ns per sample", "ns per sample_lo", "ns per sample_hi", "per call (ms)",
                "efficiency / baseline", "efficiency / baseline_lo",
                "efficiency / baseline_hi", "efficiency bound"]
 
@@ -77,13 +77,13 @@ def cell_rows(results: dict) -> tuple[list[list], list[dict]]:
                 rows.append([name, m, A.BUDGET_NAMES[b], c.spp[b], e["relmse"].n,
                              *_cells(e["relmse"]), *_cells(e["relmse_rejected"]),
                              *_cells(e["mse"]), *_cells(e["flip"]), *c.ns_per_sample.cells(),
-                             *rel.est.cells(), rel.side])
+                             g(c.overhead * 1e3), *rel.est.cells(), rel.side])
                 records.append({"scene": name, "method": m, "budget": b, "spp": c.spp[b],
                                 **{k: v for key in A.METRICS for k, v in
                                    e[key].fields(key).items()},
                                 **{f"{k}_bound": e[k].bound for k in A.METRICS},
                                 **c.ns_per_sample.fields("ns_per_sample"),
-                                **rel.fields("efficiency")})
+                                "per_call_seconds": c.overhead, **rel.fields("efficiency")})
     return rows, records
 
 
@@ -166,15 +166,15 @@ def intro(cfg, plans, numbers) -> str:
         f"Each cell is rendered {cfg.repeats} times at equal spp ({cfg.spp}) and {cfg.repeats} "
         f"times at equal time (about {cfg.time_budget:g} s of sample work each at the cell's own "
         f"time per sample, the spp rounded to a power of two), independent seeds (a "
-        f"deterministic sampler once; the equal-time count is never the equal-spp one). "
-        f"Time per sample: {'process CPU time' if cfg.cpu_time else 'wall time'} of the "
-        f"renders, t = a + b spp with a the per-call cost (tracing, kernel launch) and b the "
-        f"per-sample cost; each repeat's b is the difference of its two renders' times over "
-        f"the difference of their counts (a cancels), a 1-spp probe only plans the "
-        f"equal-time count. A scene's methods are timed in groups of at most "
-        f"{SCENE_CACHE} (the scenes a process keeps loaded), the baseline and "
-        f"{A.TIMED_PAIR[0]} in the first, their renders taking turns; the intervals count the "
-        f"spread of the repeats, not a drift of the machine's load between groups. "
+        f"deterministic sampler once). "
+        f"Time per sample: the execution time of the renders' kernels (Dr.Jit's kernel "
+        f"history: the sample work, without the per-call cost of tracing the integrator and "
+        f"launching kernels, listed as 'per call') over their samples, per repeat summed "
+        f"over both budgets; the time budget is in the same seconds. A scene's methods are "
+        f"timed in groups of at most {SCENE_CACHE} (the scenes a process keeps loaded), the "
+        f"baseline and {A.TIMED_PAIR[0]} leading the last, their renders taking turns; the "
+        f"intervals count the spread of the repeats, not a drift of the machine's load "
+        f"between groups. "
         f"Errors are expected values over the repeats "
         f"against a reference per scene ({cfg.reference_method}, at least "
         f"{cfg.reference_spp} spp, extended up to {cfg.reference_max_spp} spp where its own "
