@@ -141,10 +141,11 @@ CACHE_DIR = "cache"
 def produced_files(out: str) -> list[str]:
     """Every result file under ``out`` (relative paths): not the page, its viewer's
     scripts and data (``viewer-data/``), the job store (``store/``, summarised by
-    :func:`store_summary`), caches (any ``cache/`` folder: built-in scenes, the lab's
+    :func:`store_summary`), the reference store (``references/``), caches (any ``cache/`` folder: built-in scenes, the lab's
     finished panels), nor temporaries."""
+    from .references import REFERENCES_DIR       # the reference store: like the job store
     found = []
-    skip = {viewers.DATA_DIR, store.STORE_DIR}
+    skip = {viewers.DATA_DIR, store.STORE_DIR, REFERENCES_DIR}
     for root, dirs, names in os.walk(out):
         dirs[:] = sorted(d for d in dirs if not d.startswith(".") and d != CACHE_DIR and
                          os.path.relpath(os.path.join(root, d), out) not in skip)
