@@ -14,6 +14,7 @@ so the expected values and ratios are exact). Each property has its negative con
   below the floor is a bound (``stats.excess_interval``), never NaN;
 - the verdicts use relMSE: where MSE and relMSE disagree, relMSE decides.
 """
+import dataclasses
 import math
 
 import pytest
@@ -446,6 +447,27 @@ def test_a_bluer_error_is_found_where_it_is_below_every_native():
     rows = {(r.sampler, r.requested): r for r in a.rows}
     assert rows[("bund", 4)].share.value == pytest.approx(0.037)
     assert rows[("bund", 4)].share.lo < 0.037 < rows[("bund", 4)].share.hi
+
+
+def test_flip_is_compared_only_at_equal_counts():
+    """nat renders 25 samples where 16 are asked (orthogonal's rounding): its lower FLIP
+    there is more samples, not a verdict; the efficiency (per unit of time) and the share
+    (a shape, not a size) still are. Negative control: the same numbers at an equal count
+    give the FLIP verdict."""
+    nat = screen(0.07, 0.049, counts=(1, 4, 25))
+    nat = [dataclasses.replace(p, requested=r) for p, r in zip(nat, COUNTS)]
+    a = screen_analysis({"independent": screen(0.2, 0.049), "nat": nat,
+                         "bund": screen(0.1, 0.037)})
+    c = next(c for c in a.comparisons if (c.a, c.b, c.requested) == ("bund", "nat", 16))
+    assert c.spp == (16, 25) and not c.equal and c.flip.excludes(1.0)
+    # MSE per sample and time per sample alike: equally efficient
+    assert c.verdicts() == (SS.UNEQUAL, "bund bluer", "not distinguishable")
+    assert c.cells()[2] == "16 / 25"
+    assert "bund at 1, 4, 16 spp" in a.conclusions[2][1]
+    # the sentence's native is the lowest FLIP among those that render 16 for 16
+    assert "lowest at 16 spp (independent)" in a.conclusions[2][0]
+    same = next(c for c in a.comparisons if (c.a, c.b, c.requested) == ("bund", "nat", 4))
+    assert same.equal and same.verdicts()[0] == "nat lower FLIP"
 
 
 def test_the_screen_efficiency_uses_mse():

@@ -189,6 +189,8 @@ def spectrum_panels(path: str, panels: dict, cutoff: float, title: str) -> str:
         ax.axhline(1.0, color="0.4", lw=0.7, ls=":")
         ax.axvline(cutoff, color="0.4", lw=0.7, ls="--")
         ax.set_yscale("log")
+        ax.set_yticks([0.25, 0.5, 1, 2, 4], ["0.25", "0.5", "1", "2", "4"])
+        ax.minorticks_off()
         ax.set_xlim(0, 0.5)
         ax.set_xlabel("frequency |f| (cycles per pixel)", fontsize=8)
         ax.set_title(name, fontsize=9)

@@ -25,7 +25,7 @@ repeat at one count; the result is a :class:`ScreenRow` per label and count, a
 :class:`ScreenComparison` per pair and count (each bundled family's lowest-FLIP label
 against every native label and the other families': mean FLIP A / B, share A / B and MSE
 efficiency A / B, each with its interval and a verdict only where the interval excludes
-1) and at most three sentences per depth computed from them (:func:`screen_sentences`).
+1, FLIP only between equal counts rendered) and at most three sentences per depth computed from them (:func:`screen_sentences`).
 
 Which label is bundled and which native comes from :class:`Family` values (the sampler
 table's ``native``), never from a name. Tests feed synthetic points whose answer is known.
@@ -386,7 +386,9 @@ def analyse(points: dict[int, dict[str, list[Point]]], pixels: int,
 # mean FLIP at the largest count) with every native sampler and with the other families'
 # best, at every count, in three ways: mean FLIP A / B (below 1: A is better), low-frequency
 # share A / B (below 1: A's error is bluer) and MSE efficiency A / B (above 1: A is
-# better); a verdict only where the interval excludes 1.
+# better); a verdict only where the interval excludes 1, in FLIP only where both rendered
+# the same count (orthogonal renders 25 samples for 16: more samples, not a better
+# sampler; the efficiency, per unit of time, allows for it).
 
 @dataclass(frozen=True)
 class ScreenPoint:
@@ -432,9 +434,10 @@ class ScreenRow:
         return out
 
 
-#: Phrases of a verdict's sign (+1: A is better, -1: B is better, 0: neither) per quantity.
-FLIP_WORDS = {1: "lower", -1: "higher", 0: "not distinguishable"}
-SHARE_WORDS = {1: "bluer", -1: "less blue", 0: "not distinguishable"}
+#: Phrases of a verdict's sign (+1: A is better, -1: B is better, 0: neither; None: not
+#: compared, the two rendered different counts).
+UNEQUAL = "not compared (unequal counts)"
+FLIP_WORDS = {1: "lower", -1: "higher", 0: "not distinguishable", None: UNEQUAL}
 
 
 def lower_sign(ratio: stats.Estimate) -> int:
@@ -458,7 +461,9 @@ def lower_verdict(a: str, b: str, ratio: stats.Estimate, what: str) -> str:
             f"{why})")
 
 
-def _short(a: str, b: str, s: int, words: dict) -> str:
+def _short(a: str, b: str, s: int | None, words: dict) -> str:
+    if s is None:
+        return UNEQUAL
     return words[0] if s == 0 else f"{a if s > 0 else b} {words[1]}"
 
 
@@ -475,9 +480,18 @@ class ScreenComparison:
     efficiency: stats.Estimate  # MSE efficiency a / b (above 1: a is more efficient)
 
     @property
-    def signs(self) -> tuple[int, int, int]:
-        """(FLIP, share, efficiency): +1 where a is better, -1 where b is, 0 neither."""
-        return lower_sign(self.flip), lower_sign(self.share), sign(self.efficiency)
+    def equal(self) -> bool:
+        """Both rendered the same count. FLIP is compared only then: a sampler that rounds
+        the count up renders more samples (MSE efficiency, per unit of time, allows for
+        that; the share, a shape of the spectrum and not a size, is compared anyway)."""
+        return self.spp[0] == self.spp[1]
+
+    @property
+    def signs(self) -> tuple:
+        """(FLIP, share, efficiency): +1 where a is better, -1 where b is, 0 neither; FLIP
+        None where it is not compared (unequal counts)."""
+        return (lower_sign(self.flip) if self.equal else None, lower_sign(self.share),
+                sign(self.efficiency))
 
     def verdicts(self) -> tuple[str, str, str]:
         f, s, e = self.signs
@@ -602,11 +616,13 @@ def screen_sentences(depth: int, comps: list[ScreenComparison], rows: list[Scree
     def ladder(a, b):
         return [c for c in mine if (c.a, c.b) == (a, b)]
 
-    best = min(natives, key=lambda r: r.flip.value).sampler
+    # the lowest FLIP among the natives that render the count asked for
+    best = min([r for r in natives if r.spp == r.requested] or natives,
+               key=lambda r: r.flip.value).sampler
     parts = []
     for a in families:
         cs = ladder(a, best)
-        changes = [(c.spp[0], lower_sign(c.flip), c.flip) for c in cs]
+        changes = [(c.spp[0], c.signs[0], c.flip) for c in cs]
         parts.append(f"{a} {_along(changes, FLIP_WORDS)}, ratio {cs[-1].flip.text()} at "
                      f"{cs[-1].spp[0]} spp")
     out = [_fit(parts, f"By mean FLIP at max_depth {depth}, against the native sampler "
@@ -616,7 +632,7 @@ def screen_sentences(depth: int, comps: list[ScreenComparison], rows: list[Scree
         against = [c for c in mine if c.a == a and kinds[c.b].native]
         counts = sorted({c.requested for c in against})
         bluer = [n for n in counts
-                 if all(lower_sign(c.share) > 0 for c in against if c.requested == n)]
+                 if all(c.signs[1] > 0 for c in against if c.requested == n)]
         share = next(r.share for r in last if r.sampler == a)
         parts.append((f"{a} at {', '.join(map(str, bluer))} spp" if bluer else
                       f"{a} at no count") + f", share {share.text()} at {top} spp")

@@ -588,7 +588,8 @@ class ScreenSpace:
                                    f"sampler's best (lowest FLIP) against every native "
                                    f"sampler and the other bundled ones, at every count; "
                                    f"ratios A / B with {stats.LEVEL:.0%} intervals; a verdict "
-                                   f"only where the interval excludes 1"),
+                                   f"only where the interval excludes 1, in FLIP only "
+                                   f"between equal counts rendered"),
                 report.text("\n\n".join(result.conclusions[d]))]
         header = (["max_depth", "sampler", "spp rendered", "spp requested", "repeats"]
                   + _interval("mean FLIP") + _interval("low-frequency share")
