@@ -57,7 +57,7 @@ def test_independent_does_not_recompile_for_a_new_count(mitsuba):
 def test_run_job_times_only_warm_renders(mitsuba, method):
     import drjit as dr
     dr.flush_kernel_cache()                 # as in a fresh process: every count compiles once
-    E._scenes.clear()
+    E.clear_cache()
     info = read_scene(SCENE)
     m = parse_method(method)
     jobs = P.ladder(f"timing/{method}", info, m, 16, 8, [1, 4, 16], 7, Depth(2), VARIANT)
@@ -66,6 +66,6 @@ def test_run_job_times_only_warm_renders(mitsuba, method):
     if m.sampler_spec.bakes_spp:
         assert sum(r.recompiled for r in results) >= 1   # a new count did compile, once
     # a discarded render does not change the image: the same job in a fresh scene cache
-    E._scenes.clear()
+    E.clear_cache()
     again = E.run_job(jobs[-1], VARIANT)
     np.testing.assert_array_equal(again.image, results[-1].image)

@@ -55,22 +55,42 @@ import os
 import socket
 import time
 from collections import OrderedDict
-from typing import Iterable, Iterator
+from typing import Iterable, Iterator, NamedTuple
 
 import numpy as np
 
 from .jobs import Job, JobResult, cpu_model, derive_seed
 from .methods import Depth, Method
-from .scenes import load_scene, scene_hash
+from .scenes import load_scene, load_sensor, scene_hash
 from .store import JobStore
 
-#: Scenes kept loaded per process (each keeps its compiled kernels warm).
-SCENE_CACHE = 8
+#: Scene files kept loaded per process. Each is loaded once, whatever the methods that
+#: render it: a method is an integrator and a sensor (with its sampler and film size)
+#: passed to ``mi.render``. Loading another copy of a scene's shapes and BSDFs would change
+#: the render kernels of every scene already loaded (Dr.Jit traces a call over every live
+#: instance), so that interleaved methods would compile again and again.
+SCENE_CACHE = 4
+#: Methods (integrator + sensor) kept per process, each with its kernels warm.
+VIEW_CACHE = 64
 #: Renders of one pass until one ran without compiling (the last one is kept either way).
 WARM_TRIES = 3
 
 
+class View(NamedTuple):
+    """What renders a job: the scene loaded once, and the method's sensor and integrator."""
+    scene: object
+    sensor: object
+    integrator: object
+
+
 _scenes: OrderedDict = OrderedDict()
+_views: OrderedDict = OrderedDict()
+
+
+def clear_cache() -> None:
+    """Forget every loaded scene and method of this process."""
+    _views.clear()
+    _scenes.clear()
 
 
 def job_depth(job: Job) -> Depth:
@@ -96,23 +116,40 @@ def _check_scene_file(job: Job) -> None:
 
 
 def _scene(job: Job, variant: str):
-    """The loaded, warmed-up scene of ``job`` (cached per process)."""
-    key = (variant, job.scene, job.scene_sha256, job.method, job.width, job.height,
-           job_depth(job))
+    """The scene file of ``job``, loaded once per process (cached)."""
+    key = (variant, job.scene, job.scene_sha256)
     if key in _scenes:
         _scenes.move_to_end(key)
         return _scenes[key]
     _check_scene_file(job)
+    _scenes[key] = load_scene(job.scene, job.width, job.height, job.method, job_depth(job))
+    while len(_scenes) > SCENE_CACHE:
+        old, _ = _scenes.popitem(last=False)
+        for k in [k for k in _views if k[0] == old]:
+            del _views[k]
+    return _scenes[key]
+
+
+def _view(job: Job, variant: str) -> View:
+    """The warmed-up :class:`View` of ``job`` (cached per process)."""
+    import mitsuba as mi
+    scene = _scene(job, variant)
+    key = ((variant, job.scene, job.scene_sha256), job.method, job.width, job.height,
+           job_depth(job))
+    if key in _views:
+        _views.move_to_end(key)
+        return _views[key]
     method: Method = job.method
     spp = job.passes()[0] if method.sampler_spec.bakes_spp else 1
-    scene = load_scene(job.scene, job.width, job.height, method, job_depth(job), spp)
-    # load and first compile; a sampler that bakes its count into the kernel at the count
-    # of the first pass, so that the timed render does not compile again
-    _render(scene, spp, 0x5EED, sequence_state(job, 0))
-    _scenes[key] = scene
-    while len(_scenes) > SCENE_CACHE:
-        _scenes.popitem(last=False)
-    return scene
+    view = View(scene, load_sensor(job.scene, job.width, job.height, method, spp),
+                mi.load_dict(method.integrator_dict(job_depth(job))))
+    # the first compile; a sampler that bakes its count into the kernel at the count of
+    # the first pass, so that the timed render does not compile again
+    _render(view, spp, 0x5EED, sequence_state(job, 0))
+    _views[key] = view
+    while len(_views) > VIEW_CACHE:
+        _views.popitem(last=False)
+    return view
 
 
 def sequence_state(job: Job, done: int) -> dict | None:
@@ -124,18 +161,18 @@ def sequence_state(job: Job, done: int) -> dict | None:
     return spec.sequence_attributes(job.sample_offset + done, job.sequence_spp)
 
 
-def set_sequence_state(scene, state: dict) -> None:
-    """Set the sensor's sampler attributes (``sample_offset``...; no recompilation): on
-    the Python sampler object, or through ``mi.traverse`` for a sampler that exposes them
+def set_sequence_state(sensor, state: dict) -> None:
+    """Set the attributes of the sensor's sampler (``sample_offset``...; no recompilation):
+    on the Python sampler object, or through ``mi.traverse`` for a sampler that exposes them
     as parameters."""
-    sampler = scene.sensors()[0].sampler()
+    sampler = sensor.sampler()
     params = None
     for name, value in state.items():
         if hasattr(sampler, name):
             setattr(sampler, name, value)
             continue
         import mitsuba as mi
-        params = params if params is not None else mi.traverse(scene)
+        params = params if params is not None else mi.traverse(sensor)
         key = next(k for k in params.keys() if k.endswith(f"sampler.{name}"))
         params[key] = mi.UInt32(value)
     if params is not None:
@@ -151,18 +188,21 @@ def kernels_compiled(history: list[dict]) -> int:
                and (not k.get("cache_hit", False) or k.get("cache_disk", False)))
 
 
-def _render(scene, spp: int, seed: int, sequence: dict | None = None):
-    """One render (``sequence``: the sampler state it continues, :func:`sequence_state`):
-    (image, wall seconds, CPU seconds, kernels compiled during it, seconds its kernels
-    executed)."""
+def _render(view, spp: int, seed: int, sequence: dict | None = None):
+    """One render of a :class:`View` (or of a scene with its own sensor and integrator;
+    ``sequence``: the sampler state it continues, :func:`sequence_state`): (image, wall
+    seconds, CPU seconds, kernels compiled during it, seconds its kernels executed)."""
     import drjit as dr
     import mitsuba as mi
+    if not isinstance(view, View):
+        view = View(view, view.sensors()[0], view.integrator())
     if sequence:
-        set_sequence_state(scene, sequence)
+        set_sequence_state(view.sensor, sequence)
     dr.set_flag(dr.JitFlag.KernelHistory, True)
     dr.kernel_history_clear()
     cpu, start = time.process_time(), time.perf_counter()
-    image = mi.render(scene, spp=spp, seed=seed)
+    image = mi.render(view.scene, sensor=view.sensor, integrator=view.integrator, spp=spp,
+                      seed=seed)
     dr.eval(image)
     dr.sync_thread()
     seconds, cpu = time.perf_counter() - start, time.process_time() - cpu
@@ -172,13 +212,13 @@ def _render(scene, spp: int, seed: int, sequence: dict | None = None):
             kernels_compiled(history), kernel)
 
 
-def warm_render(scene, spp: int, seed: int, sequence: dict | None = None,
+def warm_render(view, spp: int, seed: int, sequence: dict | None = None,
                 tries: int = WARM_TRIES):
     """:func:`_render` again (same seed, same image) until a render compiled nothing;
     returns (image, seconds, cpu seconds, renders discarded, compiled in the kept one,
     kernel seconds)."""
     for attempt in range(tries):
-        image, seconds, cpu, compiled, kernel = _render(scene, spp, seed, sequence)
+        image, seconds, cpu, compiled, kernel = _render(view, spp, seed, sequence)
         if not compiled:
             return image, seconds, cpu, attempt, 0, kernel
     return image, seconds, cpu, tries - 1, compiled, kernel
@@ -190,7 +230,7 @@ def run_job(job: Job, variant: str) -> JobResult:
     import mitsuba as mi
     if mi.variant() != variant:
         mi.set_variant(variant)
-    scene = _scene(job, variant)
+    view = _view(job, variant)
     continues = job.method.continues_sequence
     mean = np.zeros((job.height, job.width, 3))
     sq = np.zeros_like(mean)
@@ -198,13 +238,13 @@ def run_job(job: Job, variant: str) -> JobResult:
     for i, k in enumerate(job.passes()):
         seed = job.seed if continues else derive_seed(job.seed, i)
         image, seconds, cpu_seconds, discarded, compiled, kernel = warm_render(
-            scene, k, seed, sequence_state(job, done))
+            view, k, seed, sequence_state(job, done))
         kernels += kernel
         recompiled += discarded
         compiled_passes += compiled > 0
         # Mitsuba's stratified, orthogonal and ldsampler round the count (e.g.
         # orthogonal: 16 -> 25, a prime squared): count what was rendered
-        k = scene.sensors()[0].sampler().sample_count()
+        k = view.sensor.sampler().sample_count()
         mean += image * k
         sq += k * image * image
         done += k

@@ -179,15 +179,12 @@ def read_scene(path: str) -> SceneInfo:
     return SceneInfo(os.path.abspath(path), width, height, depth, content_hash(state.files))
 
 
-def load_scene(path: str, width: int, height: int, method: Method, depth: Depth = Depth(),
-               spp: int = 1):
-    """The scene with ``method``'s integrator and sampler (``spp`` samples per pixel) on a
-    ``width`` x ``height`` film (the scene's first sensor), everything else as the file
-    says; instantiated by Mitsuba."""
+def _with_sensor(path: str, width: int, height: int, method: Method, spp: int):
+    """The parsed scene with ``method``'s sampler and a ``width`` x ``height`` film in its
+    first sensor; (state, index of that sensor)."""
     _add_scene_dir(path)
     state = parse(path)
     sensor = _sensor(state, path)
-    _attach(state, 0, mi.ObjectType.Integrator, _props(method.integrator_dict(depth)))
     _attach(state, sensor, mi.ObjectType.Sampler,
             _props(method.sampler_dict(spp, width, height)))
     film = _first(state, _children(state, state.nodes[sensor]), mi.ObjectType.Film)
@@ -195,9 +192,39 @@ def load_scene(path: str, width: int, height: int, method: Method, depth: Depth 
         film = _attach(state, sensor, mi.ObjectType.Film, _props({"type": "hdrfilm"}))
     state.nodes[film].props["width"] = int(width)
     state.nodes[film].props["height"] = int(height)
+    return state, sensor
+
+
+def _instantiate(state):
     config = _config()
     mi.parser.transform_all(config, state)
     return mi.parser.instantiate(config, state)
+
+
+def load_scene(path: str, width: int, height: int, method: Method, depth: Depth = Depth(),
+               spp: int = 1):
+    """The scene with ``method``'s integrator and sampler (``spp`` samples per pixel) on a
+    ``width`` x ``height`` film (the scene's first sensor), everything else as the file
+    says; instantiated by Mitsuba."""
+    state, _ = _with_sensor(path, width, height, method, spp)
+    _attach(state, 0, mi.ObjectType.Integrator, _props(method.integrator_dict(depth)))
+    return _instantiate(state)
+
+
+def load_sensor(path: str, width: int, height: int, method: Method, spp: int = 1):
+    """The scene's first sensor alone, with ``method``'s sampler on a ``width`` x
+    ``height`` film: ``mi.render(scene, sensor=..., integrator=...)`` renders a scene
+    loaded once with it, exactly as :func:`load_scene` of that method would (its other
+    objects, shapes and emitters, are not instantiated again: a new instance of them would
+    change the render kernels of every scene already loaded, Dr.Jit tracing calls over
+    every live instance)."""
+    state, sensor = _with_sensor(path, width, height, method, spp)
+    root = state.nodes[0].props
+    for key in list(root.keys()):
+        value = root[key]
+        if isinstance(value, mi.Properties.ResolvedReference) and value.index() != sensor:
+            del root[key]
+    return _instantiate(state).sensors()[0]
 
 
 def effective_depth(info: SceneInfo, max_depth: int | None = None,
