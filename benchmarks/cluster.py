@@ -31,6 +31,7 @@ import mitsuba as mi  # noqa: E402
 from experiments.lib import cluster, execute  # noqa: E402
 from experiments.lib import scenes as SC  # noqa: E402
 from experiments.lib.methods import parse_method  # noqa: E402
+from experiments.lib.references import RefSpec, ReferenceStore  # noqa: E402
 from experiments.lib import plan as P  # noqa: E402
 from experiments.lib.jobs import cpu_model  # noqa: E402
 
@@ -67,7 +68,8 @@ def _reference_jobs(spp: int, width: int, height: int) -> tuple[list, list]:
     """The reference jobs, and 1-spp warm-up jobs of the same scene (one per worker)."""
     info = SC.read_scene(SCENE)
     depth = SC.effective_depth(info)
-    jobs = P.reference_jobs(info, width, height, spp, parse_method("path"), depth, VARIANT)
+    jobs = ReferenceStore("").plan(RefSpec(info, width, height, depth, parse_method("path"),
+                                           VARIANT), spp)
     warm = [P.make_job(f"warm-up/{i}", info, parse_method("path"), width, height, 1, 7 + i, depth, VARIANT,
                        timing_group=f"warm-up/{i}") for i in range(2)]
     return jobs, warm

@@ -22,7 +22,8 @@ from experiments.lib import cli, report, studies
 SHARED = {"scene": "--scene", "variant": "--variant", "seed": "--seed", "out": "--out"}
 FORWARDED = {"resolution": "--resolution", "spp": "--spp", "max_depth": "--max-depth",
              "rr_depth": "--rr-depth", "reference_spp": "--reference-spp",
-             "repeats": "--repeats", "methods": "--methods"}
+             "repeats": "--repeats", "methods": "--methods",
+             "reference_cache": "--reference-cache"}
 
 
 def build_parser() -> cli.Parser:

@@ -253,22 +253,6 @@ def test_jobs_are_plain_picklable_data():
     assert job.sample_offset == 1 and job.spp == 3
 
 
-def test_reference_is_cached_and_remade_when_settings_change(tmp_path, count_jobs):
-    st = store.JobStore(str(tmp_path))
-    info = _info()
-    jobs = P.reference_jobs(info, 16, 8, 16, M.parse_method("path"), info.depth, "llvm_ad_rgb")
-    assert len(jobs) == 8                      # at least 8 pieces: the floor estimate
-    X.execute(jobs, st, progress=False)
-    assert len(count_jobs) == 8
-    count_jobs.clear()
-    X.execute(P.reference_jobs(info, 16, 8, 16, M.parse_method("path"), info.depth, "llvm_ad_rgb"), st,
-              progress=False)
-    assert count_jobs == []
-    X.execute(P.reference_jobs(info, 16, 8, 32, M.parse_method("path"), info.depth, "llvm_ad_rgb"), st,
-              progress=False)
-    assert count_jobs
-
-
 # ------------------------------------------------------------- scenes, methods
 
 def test_any_scene_keeps_its_integrator_settings_unless_overridden(tmp_path):
@@ -522,7 +506,7 @@ def test_run_all_report_lists_every_produced_file_and_reruns_resume(tmp_path, co
     argv = TINY + ["--spp", "2", "--time-budget", "0.02", "--short-spp", "2",
                    "--halton-spp", "2", "--methods", "uniform,cosine,bsdf,bsdf+nee,path",
                    "--out", str(out), "--stability", "quick", "--samplers", "quick",
-                   "--lab", "quick", "--repeats", "2"]
+                   "--lab", "quick", "--suite", "quick", "--repeats", "2"]
     run_all.main(argv)
     assert count_jobs
     errors = (out / "convergence" / "errors.csv").read_text()

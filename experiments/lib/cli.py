@@ -19,6 +19,7 @@ from integrators.choices import JIT_VARIANT_PREFIXES
 
 from . import extensions
 from . import methods as M
+from . import plan as P
 from . import scenes as SC
 
 #: The bundled scene (package data of :mod:`scenes`, found in a checkout and an install alike).
@@ -129,6 +130,10 @@ def common_parser(prog: str, description: str, spp: int | None = None,
     p.add_argument("--reference-method", type=one_method, default="path",
                    help="method of the reference, with next-event estimation: path (Mitsuba's) "
                         "or e.g. bsdf+nee")
+    p.add_argument("--reference-cache", default=None, metavar="DIR",
+                   help="the reference store every study and run shares (references are "
+                        "keyed by the scene's content and settings, and extended in place); "
+                        "default: OUT/references")
     add_plugin_option(p)
     return p
 
@@ -242,6 +247,11 @@ def parse_args(parser: Parser, argv=None) -> argparse.Namespace:
         parser.error(str(e))
     args.depth = SC.effective_depth(args.info, args.max_depth, args.rr_depth)
     args.method_objs = [M.parse_method(n) for n in args.methods]   # checked by method_list
+    for method in args.method_objs:
+        try:
+            P.check_terminates(method, args.depth)
+        except ValueError as e:
+            parser.error(str(e))
     width, height = args.resolution
     try:   # the scene must load as every method would load it
         SC.load_scene(args.scene, width, height, args.method_objs[0], args.depth)

@@ -21,7 +21,7 @@ import os
 import integrators
 import mitsuba as mi
 
-from .jobs import MAX_LANES, Job, derive_seed
+from .jobs import Job, derive_seed
 from .methods import Depth, Method
 from .scenes import SceneInfo
 
@@ -41,12 +41,31 @@ def plugins_version() -> str:
     return digest.hexdigest()[:16]
 
 
+def check_terminates(method: Method, depth: Depth) -> None:
+    """A deterministic sampler (plain Halton, zsobol:none) gives the point 0 in every
+    dimension to the first sample of every pixel; Russian roulette's survival test
+    (``u < p``, as Mitsuba's ``path``) then never ends that path, which with an unbounded
+    ``max_depth`` in a closed scene loops forever. Refuse the combination with the reason,
+    instead of a render that never finishes."""
+    if method.deterministic and depth.max_depth in (None, -1):
+        raise ValueError(
+            f"method '{method}' uses a deterministic sampler at unbounded max_depth "
+            f"({'the integrator default' if depth.max_depth is None else -1}): its first "
+            f"sample is 0 in every dimension, so Russian roulette never ends that path and "
+            f"a closed scene never finishes rendering; give a bounded --max-depth (e.g. 8) "
+            f"or a randomized sampler (e.g. {method.sampler}:owen)")
+
+
 def make_job(prefix: str, info: SceneInfo, method: Method, width: int, height: int, spp: int,
              seed: int, depth: Depth, variant: str, sample_offset: int = 0, pass_spp: int = 0,
              timing_group: str | None = None, sequence_spp: int = 0) -> Job:
     """A :class:`Job` whose key is ``prefix`` + a hash of everything its image depends on
     (the plugin sources and the variant included; the method by its name; the sequence's
-    length only where a sampler needs it, so other keys are as they always were)."""
+    length only where a sampler needs it, so other keys are as they always were).
+
+    ValueError for a deterministic sampler at unbounded depth (:func:`check_terminates`).
+    """
+    check_terminates(method, depth)
     fields = dict(scene=info.path, scene_sha256=info.sha256, method=method.name, width=width,
                   height=height, spp=spp, seed=seed, sample_offset=sample_offset,
                   pass_spp=pass_spp, **dataclasses.asdict(depth))
@@ -89,13 +108,3 @@ def doubling_targets(max_spp: int, factor: int = 2) -> list[int]:
         targets.append(t)
         t *= factor
     return targets + [max_spp]
-
-
-def reference_jobs(info: SceneInfo, width: int, height: int, spp: int, method: Method,
-                   depth: Depth, variant: str, seed: int = 0, chunk_spp: int = 0) -> list[Job]:
-    """The high-spp reference as jobs of ``chunk_spp`` samples (resumable pieces; by default
-    at least 8, so that the spread of their images estimates the reference's own error)."""
-    chunk = chunk_spp or max(1, min(MAX_LANES // (width * height), spp // 8))
-    targets = list(range(chunk, spp, chunk)) + [spp]
-    return ladder(f"reference/{method.name}-{width}x{height}-{spp}spp", info, method, width,
-                  height, targets, seed, depth, variant)

@@ -17,8 +17,8 @@ from . import plan as P
 from .execute import execute
 from .jobs import Accumulator, Job, accumulate as accumulate_results, derive_seed
 from .methods import Depth, Method
+from .references import REFERENCES_DIR, RefSpec, ReferenceStore
 from .scenes import SceneInfo
-from .metrics import RELMSE_EPS
 from .store import STORE_DIR, JobStore
 
 
@@ -38,12 +38,33 @@ class Study:
         self.seed = args.seed
         self.width, self.height = args.resolution
         self.store = JobStore(os.path.join(args.out, STORE_DIR))
+        #: The reference store every study and run shares (``--reference-cache``).
+        self.references = ReferenceStore(getattr(args, "reference_cache", None)
+                                         or os.path.join(args.out, REFERENCES_DIR))
         self.executor = executor if executor is not None else getattr(args, "executor", None)
         self.repeats: int = getattr(args, "repeats", 1)
+        self._reference_of: dict[str, RefSpec] = {}       # chunk key -> its reference
 
     def run(self, jobs: list, label: str = "render jobs") -> int:
-        """Execute the jobs the store lacks; return how many were rendered."""
-        return execute(jobs, self.store, self.executor, progress=label, variant=self.variant)
+        """Execute the jobs the stores lack (reference chunks in the reference store, the
+        others in the job store); return how many were rendered."""
+        specs: dict[str, tuple[RefSpec, list]] = {}
+        others = []
+        for job in jobs:
+            spec = self._reference_of.get(job.key)
+            if spec is None:
+                others.append(job)
+            else:
+                specs.setdefault(spec.key, (spec, []))[1].append(job)
+        done = 0
+        if specs:
+            done += self.references.render(list(specs.values()), self.executor, self.variant,
+                                           progress=f"{label} (references)")
+        return done + execute(others, self.store, self.executor, progress=label,
+                              variant=self.variant)
+
+    def _store_of(self, job: Job):
+        return self.references.store if job.key in self._reference_of else self.store
 
     def repeats_of(self, method: Method) -> int:
         """Independent randomizations rendered of ``method``: ``--repeats``, but 1 for a
@@ -71,25 +92,34 @@ class Study:
                         depth or self.depth, self.variant, **options)
 
     def reference_jobs(self, info: SceneInfo | None = None, depth: Depth | None = None,
-                       resolution=None) -> list[Job]:
+                       resolution=None, spp: int | None = None,
+                       method: Method | None = None) -> list[Job]:
+        """The chunks of a reference in the shared reference store
+        (:mod:`.references`: keyed by the scene's content, not by the study, and extended in
+        place for more samples): ``spp`` (default ``--reference-spp``) of ``method``
+        (default ``--reference-method``) at ``resolution`` (default the study's)."""
         width, height = resolution or (self.width, self.height)
-        return P.reference_jobs(info or self.info, width, height, self.args.reference_spp,
-                                self.args.reference_method, depth or self.depth, self.variant,
-                                self.seed)
+        spec = RefSpec(info or self.info, width, height, depth or self.depth,
+                       method or self.args.reference_method, self.variant)
+        jobs = self.references.plan(spec, spp or self.args.reference_spp)
+        self._reference_of.update((j.key, spec) for j in jobs)
+        return jobs
+
+    def results(self, jobs: list[Job]) -> list:
+        """The stored results of ``jobs``, from the store that holds each (job store or
+        reference store)."""
+        return [self._store_of(j).get(j.key) for j in jobs]
 
     def accumulate(self, jobs: list[Job]) -> list[Accumulator]:
-        """The cumulative image after each of ``jobs`` (a ladder, in order), from the store."""
-        return accumulate_results(self.store.results(jobs))
+        """The cumulative image after each of ``jobs`` (a ladder, in order)."""
+        return accumulate_results(self.results(jobs))
 
     def reference(self, jobs: list[Job]) -> tuple[np.ndarray, dict]:
-        """The reference image of ``jobs`` and its metadata (render seconds, passes, and the
-        expected MSE of the reference itself, the floor under every measured MSE)."""
-        acc = self.accumulate(jobs)[-1]
-        var = acc.variance_of_mean()
-        rel = var / (acc.mean ** 2 + RELMSE_EPS)     # per pixel and channel, for masked errors
-        return acc.mean, {"seconds": acc.seconds, "passes": acc.passes, "spp": acc.spp,
-                          "method": jobs[0].method.name, "mse_floor": float(np.mean(var)),
-                          "relmse_floor": float(np.mean(rel)), "relmse_floor_map": rel}
+        """The reference image of ``jobs`` (:meth:`reference_jobs`) and its metadata (render
+        seconds, passes, and the expected error of the reference itself, the floor under
+        every measured error: ``mse_floor``, ``relmse_floor``, ``relmse_floor_map``)."""
+        ref = self.references.read_jobs(jobs)
+        return ref.image, ref.meta()
 
     def timed_on(self, jobs: list[Job]) -> str:
         """Which machine (host, CPU) measured the render times that each comparison of
@@ -107,7 +137,7 @@ class Study:
         return "; ".join(f"{g}: {' + '.join(sorted(m))}" for g, m in sorted(groups.items()))
 
     def describe_reference(self, meta: dict) -> str:
-        return (f"{meta['spp']} spp of {meta['method']} (NEE + MIS), {meta['passes']} passes, "
+        return (f"{meta['spp']} spp of {meta['method']} (NEE + MIS), {meta['passes']} chunks, "
                 f"{meta['seconds']:.1f} s; its own expected MSE about {meta['mse_floor']:.1e} "
                 f"(relMSE {meta['relmse_floor']:.1e}), estimated from the spread of its "
                 f"passes and subtracted from every expected MSE and relMSE")

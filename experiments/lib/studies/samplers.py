@@ -453,9 +453,8 @@ class ScreenMeasured:
 
 def screen_reference_jobs(st: Study, sc: ScreenSettings, depth: Depth) -> list[J.Job]:
     """The pass's reference: ``sc.reference_spp`` of ``sc.reference`` at its resolution."""
-    width, height = sc.resolution
-    return P.reference_jobs(st.info, width, height, sc.reference_spp, sc.reference, depth,
-                            st.variant, st.seed)
+    return st.reference_jobs(st.info, depth, resolution=sc.resolution, spp=sc.reference_spp,
+                             method=sc.reference)
 
 
 def screen_ladders(st: Study, cfg: Settings, sc: ScreenSettings, d: int, labels,
@@ -473,7 +472,7 @@ def screen_ladders(st: Study, cfg: Settings, sc: ScreenSettings, d: int, labels,
 def screen_floor(st: Study, refs: list[J.Job]) -> float:
     """The white power the reference's own noise adds to an error spectrum
     (:func:`.screen_space.reference_floor` of its chunks)."""
-    chunks = st.store.results(refs)
+    chunks = st.results(refs)
     return SP.reference_floor([r.image for r in chunks], [r.spp for r in chunks])
 
 

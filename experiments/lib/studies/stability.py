@@ -4,7 +4,8 @@ Four sweeps on the scene's parameters (see :mod:`experiments.lib.sweeps`):
 the Phong exponent (every vr_path strategy), the light size at constant
 power (with and without next-event estimation), grazing incidence, and
 Halton without and with randomization at max_depth 2 and --max-depth (8 when
-the scene and the command line give none above 2). Every comparison is
+the scene and the command line give none above 2, or an unbounded one, where
+plain Halton's all-zero first sample would never end its path). Every comparison is
 measured over --repeats independent randomizations and reported with 95%
 intervals. Outliers are counted over every render. --methods picks the
 strategies of the light and Halton sweeps.

@@ -103,8 +103,6 @@ def add_shared(p: cli.Parser) -> None:
     p.add_argument("--references", default=None, metavar="DIR",
                    help="use your own reference images: DIR/<scene name>.exr (their own "
                         "error is unknown, nothing is subtracted)")
-    p.add_argument("--reference-cache", default=None, metavar="DIR",
-                   help="the reference store shared by every run (default: OUT/references)")
 
 
 def build_parser() -> cli.Parser:
@@ -208,6 +206,13 @@ def parse(argv=None):
             methods.insert(methods.index("path") if "path" in methods else len(methods), best)
     args.methods = methods
     args.method_objs = [parse_method(m) for m in methods]
+    fixed = [m.name for m in args.method_objs if m.deterministic]
+    if fixed:
+        build_parser().error(
+            f"method '{fixed[0]}' is deterministic (the same image every run): the suite "
+            f"judges every cell over independent repeats, and the bundled scenes include "
+            f"unbounded depths where such a sampler's all-zero first sample never ends its "
+            f"path; use a randomized sampler (e.g. {parse_method(fixed[0]).sampler}:owen)")
     if args.baseline.name not in methods:
         build_parser().error(f"--baseline '{args.baseline}' is not one of the methods "
                              f"({', '.join(methods)})")
@@ -351,4 +356,4 @@ def run(args) -> None:
 STUDY = register_study(StudySpec(
     NAME, TITLE, ORDER, build_parser, run, parse=parse, quick=("--quick",), shared=add_shared,
     forwarded={"scenes": "--scenes", "references": "--references",
-               "reference_cache": "--reference-cache", "best_sampler": "--best-sampler"}))
+               "best_sampler": "--best-sampler"}))

@@ -229,7 +229,9 @@ class Context:
                                              if m.strategy is not None)) or ["bsdf"]
         self.scene_dir = os.path.join(self.out, NAME, "scenes")
         high = args.depth.max_depth
-        self.halton_depths = [2, high if high is not None and (high > 2 or high == -1) else 8]
+        # unbounded (-1) becomes 8: plain Halton's all-zero first sample would never end its
+        # path under Russian roulette (plan.check_terminates)
+        self.halton_depths = [2, high if high is not None and high > 2 else 8]
         self._probe = None
 
     def path(self, name: str) -> str:
