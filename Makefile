@@ -9,12 +9,14 @@ ARGS   ?=
 
 install: $(STAMP)
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml Makefile
 	$(PYTHON) integrators/llvm.py --ensure
 	$(PYTHON) tools/ensure_browser.py --ensure || echo "warning: without Chromium the viewer tests (tests/test_viewer.py) fail; everything else works"
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
-	$(BIN)/python -m pip install -q -e '.[test,cluster]'
+	# compat: the editable install is a path entry (.pth), not an import hook, so that a
+	# script beside a folder of its own named scenes/ (examples/) still imports this package
+	$(BIN)/python -m pip install -q -e '.[test,cluster]' --config-settings editable_mode=compat
 	touch $@
 
 # The main job: the default experiments on the bundled scene, report in results/.
