@@ -304,7 +304,8 @@ def test_unanswering_peer_fails_within_the_deadline(mode):
 
 @pytest.mark.parametrize("address, timeout, bound", [
     (f"tcp://127.0.0.1:{_closed_port()}", 1.0, 1.0 + C.CONNECT_MARGIN + 0.5),   # refused
-    ("not a scheduler::", None, 2.0)])                                         # not an address
+    ("not a scheduler::", None, 2.0)],                                         # not an address
+    ids=["refused", "not-an-address"])      # the port varies: ids stable across pytest-xdist workers
 def test_unreachable_scheduler_fails_fast(address, timeout, bound):
     options = {} if timeout is None else {"timeout": timeout}
     start = time.monotonic()
@@ -359,14 +360,28 @@ def run_study(out, *extra: str) -> dict:
     return timed_on
 
 
-def read_store(out) -> dict:
-    """Every finished job of the study: store key -> JobResult."""
+#: The stores of a study's --out: its jobs, and the reference store's chunks.
+STORES = ("store", "references")
+
+
+def stored_path(out, key) -> str:
+    """The file of a finished job (or reference chunk) of the study in ``out``."""
     from experiments.lib.store import JobStore
-    root = os.path.join(str(out), "store")
-    st = JobStore(root)
-    keys = [os.path.relpath(p, root)[:-len(".npz")]
-            for p in glob.glob(os.path.join(root, "**", "*.npz"), recursive=True)]
-    return {key: st.get(key) for key in keys}
+    paths = [JobStore(os.path.join(str(out), s)).path(key) for s in STORES]
+    return next((p for p in paths if os.path.exists(p)), paths[0])
+
+
+def read_store(out) -> dict:
+    """Every finished job of the study, reference chunks included: key -> JobResult."""
+    from experiments.lib.store import JobStore
+    found = {}
+    for name in STORES:
+        root = os.path.join(str(out), name)
+        st = JobStore(root)
+        for p in glob.glob(os.path.join(root, "**", "*.npz"), recursive=True):
+            key = os.path.relpath(p, root)[:-len(".npz")]
+            found[key] = st.get(key)
+    return found
 
 
 def error_table(out) -> dict:
@@ -455,8 +470,7 @@ def test_interrupted_study_resumes_without_rendering_again(local_study, local_cl
     with pytest.raises(KeyboardInterrupt):
         run_study(tmp_path, "--scheduler", local_cluster.scheduler_address)
     assert sorted(read_store(tmp_path)) == sorted(finished)
-    stamps = {k: os.stat(JobStore(str(tmp_path / "store")).path(k)).st_mtime_ns
-              for k in finished}
+    stamps = {k: os.stat(stored_path(tmp_path, k)).st_mtime_ns for k in finished}
 
     monkeypatch.setattr(JobStore, "put", put)
     submitted = []
@@ -471,7 +485,7 @@ def test_interrupted_study_resumes_without_rendering_again(local_study, local_cl
     assert not set(submitted) & set(finished), "finished jobs were rendered again"
     assert sorted(submitted + finished) == sorted(read_store(local_study))
     for k, stamp in stamps.items():
-        assert os.stat(JobStore(str(tmp_path / "store")).path(k)).st_mtime_ns == stamp
+        assert os.stat(stored_path(tmp_path, k)).st_mtime_ns == stamp
     assert_same_study(local_study, tmp_path)
 
 

@@ -52,8 +52,14 @@ from .store import JobStore
 
 #: Where the store lives under a study's ``--out`` by default.
 REFERENCES_DIR = "references"
-#: Samples per pixel of one chunk (fewer where a chunk would exceed :data:`MAX_LANES`).
-DEFAULT_CHUNK_SPP = 32
+#: The fewest samples per pixel of a chunk that :func:`chunk_spp_for` picks (fewer only
+#: where a chunk would exceed :data:`MAX_LANES`), and the most.
+MIN_AUTO_CHUNK_SPP = 32
+MAX_AUTO_CHUNK_SPP = 256
+#: Samples (pixels x spp) a chunk of :func:`chunk_spp_for` reaches where it can: on a small
+#: film a 32-spp chunk is mostly the per-render cost of tracing and launching the kernel
+#: (a 48x36 reference of 2048 spp was 64 renders of 55k samples each).
+CHUNK_LANES = 131072          # 2**17
 #: Fewest chunks of a reference: their spread estimates its own error.
 MIN_CHUNKS = 8
 #: How a reference is made, in words (for the JSON beside it).
@@ -61,6 +67,18 @@ SEED_RULE = ("chunk i renders chunk_spp samples per pixel with seed derive_seed(
              "'chunk', i) and the method's sampler reseeded per chunk; the reference is the "
              "mean of its chunks, its own expected error the spread of their images")
 JSON_NAME = "reference.json"
+
+
+def chunk_spp_for(width: int, height: int) -> int:
+    """The samples per pixel of a chunk at ``width`` x ``height`` (the default of
+    :attr:`RefSpec.chunk_spp`): the smallest power of two from :data:`MIN_AUTO_CHUNK_SPP`
+    whose chunk has :data:`CHUNK_LANES` samples, at most :data:`MAX_AUTO_CHUNK_SPP`. A
+    function of the film alone, not of the count asked for, so that asking for more
+    samples extends a reference in place."""
+    chunk = MIN_AUTO_CHUNK_SPP
+    while chunk * width * height < CHUNK_LANES and chunk < MAX_AUTO_CHUNK_SPP:
+        chunk *= 2
+    return chunk
 
 
 def _safe(name: str) -> str:
@@ -77,7 +95,7 @@ class RefSpec:
     depth: Depth
     method: Method
     variant: str
-    chunk_spp: int = DEFAULT_CHUNK_SPP
+    chunk_spp: int | None = None      # None: chunk_spp_for(width, height)
 
     def __post_init__(self):
         if self.method.continues_sequence or self.method.deterministic:
@@ -85,13 +103,14 @@ class RefSpec:
                 f"reference method '{self.method}' does not reseed per chunk (its sampler "
                 f"continues one sequence or is deterministic), so the spread of its chunks "
                 f"would not estimate its own error: use a reseeding sampler (e.g. path)")
-        if self.chunk_spp < 1:
+        if self.chunk_spp is not None and self.chunk_spp < 1:
             raise ValueError(f"chunk_spp must be >= 1, got {self.chunk_spp}")
 
     @property
     def chunk(self) -> int:
         """Samples per pixel of each chunk."""
-        return max(1, min(self.chunk_spp, MAX_LANES // (self.width * self.height)))
+        spp = self.chunk_spp or chunk_spp_for(self.width, self.height)
+        return max(1, min(spp, MAX_LANES // (self.width * self.height)))
 
     def fields(self) -> dict:
         """Everything the reference's image depends on (its key is their hash)."""

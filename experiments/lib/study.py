@@ -99,9 +99,10 @@ class Study:
         place for more samples): ``spp`` (default ``--reference-spp``) of ``method``
         (default ``--reference-method``) at ``resolution`` (default the study's)."""
         width, height = resolution or (self.width, self.height)
+        spp = spp or self.args.reference_spp
         spec = RefSpec(info or self.info, width, height, depth or self.depth,
                        method or self.args.reference_method, self.variant)
-        jobs = self.references.plan(spec, spp or self.args.reference_spp)
+        jobs = self.references.plan(spec, spp)
         self._reference_of.update((j.key, spec) for j in jobs)
         return jobs
 

@@ -58,7 +58,7 @@ class Settings:
     user_references: dict               # {scene name: EXR path}
     flip: str = "first"
     best_note: str = ""
-    reference_chunk: int = R.DEFAULT_CHUNK_SPP
+    reference_chunk: int | None = None   # None: references.chunk_spp_for the film
     resolution: tuple = (1, 1)          # Study's film: unused (every job names its own)
 
 
@@ -211,8 +211,9 @@ def live_cells(plans: list[ScenePlan]) -> list[tuple]:
 
 
 def timing_groups(sp: ScenePlan, first: tuple, size: int) -> list[list[tuple]]:
-    """A scene's cells in groups of at most ``size`` (the scenes a process keeps loaded,
-    :data:`.execute.SCENE_CACHE`: a scene loaded again compiles its kernels again). The
+    """A scene's cells in groups of at most ``size`` (the methods a process keeps warm on
+    its one loaded scene, :data:`.execute.VIEW_CACHE`: a method set up again compiles
+    its kernels again). The
     methods of ``first`` (the baseline, the timed pair) lead the last group: the baseline
     is then still loaded from its reference before it, and after it for an extension."""
     cells = live_cells([sp])

@@ -9,7 +9,7 @@ import time
 import numpy as np
 
 from .. import figures, files, metrics, report, stats
-from ..execute import SCENE_CACHE
+from ..execute import VIEW_CACHE
 from . import suite_analysis as A
 from .suite_plan import NAME, ORDER, TITLE
 
@@ -171,7 +171,7 @@ def intro(cfg, plans, numbers) -> str:
         f"history: the sample work, without the per-call cost of tracing the integrator and "
         f"launching kernels, listed as 'per call') over their samples, per repeat summed "
         f"over both budgets; the time budget is in the same seconds. A scene's methods are "
-        f"timed in groups of at most {SCENE_CACHE} (the scenes a process keeps loaded), the "
+        f"timed in groups of at most {VIEW_CACHE} (the methods a process keeps warm), the "
         f"baseline and {A.TIMED_PAIR[0]} leading the last, their renders taking turns; the "
         f"intervals count the spread of the repeats, not a drift of the machine's load "
         f"between groups. "
@@ -284,7 +284,10 @@ def write(cfg, st, plans, numbers, refs, results, viewers, failed, clock, since,
                                if cfg.forced_resolution else f"own film, long side <= "
                                                              f"{cfg.max_size}"),
                 "reference": f"{cfg.reference_method}, >= {cfg.reference_spp} spp (cap "
-                             f"{cfg.reference_max_spp}), chunks of {cfg.reference_chunk}",
+                             f"{cfg.reference_max_spp}), chunks of " + (
+                    f"{cfg.reference_chunk} spp" if cfg.reference_chunk else
+                    ", ".join(sorted({f"{sp.ref.chunk} spp" for sp in plans if sp.ref}))
+                    or "-"),
                 "reference store": cfg.reference_root, "variant": cfg.variant,
                 "seed": cfg.seed, "intervals": f"{stats.LEVEL:.0%}, {stats.METHOD}",
                 "render times measured on": st.timed_on(
