@@ -51,6 +51,7 @@ runs a job. Passes inside a job: independent samplers get seed
 """
 from __future__ import annotations
 
+import gc
 import os
 import socket
 import time
@@ -64,13 +65,15 @@ from .methods import Depth, Method
 from .scenes import load_scene, load_sensor, scene_hash
 from .store import JobStore
 
-#: Scene files kept loaded per process. Each is loaded once, whatever the methods that
+#: Scene files kept loaded per process: one. It is loaded once, whatever the methods that
 #: render it: a method is an integrator and a sensor (with its sampler and film size)
-#: passed to ``mi.render``. Loading another copy of a scene's shapes and BSDFs would change
-#: the render kernels of every scene already loaded (Dr.Jit traces a call over every live
-#: instance), so that interleaved methods would compile again and again.
-SCENE_CACHE = 4
-#: Methods (integrator + sensor) kept per process, each with its kernels warm.
+#: passed to ``mi.render``. A second live scene would change the render kernels of the
+#: first (Dr.Jit traces a call over every live shape, BSDF and emitter instance), so that
+#: every kernel compiled again, and no kernel would match the disk cache of a run that had
+#: other scenes alive; :func:`execute` renders the jobs scene by scene instead.
+SCENE_CACHE = 1
+#: Methods (integrator + sensor) kept per process, each with its kernels warm: all on the
+#: loaded scene, so studies time their methods in groups of at most this many.
 VIEW_CACHE = 64
 #: Renders of one pass until one ran without compiling (the last one is kept either way).
 WARM_TRIES = 3
@@ -127,6 +130,7 @@ def _scene(job: Job, variant: str):
         old, _ = _scenes.popitem(last=False)
         for k in [k for k in _views if k[0] == old]:
             del _views[k]
+        gc.collect()      # its instances leave Dr.Jit's registry before the next trace
     return _scenes[key]
 
 
@@ -269,13 +273,15 @@ class LocalExecutor:
 
 
 def pending(jobs: Iterable[Job], store: JobStore) -> list[Job]:
-    """The jobs (first of each key) that have no entry in ``store`` yet."""
-    seen, todo = set(), []
+    """The jobs (first of each key) that have no entry in ``store`` yet, scene by scene
+    (each scene's jobs in their order, the scenes in the order they first appear: a
+    process keeps one scene loaded, :data:`SCENE_CACHE`)."""
+    seen, by_scene = set(), {}
     for job in jobs:
         if job.key not in seen and not store.has(job.key):
-            todo.append(job)
+            by_scene.setdefault((job.scene, job.scene_sha256), []).append(job)
         seen.add(job.key)
-    return todo
+    return [job for group in by_scene.values() for job in group]
 
 
 def execute(jobs: Iterable[Job], store: JobStore, executor=None, progress: bool | str = True,

@@ -33,7 +33,7 @@ import numpy as np
 
 import scenes as bundled
 from experiments.lib import cli, files
-from experiments.lib.execute import SCENE_CACHE
+from experiments.lib.execute import VIEW_CACHE
 from experiments.lib import references as R
 from experiments.lib import samplers as S
 from experiments.lib import scenes as SC
@@ -315,7 +315,7 @@ def render(cfg: P.Settings, st: Study, refs: R.ReferenceStore, plans, clock: Clo
         groups = []
         for sp in unit:
             P.plan_cells(st, cfg, sp)
-            groups += P.timing_groups(sp, first, SCENE_CACHE)
+            groups += P.timing_groups(sp, first, VIEW_CACHE)
         for batch in ([groups] if cfg.executor is not None else [[g] for g in groups]):
             clock.time("renders", P.run_cells, st, batch, lambda c: c.equal_spp,
                        f"{NAME}: equal spp")
