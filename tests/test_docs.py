@@ -114,7 +114,7 @@ a form the check reads.
 <!-- options experiments.convergence -->
 | option | default | meaning |
 |---|---|---|
-| `--time-budget` | `0.25` | right |
+| `--time-budget` | `0.1` | right |
 | `--spp` | `999` | wrong default |
 | `--no-option` | `1` | not an option |
 

@@ -40,8 +40,8 @@ TITLE = "Convergence, error against time, efficiency"
 
 def build_parser() -> cli.Parser:
     p = cli.common_parser("python -m experiments.convergence", __doc__.split("\n")[0],
-                          spp=256, time_budget=0.25, default_resolution="128x64")
-    p.set_defaults(reference_spp=2048)
+                          spp=128, time_budget=0.1, default_resolution="96x48")
+    p.set_defaults(reference_spp=1024)
     add_arguments(p)
     return p
 

@@ -43,7 +43,7 @@ from experiments.lib.study import Study
 
 NAME = "lab"
 ORDER = 35
-SAMPLES = 1_000_000
+SAMPLES = 250_000
 QUICK_SAMPLES = 10_000
 
 

@@ -33,7 +33,7 @@ REPEATS = 3
 
 def build_parser() -> cli.Parser:
     p = cli.common_parser("python -m experiments.stability", __doc__.split("\n")[0], spp=32,
-                          default_resolution="128x64", methods=("uniform", "cosine", "bsdf"),
+                          default_resolution="64x32", methods=("uniform", "cosine", "bsdf"),
                           repeats=REPEATS)
     p.set_defaults(reference_spp=128)
     p.add_argument("--quick", action="store_true",

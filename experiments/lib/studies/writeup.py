@@ -56,7 +56,7 @@ def add_arguments(p: cli.Parser) -> None:
 
 def build_parser() -> cli.Parser:
     p = cli.common_parser("python -m experiments.writeup", __doc__.split("\n")[0])
-    p.set_defaults(reference_spp=512)      # its own expected error is subtracted
+    p.set_defaults(reference_spp=256)      # its own expected error is subtracted
     add_arguments(p)
     return p
 
