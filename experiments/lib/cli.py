@@ -229,6 +229,8 @@ def parse_args(parser: Parser, argv=None) -> argparse.Namespace:
     """
     args = parser.parse_args(argv)
     args.explicit = explicit_options(parser, argv)
+    # the size of a reference's chunks follows the study's default, not this run's count
+    args.reference_spp_default = parser.get_default("reference_spp")
     builtin = args.scene in SC.BUILTIN_SCENES
     if not builtin and not os.path.isfile(args.scene):
         parser.error(f"scene file '{args.scene}' does not exist (or use a built-in scene: "

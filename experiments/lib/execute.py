@@ -125,12 +125,16 @@ def _scene(job: Job, variant: str):
         _scenes.move_to_end(key)
         return _scenes[key]
     _check_scene_file(job)
-    _scenes[key] = load_scene(job.scene, job.width, job.height, job.method, job_depth(job))
-    while len(_scenes) > SCENE_CACHE:
-        old, _ = _scenes.popitem(last=False)
+    # the old scene goes first: its instances leave Dr.Jit's registry, so that the new
+    # scene's take the same ids (a scene loaded beside another gets other ids, and kernels
+    # that match no other run's: the sweep points of one scene compiled anew each)
+    while _scenes and len(_scenes) >= SCENE_CACHE:
+        old = next(iter(_scenes))          # (no local may keep the old scene alive)
+        del _scenes[old]
         for k in [k for k in _views if k[0] == old]:
             del _views[k]
-        gc.collect()      # its instances leave Dr.Jit's registry before the next trace
+        gc.collect()
+    _scenes[key] = load_scene(job.scene, job.width, job.height, job.method, job_depth(job))
     return _scenes[key]
 
 

@@ -117,10 +117,12 @@ def domain_for(spec: "PanelSpec") -> EqualAreaDomain:
 # ----------------------------------------------------------- the plugin
 
 def incident(incidence_deg: float):
-    """Local incident direction in the xz plane, ``incidence_deg`` from the normal."""
+    """Local incident direction in the xz plane, ``incidence_deg`` from the normal (opaque:
+    the panels of every incidence share their kernels)."""
+    import drjit as dr
     import mitsuba as mi
     t = math.radians(incidence_deg)
-    return mi.Vector3f(math.sin(t), 0.0, math.cos(t))
+    return mi.Vector3f(*(dr.opaque(mi.Float, v) for v in (math.sin(t), 0.0, math.cos(t))))
 
 
 def variates(count: int, seed: int, dim: int = 3):
@@ -129,7 +131,7 @@ def variates(count: int, seed: int, dim: int = 3):
     import drjit as dr
     import mitsuba as mi
     idx = dr.arange(mi.UInt64, count)
-    v0, v1 = mi.sample_tea_32(idx, seed)
+    v0, v1 = mi.sample_tea_32(idx, dr.opaque(mi.UInt32, seed))   # opaque: one kernel for all seeds
     rng = mi.PCG32(initstate=v0, initseq=v1)
     out = mi.Vector3f() if dim == 3 else getattr(mi, f"Vector{dim}f")()
     for i in range(dim):

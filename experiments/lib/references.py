@@ -69,14 +69,19 @@ SEED_RULE = ("chunk i renders chunk_spp samples per pixel with seed derive_seed(
 JSON_NAME = "reference.json"
 
 
-def chunk_spp_for(width: int, height: int) -> int:
+def chunk_spp_for(width: int, height: int, typical_spp: int | None = None) -> int:
     """The samples per pixel of a chunk at ``width`` x ``height`` (the default of
     :attr:`RefSpec.chunk_spp`): the smallest power of two from :data:`MIN_AUTO_CHUNK_SPP`
-    whose chunk has :data:`CHUNK_LANES` samples, at most :data:`MAX_AUTO_CHUNK_SPP`. A
-    function of the film alone, not of the count asked for, so that asking for more
-    samples extends a reference in place."""
-    chunk = MIN_AUTO_CHUNK_SPP
-    while chunk * width * height < CHUNK_LANES and chunk < MAX_AUTO_CHUNK_SPP:
+    whose chunk has :data:`CHUNK_LANES` samples, at most :data:`MAX_AUTO_CHUNK_SPP`, and
+    at most ``typical_spp`` (the count a study asks for by default, not the count asked
+    for this time) over :data:`MIN_CHUNKS`, so that its usual reference renders no more
+    than it asks for. A function of the film and of a default alone, so that asking for
+    more samples extends a reference in place."""
+    top = MAX_AUTO_CHUNK_SPP
+    if typical_spp is not None:
+        top = min(top, 1 << max(0, (typical_spp // MIN_CHUNKS).bit_length() - 1))
+    chunk = min(MIN_AUTO_CHUNK_SPP, top)
+    while chunk * width * height < CHUNK_LANES and chunk < top:
         chunk *= 2
     return chunk
 

@@ -17,7 +17,7 @@ from . import plan as P
 from .execute import execute
 from .jobs import Accumulator, Job, accumulate as accumulate_results, derive_seed
 from .methods import Depth, Method
-from .references import REFERENCES_DIR, RefSpec, ReferenceStore
+from .references import REFERENCES_DIR, RefSpec, ReferenceStore, chunk_spp_for
 from .scenes import SceneInfo
 from .store import STORE_DIR, JobStore
 
@@ -93,15 +93,20 @@ class Study:
 
     def reference_jobs(self, info: SceneInfo | None = None, depth: Depth | None = None,
                        resolution=None, spp: int | None = None,
-                       method: Method | None = None) -> list[Job]:
+                       method: Method | None = None,
+                       typical_spp: int | None = None) -> list[Job]:
         """The chunks of a reference in the shared reference store
         (:mod:`.references`: keyed by the scene's content, not by the study, and extended in
         place for more samples): ``spp`` (default ``--reference-spp``) of ``method``
-        (default ``--reference-method``) at ``resolution`` (default the study's)."""
+        (default ``--reference-method``) at ``resolution`` (default the study's), in chunks
+        of :func:`.references.chunk_spp_for` the film and ``typical_spp`` (default: the
+        study's own default ``--reference-spp``, whatever this run asks for)."""
         width, height = resolution or (self.width, self.height)
         spp = spp or self.args.reference_spp
+        typical = typical_spp or getattr(self.args, "reference_spp_default", None) or spp
         spec = RefSpec(info or self.info, width, height, depth or self.depth,
-                       method or self.args.reference_method, self.variant)
+                       method or self.args.reference_method, self.variant,
+                       chunk_spp_for(width, height, typical))
         jobs = self.references.plan(spec, spp)
         self._reference_of.update((j.key, spec) for j in jobs)
         return jobs

@@ -454,7 +454,7 @@ class ScreenMeasured:
 def screen_reference_jobs(st: Study, sc: ScreenSettings, depth: Depth) -> list[J.Job]:
     """The pass's reference: ``sc.reference_spp`` of ``sc.reference`` at its resolution."""
     return st.reference_jobs(st.info, depth, resolution=sc.resolution, spp=sc.reference_spp,
-                             method=sc.reference)
+                             method=sc.reference, typical_spp=SCREEN_REFERENCE_SPP)
 
 
 def screen_ladders(st: Study, cfg: Settings, sc: ScreenSettings, d: int, labels,

@@ -238,6 +238,8 @@ def settings(args) -> P.Settings:
         max_size=args.max_size, max_depth=args.max_depth, rr_depth=args.rr_depth,
         reference_spp=ref_spp, reference_max_spp=max(ref_spp, args.reference_max_spp or
                                                      REFERENCE_GROWTH * ref_spp),
+        reference_typical_spp=REFERENCE_GROWTH * (getattr(args, "reference_spp_default", None)
+                                                  or ref_spp),
         reference_method=args.reference_method,
         reference_root=args.reference_cache or os.path.join(args.out, R.REFERENCES_DIR),
         user_references=dict(args.user_references), flip=args.flip, best_note=args.best_note)

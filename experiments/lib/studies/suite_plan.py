@@ -59,6 +59,7 @@ class Settings:
     flip: str = "first"
     best_note: str = ""
     reference_chunk: int | None = None   # None: references.chunk_spp_for the film
+    reference_typical_spp: int | None = None     # the default cap (chunk_spp_for)
     resolution: tuple = (1, 1)          # Study's film: unused (every job names its own)
 
 
@@ -148,7 +149,8 @@ def plan_scenes(cfg: Settings) -> list[ScenePlan]:
         sp.depth = SC.effective_depth(sp.info, cfg.max_depth, cfg.rr_depth)
         if sp.user_ref is None:
             sp.ref = R.RefSpec(sp.info, sp.width, sp.height, sp.depth, cfg.reference_method,
-                               cfg.variant, cfg.reference_chunk)
+                               cfg.variant, cfg.reference_chunk or R.chunk_spp_for(
+                                   sp.width, sp.height, cfg.reference_typical_spp))
     return plans
 
 
