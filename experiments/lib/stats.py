@@ -24,6 +24,7 @@ difference when the interval excludes 1.
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -81,6 +82,7 @@ class Estimate:
                 f"{fmt.format(self.hi)})")
 
 
+@functools.lru_cache(maxsize=4096)
 def _t_quantile(dof: float, level: float) -> float:
     from scipy.stats import t
     return float(t.ppf(0.5 + level / 2, dof))

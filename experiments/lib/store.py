@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+from collections import OrderedDict
 
 import numpy as np
 
@@ -20,6 +21,10 @@ from .jobs import Job, JobResult
 
 #: Directory of the job store under an experiment's ``--out``.
 STORE_DIR = "store"
+#: Bytes of images a store keeps after reading them: a study reads each result several
+#: times (a first measurement, then the final one; references chunk by chunk), and an
+#: entry never changes once written (its key hashes all it depends on).
+READ_CACHE_BYTES = 64 * 2**20
 
 
 class JobStore:
@@ -27,6 +32,8 @@ class JobStore:
 
     def __init__(self, root: str):
         self.root = root
+        self._read: OrderedDict = OrderedDict()      # key -> (JobResult, bytes)
+        self._read_bytes = 0
 
     def path(self, key: str) -> str:
         return os.path.join(self.root, key + ".npz")
@@ -42,14 +49,34 @@ class JobStore:
         if result.sq is not None:
             arrays["sq"] = np.asarray(result.sq, np.float64)
         write_npz(self.path(job.key), **arrays)
+        self._forget(job.key)
 
     def get(self, key: str) -> JobResult:
-        """The :class:`~.jobs.JobResult` stored under ``key`` (KeyError if there is none)."""
+        """The :class:`~.jobs.JobResult` stored under ``key`` (KeyError if there is none);
+        its arrays are read-only (shared with later reads of the same entry)."""
+        if key in self._read:
+            self._read.move_to_end(key)
+            return self._read[key][0]
         data = read_npz(self.path(key))
         if data is None:
             raise KeyError(f"no finished job '{key}' in {self.root}")
         meta = json.loads(str(data["meta"]))["result"]
-        return JobResult(image=data["image"], sq=data.get("sq"), **meta)
+        result = JobResult(image=data["image"], sq=data.get("sq"), **meta)
+        size = 0
+        for array in (result.image, result.sq):
+            if isinstance(array, np.ndarray):
+                array.flags.writeable = False
+                size += array.nbytes
+        self._read[key] = (result, size)
+        self._read_bytes += size
+        while self._read_bytes > READ_CACHE_BYTES and len(self._read) > 1:
+            self._forget(next(iter(self._read)))
+        return result
+
+    def _forget(self, key: str) -> None:
+        entry = self._read.pop(key, None)
+        if entry is not None:
+            self._read_bytes -= entry[1]
 
     def results(self, jobs) -> list[JobResult]:
         """The results of ``jobs`` (any iterable of :class:`~.jobs.Job`), in order."""

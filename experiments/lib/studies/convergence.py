@@ -40,7 +40,7 @@ TITLE = "Convergence, error against time, efficiency"
 
 def build_parser() -> cli.Parser:
     p = cli.common_parser("python -m experiments.convergence", __doc__.split("\n")[0],
-                          spp=128, time_budget=0.1, default_resolution="96x48")
+                          spp=128, time_budget=0.1, default_resolution="64x32")
     p.set_defaults(reference_spp=1024)
     add_arguments(p)
     return p
