@@ -29,8 +29,12 @@ g = stats.g
 #: The budgets every cell is measured at; the first is the one verdicts use.
 BUDGETS = ("equal_time", "equal_spp")
 BUDGET_NAMES = {"equal_time": "equal time", "equal_spp": "equal spp"}
-#: Family-wise level of a scene's bias check (Sidak over its methods).
-BIAS_LEVEL = 0.95
+#: Family-wise level of a scene's bias check (Sidak over its methods): 99%, not 95%. The
+#: check runs on every make run; at 95% one run in twenty flagged an unbiased method (a
+#: default run put uniform+nee on the furnace at 1.9939 against 2, z = -2.9, where 24
+#: fresh renders of 64 spp gave 1.99949 +- 0.00037), and a false "biased" is the verdict
+#: that must not be wrong. A 4% bias still lies far outside (tests/test_suite.py).
+BIAS_LEVEL = 0.99
 #: The reference is too noisy for a comparison where its own expected relMSE exceeds this
 #: share of the smallest expected relMSE measured against it.
 FLOOR_SHARE = 0.1
