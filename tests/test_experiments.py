@@ -31,16 +31,16 @@ PYTHON = sys.executable
 
 def test_metrics_against_hand_computed_values():
     ref = np.zeros((1, 2, 3))
-    ref[0, 1] = 1.0
+    ref[0, 1] = 2.0                      # not 1: ref and ref^2 must differ
     img = ref.copy()
     img[0, 0] = [1.0, 0.0, 0.0]          # error 1 in one of 6 values
-    img[0, 1] = [1.0, 1.0, 3.0]          # error 2 in another
+    img[0, 1] = [2.0, 2.0, 4.0]          # error 2 in another
     assert metrics.mse(img, ref) == pytest.approx((1 + 4) / 6)
     assert metrics.rmse(img, ref) == pytest.approx(math.sqrt(5 / 6))
-    # relMSE: 1 / (0 + 0.01) and 4 / (1 + 0.01), averaged over 6 values
-    assert metrics.relmse(img, ref) == pytest.approx((1 / 0.01 + 4 / 1.01) / 6)
-    mask = np.array([[False, True]])                 # only the second pixel: 4 / 1.01 over 3
-    assert metrics.relmse(img, ref, mask) == pytest.approx(4 / 1.01 / 3)
+    # relMSE: 1 / (0^2 + 0.01) and 4 / (2^2 + 0.01), averaged over 6 values
+    assert metrics.relmse(img, ref) == pytest.approx((1 / 0.01 + 4 / 4.01) / 6)
+    mask = np.array([[False, True]])                 # only the second pixel: 4 / 4.01 over 3
+    assert metrics.relmse(img, ref, mask) == pytest.approx(4 / 4.01 / 3)
     assert metrics.efficiency(0.5, 4.0) == pytest.approx(0.5)
     assert metrics.loglog_slope([1, 2, 4, 8], [3.0, 1.5, 0.75, 0.375]) == pytest.approx(-1.0)
     assert metrics.loglog_slope([1, 10, 100], [1, 100, 10000]) == pytest.approx(2.0)

@@ -392,6 +392,23 @@ def test_dimension_advances_in_symbolic_loop():
     assert np.all(got == got[:, :1])
 
 
+def test_next_2d_counts_two_dimensions():
+    """Exact: a 2D draw takes the dimensions d and d + 1, so the value drawn after it is the
+    one drawn at d + 2 after two 1D draws (pbrt's ZSobolSampler::Get2D). Negative control:
+    a 2D draw that advanced one dimension would give the draw at d + 1 instead."""
+    for randomization in ("none", "owen"):
+        a, b = make(16, 4, randomization=randomization), make(16, 4, randomization=randomization)
+        a.seed(5, 64)
+        b.seed(5, 64)
+        a.next_2d()
+        after_2d = np.array(a.next_1d())
+        b.next_1d()
+        at_1 = np.array(b.next_1d())
+        at_2 = np.array(b.next_1d())
+        np.testing.assert_array_equal(after_2d, at_2)
+        assert not np.array_equal(at_1, at_2)        # the control would be told apart
+
+
 # ------------------------------------------------------- sampler protocol
 
 def test_clone_and_fork():

@@ -2,7 +2,7 @@
 
 Every entry replaces one exact piece of the source with a mistake that a careful author
 could make and that changes what the code computes (never a mere refactoring): the kind
-of bug each test family exists to catch. ``first`` names the test files to run first.
+of bug each test family exists to catch. ``first`` names the test files or ids run first.
 """
 from tools.mutants import Mutant
 
@@ -14,13 +14,13 @@ MUTANTS = [
            "warps.PDF_EPSILON))",
            "Russian roulette divides by a survival probability without eta^2 while the "
            "survival test keeps it (too bright inside glass)",
-           ("tests/test_unbiased.py",)),
+           ("tests/test_unbiased.py::test_bsdf_with_nee_is_mitsubas_path_sample_for_sample", "tests/test_unbiased.py")),
     Mutant("nee-balance", "integrators/path.py",
            "warps.power_heuristic(ds_em.pdf, vertex.em_pdf))",
            "ds_em.pdf / (ds_em.pdf + vertex.em_pdf))",
            "next-event estimation weighted by the balance heuristic while BSDF hits keep the "
            "power heuristic: the two MIS weights no longer sum to one",
-           ("tests/test_unbiased.py",)),
+           ("tests/test_unbiased.py::test_bsdf_with_nee_is_mitsubas_path_sample_for_sample", "tests/test_unbiased.py")),
     Mutant("mixture-weight", "integrators/strategies.py",
            "        return value, warps.mixture_pdf(self.weight, self.a.pdf(bsdf, ctx, si, wo, "
            "active),\n                                        pdf_b)",
@@ -71,7 +71,8 @@ MUTANTS = [
            "return self._sample_offset + self._pass_offset + self._lane_sample",
            "return self._pass_offset + self._lane_sample",
            "halton ignores sample_offset: a continued sequence starts over at every job",
-           ("tests/test_halton.py", "tests/test_experiments.py")),
+           ("tests/test_experiments.py::test_passes_of_a_continuing_sampler_continue_one_sequence",
+            "tests/test_halton.py")),
     Mutant("zsobol-matrix", "integrators/qmc.py",
            "v = v ^ ((v >> 4) & 0x0F0F0F0F)",
            "v = v ^ ((v >> 4) & 0x0F0F0F0E)",
@@ -81,13 +82,14 @@ MUTANTS = [
            "                                 self.randomization)\n        self._dimension += 2",
            "                                 self.randomization)\n        self._dimension += 1",
            "zsobol's next_2d advances one dimension instead of two (successive pairs overlap)",
-           ("tests/test_zsobol.py",)),
+           ("tests/test_zsobol.py::test_next_2d_counts_two_dimensions", "tests/test_zsobol.py")),
     # ------------------------------------------------------------ experiments
     Mutant("relmse-denominator", "experiments/lib/metrics.py",
            "    err = np.square(np.asarray(image, np.float64) - ref) / (ref * ref + eps)",
            "    err = np.square(np.asarray(image, np.float64) - ref) / (ref + eps)",
            "relMSE divided by ref + eps instead of ref^2 + eps",
-           ("tests/test_experiments.py",)),
+           ("tests/test_experiments.py::test_metrics_against_hand_computed_values",
+            "tests/test_references.py")),
     Mutant("normal-quantile", "experiments/lib/stats.py",
            "half = _t_quantile(dof, level) * math.sqrt(total)",
            "half = 1.959964 * math.sqrt(total)",
@@ -109,7 +111,8 @@ MUTANTS = [
            "s2 = np.maximum(self.sq - self.spp * self.mean ** 2, 0.0) / self.passes",
            "the per-pixel variance of a reference from its passes divided by n, not n - 1 "
            "(the floor under every error too small)",
-           ("tests/test_experiments.py",)),
+           ("tests/test_experiments.py::test_accumulator_is_the_weighted_average_of_pass_images",
+            "tests/test_references.py", "tests/test_convergence.py")),
     Mutant("warm-timing-off", "experiments/lib/execute.py",
            "        if not compiled:\n",
            "        if True:\n",
@@ -120,5 +123,5 @@ MUTANTS = [
            "    digest = hashlib.sha256(json.dumps([{k: v for k, v in fields.items() "
            "if k != \"seed\"}, variant, plugins_version()],",
            "a store key that forgets the seed (two repeats would share one entry)",
-           ("tests/test_experiments.py",)),
+           ("tests/test_experiments.py::test_job_keys_change_with_everything_the_image_depends_on",)),
 ]

@@ -9,9 +9,10 @@ turned round, the reference floor forgotten, warm timing switched off, a store k
 forgets a field. The copy holds every file git tracks, as it is in the working tree (so
 uncommitted edits are tested too), then the mutation. The tests run there as ``make test``
 runs them (``pytest tests`` under the project's configuration, the copy first on
-``sys.path``), stopping at the first failure (``-x``); the files most likely to catch
-the mutant run first (``first``), then all the others. A mutant no test kills is a
-survivor: the run prints it and exits with status 1.
+``sys.path``), stopping at the first failure (``-x``): first the tests most likely to
+catch the mutant (``first``: files or test ids) on their own, in one process; only where
+they pass, the whole suite as ``make test`` runs it (its pytest-xdist workers). A mutant
+no test kills is a survivor: the run prints it and exits with status 1.
 
     python -m tools.mutants            # every mutant
     python -m tools.mutants --list     # what they are
@@ -32,6 +33,8 @@ from dataclasses import dataclass
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 #: A mutant's test run ends after this many seconds (a survivor then counts as one).
 TIMEOUT = 900
+#: pytest-xdist workers of the whole-suite stage (as ``make test``).
+WORKERS = 2
 
 
 @dataclass(frozen=True)
@@ -41,7 +44,7 @@ class Mutant:
     old: str               # exact text, found exactly once
     new: str
     why: str               # the realistic bug it stands for
-    first: tuple = ()      # test files to run first (the rest follow)
+    first: tuple = ()      # test files or ids run first, alone (then the whole suite)
 
 
 @dataclass
@@ -119,15 +122,20 @@ def run_one(mutant: Mutant, timeout: float = TIMEOUT) -> Outcome:
         copy_checkout(copy)
         apply(mutant, copy)
         check_imports_the_copy(copy)
-        argv = [sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider",
-                *mutant.first, "tests"]
+        base = [sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider"]
+        stages = ([base + list(mutant.first)] if mutant.first else []) + [
+            base + ["-n", str(WORKERS), "tests"]]
         start = time.perf_counter()
-        try:
-            proc = subprocess.run(argv, cwd=copy, env=environment(copy), capture_output=True,
-                                  text=True, timeout=timeout)
-        except subprocess.TimeoutExpired:
-            return Outcome(mutant, None, time.perf_counter() - start,
-                           f"no failure within {timeout:g} s")
+        for argv in stages:
+            left = timeout - (time.perf_counter() - start)
+            try:
+                proc = subprocess.run(argv, cwd=copy, env=environment(copy),
+                                      capture_output=True, text=True, timeout=max(1.0, left))
+            except subprocess.TimeoutExpired:
+                return Outcome(mutant, None, time.perf_counter() - start,
+                               f"no failure within {timeout:g} s")
+            if proc.returncode != 0:
+                break
         seconds = time.perf_counter() - start
         if proc.returncode == 0:
             return Outcome(mutant, None, seconds, "the whole suite passed")
