@@ -21,3 +21,18 @@ def variant():
     mi.set_variant(VARIANT)
     yield VARIANT
     mi.set_variant(VARIANT)
+
+
+@pytest.fixture
+def count_jobs(monkeypatch):
+    """The keys of the jobs rendered during the test (through execute.run_job, in this
+    process), in order."""
+    from experiments.lib import execute
+    calls = []
+    real = execute.run_job
+
+    def counting(job, variant):
+        calls.append(job.key)
+        return real(job, variant)
+    monkeypatch.setattr(execute, "run_job", counting)
+    return calls

@@ -14,7 +14,6 @@ import pytest
 from scipy import stats as sps
 
 import scenes
-from experiments.lib import execute as X
 from experiments.lib import files
 from experiments.lib import references as R
 from experiments.lib.methods import Depth, parse_method
@@ -24,18 +23,6 @@ FURNACE = scenes.path("furnace.xml")          # 8 x 8, every pixel exactly 2
 VARIANT = "llvm_ad_rgb"
 #: Two-sided level of the F test of the reference's own error.
 ALPHA = 1e-3
-
-
-@pytest.fixture
-def count_jobs(monkeypatch):
-    calls = []
-    real = X.run_job
-
-    def counting(job, variant):
-        calls.append(job.key)
-        return real(job, variant)
-    monkeypatch.setattr(X, "run_job", counting)
-    return calls
 
 
 def spec(path=FURNACE, width=8, height=8, depth=Depth(-1), method="path", chunk=4):

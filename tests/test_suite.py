@@ -14,25 +14,12 @@ import numpy as np
 import pytest
 
 import scenes
-from experiments.lib import execute as X
 from experiments.lib import metrics, stats
 from experiments.lib.studies import suite as S
 from experiments.lib.studies import suite_analysis as A
 
 QUICK = ["--quick", "--seed", "3"]
 FURNACE = scenes.path("suite/furnace.xml")
-
-
-@pytest.fixture
-def count_jobs(monkeypatch):
-    calls = []
-    real = X.run_job
-
-    def counting(job, variant):
-        calls.append(job.key)
-        return real(job, variant)
-    monkeypatch.setattr(X, "run_job", counting)
-    return calls
 
 
 @pytest.fixture(scope="module")
