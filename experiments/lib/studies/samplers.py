@@ -347,9 +347,7 @@ class Efficiency:
             points[d] = {}
             for s, reps in by_sampler.items():
                 pts = []
-                for i, target in enumerate(reps[0]):
-                    results = [st.store.get(rep[i].key) for rep in reps]
-                    images = [r.image.astype(float) for r in results]
+                for target, results, images in rungs(st, reps):
                     pts.append(SS.Point(
                         results[0].spp, st.per_repeat(timing(st, r) for r in results),
                         st.per_repeat(metrics.mse(im, ref) for im in images),
@@ -452,6 +450,14 @@ class ScreenMeasured:
     white: float                  # the low-frequency share of white noise on the grid
 
 
+def rungs(st: Study, reps: list):
+    """Per rung of a label's ladders (``reps``: one ladder per repeat): its job in the first
+    repeat, the stored results of every repeat and their images (float64)."""
+    for i, target in enumerate(reps[0]):
+        results = [st.store.get(rep[i].key) for rep in reps]
+        yield target, results, [r.image.astype(float) for r in results]
+
+
 def screen_reference_jobs(st: Study, sc: ScreenSettings, depth: Depth) -> list[J.Job]:
     """The pass's reference: ``sc.reference_spp`` of ``sc.reference`` at its resolution."""
     return st.reference_jobs(st.info, depth, resolution=sc.resolution, spp=sc.reference_spp,
@@ -525,9 +531,7 @@ class ScreenSpace:
             points[d] = {}
             for s, reps in by_sampler.items():
                 pts = []
-                for i, target in enumerate(reps[0]):
-                    results = [st.store.get(rep[i].key) for rep in reps]
-                    images = [r.image.astype(float) for r in results]
+                for target, results, images in rungs(st, reps):
                     powers = [SP.periodogram(SP.error_field(im, ref)) for im in images]
                     freqs, power = SP.spectrum(SP.normalized(np.mean(powers, axis=0), floor))
                     error = SS.Point(
