@@ -18,6 +18,7 @@ reproduced here), not a verdict of the test. The crash is still reported (above,
 Only under xdist: a single process that crashes reports to stderr as usual.
 """
 import faulthandler
+import itertools
 import os
 import shutil
 import tempfile
@@ -89,13 +90,10 @@ def crash_summary(folder) -> list[str]:
         if at is None:
             continue
         started = [line[len("start "):] for line in text[:at] if line.startswith("start ")]
-        current = next((i for i in range(at, len(text)) if "Current thread" in text[i]), None)
-        stack = []
-        for line in text[current + 1:] if current is not None else []:
-            if not line.strip():
-                break
-            if not any(part in line for part in RUNNER):
-                stack.append(line)
+        current = next((i for i in range(at, len(text)) if "Current thread" in text[i]),
+                       len(text))
+        frames = itertools.takewhile(str.strip, text[current + 1:])   # to the blank line
+        stack = [line for line in frames if not any(part in line for part in RUNNER)]
         lines += [f"worker {path.stem}, the crashing thread (most recent call first):",
                   *stack[:FRAMES], "the last tests it started:",
                   *[f"  {nodeid}" for nodeid in started[-LAST_TESTS:]],
