@@ -19,7 +19,7 @@ import os
 import time
 from dataclasses import dataclass
 
-from experiments.lib import cli, metrics, report, stats
+from experiments.lib import cli, clock, metrics, report, stats
 from experiments.lib.methods import Depth
 from experiments.lib.studies import StudySpec, register_study
 from experiments.lib.study import Study, repeat_prefix
@@ -69,7 +69,7 @@ def measure(st: Study, ref_jobs, jobs) -> Measured:
     ref, meta = st.reference(ref_jobs)
     results = {d: [st.store.get(j.key) for j in reps] for d, reps in jobs.items()}
     return Measured({d: [metrics.relmse(r.image, ref) for r in rs] for d, rs in results.items()},
-                    {d: [r.cpu_seconds or r.seconds for r in rs] for d, rs in results.items()},
+                    {d: [clock.cost(r) for r in rs] for d, rs in results.items()},
                     meta["relmse_floor"])
 
 

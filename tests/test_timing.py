@@ -38,9 +38,9 @@ def test_a_one_spp_warm_up_does_not_warm_a_64_spp_render(mitsuba):
     import drjit as dr
     dr.flush_kernel_cache()
     scene = load_scene(SCENE, 16, 8, parse_method("bsdf+nee+multijitter"), Depth(2))
-    E._render(scene, 1, 1)                       # warm-up at 1 spp (the old way)
-    first = E._render(scene, 64, 2)
-    second = E._render(scene, 64, 3)
+    E._render(scene, None, 1, 1)                       # warm-up at 1 spp (the old way)
+    first = E._render(scene, None, 64, 2)
+    second = E._render(scene, None, 64, 3)
     assert first[3] > 0, "a render at a new sample count compiled, and must be caught"
     assert second[3] == 0, "the second render at the same count is warm"
 
@@ -48,8 +48,8 @@ def test_a_one_spp_warm_up_does_not_warm_a_64_spp_render(mitsuba):
 def test_independent_does_not_recompile_for_a_new_count(mitsuba):
     """The opposite case: independent's kernel does not depend on the count."""
     scene = load_scene(SCENE, 16, 8, parse_method("bsdf+nee"), Depth(2))
-    E._render(scene, 1, 1)
-    assert E._render(scene, 64, 2)[3] == 0
+    E._render(scene, None, 1, 1)
+    assert E._render(scene, None, 64, 2)[3] == 0
 
 
 @pytest.mark.parametrize("method", ["bsdf+nee+multijitter", "bsdf+nee+orthogonal",

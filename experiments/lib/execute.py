@@ -2,23 +2,26 @@
 
 * :func:`run_job` renders one :class:`~.jobs.Job` and returns a
   :class:`~.jobs.JobResult` (plain data: the image as a float32 numpy array, the
-  per-pixel sum of squares of its passes, render seconds, host and CPU). It
+  per-pixel sum of squares of its passes, what its passes took, host and CPU). It
   is a module-level function that works in a fresh process (a cluster
   worker): it imports the plugins, sets the variant if another one is set,
-  loads the scene (cached per process), renders one untimed warm-up pass
-  (JIT compilation) the first time, then times every pass with ``dr.eval``
-  + ``dr.sync_thread``: wall-clock seconds, and the CPU seconds of the
-  process (all threads), which other processes on a shared machine perturb
-  far less (the sampler study compares samplers by CPU time on LLVM variants).
+  loads the scene (cached per process), renders the job once untimed (JIT
+  compilation) the first time, then renders it with a **fresh integrator**
+  (:func:`fresh_integrator`: a method that learns starts every job untrained) and
+  times every pass with ``dr.eval`` + ``dr.sync_thread``: the kernels' execution time
+  (Dr.Jit's kernel history), wall-clock and process CPU seconds. A method whose
+  integrator renders in passes of its own (:class:`MultiPass`) has each pass rendered
+  here and its hooks between them timed (thread CPU time). What an image costs is
+  :mod:`.clock`'s to say, from these.
 * Warm timing, in exactly the timed configuration: Mitsuba's ``stratified``,
   ``multijitter``, ``orthogonal`` and ``ldsampler`` bake the sample count into
   the kernel, so the first render at a new count compiles (multijitter, 64x32,
   256 spp after a 1-spp warm-up: 1.6 s, then 0.33 s warm). Every timed pass
-  records Dr.Jit's kernel history (:func:`kernels_compiled`); a pass during
+  records Dr.Jit's kernel history (:func:`kernels_compiled`); a job during
   which a kernel was compiled or loaded from the disk cache is discarded and
-  rendered again with the same seed (the same image), so the time kept is a
-  warm one. ``JobResult.recompiled`` counts the discarded renders and
-  ``compiled_passes`` the timed passes that still compiled after
+  rendered again, whole, with a fresh integrator and the same seeds (the same
+  image), so the time kept is a warm one. ``JobResult.recompiled`` counts the
+  discarded tries and ``compiled_passes`` the timed passes that still compiled after
   :data:`WARM_TRIES` tries (0 unless the kernel cache is too small).
 * :class:`LocalExecutor` runs jobs one after the other in this process;
   ``map_unordered(jobs)`` yields ``(job, result)`` pairs. Another executor
@@ -56,7 +59,7 @@ import os
 import socket
 import time
 from collections import OrderedDict
-from typing import Iterable, Iterator, NamedTuple
+from typing import Iterable, Iterator, NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -80,10 +83,10 @@ WARM_TRIES = 3
 
 
 class View(NamedTuple):
-    """What renders a job: the scene loaded once, and the method's sensor and integrator."""
+    """What renders a job: the scene loaded once, and the method's sensor (its sampler and
+    film). The integrator is made afresh for every job (:func:`fresh_integrator`)."""
     scene: object
     sensor: object
-    integrator: object
 
 
 _scenes: OrderedDict = OrderedDict()
@@ -138,9 +141,17 @@ def _scene(job: Job, variant: str):
     return _scenes[key]
 
 
-def _view(job: Job, variant: str) -> View:
-    """The warmed-up :class:`View` of ``job`` (cached per process)."""
+def fresh_integrator(job: Job):
+    """A new, untrained integrator of ``job``'s method: every job starts from one, so that
+    a method that learns over its passes learns from its own job's samples only."""
     import mitsuba as mi
+    return mi.load_dict(job.method.integrator_dict(job_depth(job)))
+
+
+def _view(job: Job, variant: str) -> View:
+    """The warmed-up :class:`View` of ``job`` (cached per process): the first time, the
+    whole job is rendered once, untimed, with an integrator of its own (thrown away), so
+    that the kernels of every pass are compiled before a timed render."""
     scene = _scene(job, variant)
     key = ((variant, job.scene, job.scene_sha256), job.method, job.width, job.height,
            job_depth(job))
@@ -149,15 +160,42 @@ def _view(job: Job, variant: str) -> View:
         return _views[key]
     method: Method = job.method
     spp = job.passes()[0] if method.sampler_spec.bakes_spp else 1
-    view = View(scene, load_sensor(job.scene, job.width, job.height, method, spp),
-                mi.load_dict(method.integrator_dict(job_depth(job))))
+    view = View(scene, load_sensor(job.scene, job.width, job.height, method, spp))
     # the first compile; a sampler that bakes its count into the kernel at the count of
     # the first pass, so that the timed render does not compile again
-    _render(view, spp, 0x5EED, sequence_state(job, 0))
+    warm = fresh_integrator(job)
+    if isinstance(warm, MultiPass):
+        _render_job(view, warm, job)
+    else:
+        _render(view, warm, spp, 0x5EED, sequence_state(job, 0))
     _views[key] = view
     while len(_views) > VIEW_CACHE:
         _views.popitem(last=False)
     return view
+
+
+@runtime_checkable
+class MultiPass(Protocol):
+    """An integrator that renders its image in several passes of its own (a method that
+    learns between passes, or combines them), declared by having these three methods. The
+    executor renders each pass with ``mi.render`` and calls the hooks between them; the
+    clock (:mod:`.clock`) counts the kernels of every pass and the CPU time of the hooks.
+
+    * ``pass_schedule(spp)``: the samples per pixel of each pass for a job of ``spp`` (a
+      function of the count alone, never of time), summing to ``spp``;
+    * ``after_pass(index, image, spp)``: host work after pass ``index`` (learning from it;
+      ``image`` the pass's mean as a Dr.Jit tensor);
+    * ``combine(images, spps)``: the job's image from every pass's (a numpy (H, W, 3)
+      array; e.g. a weighted mean).
+
+    Passes are rendered with seeds ``derive_seed(job.seed, index)``; a job of such a method
+    is never split further for memory (its schedule is its passes)."""
+
+    def pass_schedule(self, spp: int) -> list: ...
+
+    def after_pass(self, index: int, image, spp: int) -> None: ...
+
+    def combine(self, images: list, spps: list): ...
 
 
 def sequence_state(job: Job, done: int) -> dict | None:
@@ -196,73 +234,109 @@ def kernels_compiled(history: list[dict]) -> int:
                and (not k.get("cache_hit", False) or k.get("cache_disk", False)))
 
 
-def _render(view, spp: int, seed: int, sequence: dict | None = None):
-    """One render of a :class:`View` (or of a scene with its own sensor and integrator;
-    ``sequence``: the sampler state it continues, :func:`sequence_state`): (image, wall
-    seconds, CPU seconds, kernels compiled during it, seconds its kernels executed)."""
+def _render(view, integrator, spp: int, seed: int, sequence: dict | None = None,
+            raw: bool = False):
+    """One render of a :class:`View` (or of a scene with its own sensor) with
+    ``integrator`` (None: the scene's own; ``sequence``: the sampler state it continues,
+    :func:`sequence_state`): (image, wall seconds, CPU seconds, kernels compiled during it,
+    seconds its kernels executed). ``raw``: the image as Mitsuba's tensor, all channels."""
     import drjit as dr
     import mitsuba as mi
     if not isinstance(view, View):
-        view = View(view, view.sensors()[0], view.integrator())
+        integrator = integrator or view.integrator()
+        view = View(view, view.sensors()[0])
     if sequence:
         set_sequence_state(view.sensor, sequence)
     dr.set_flag(dr.JitFlag.KernelHistory, True)
     dr.kernel_history_clear()
     cpu, start = time.process_time(), time.perf_counter()
-    image = mi.render(view.scene, sensor=view.sensor, integrator=view.integrator, spp=spp,
+    image = mi.render(view.scene, sensor=view.sensor, integrator=integrator, spp=spp,
                       seed=seed)
     dr.eval(image)
     dr.sync_thread()
     seconds, cpu = time.perf_counter() - start, time.process_time() - cpu
     history = dr.kernel_history()
     kernel = sum(k.get("execution_time", 0.0) for k in history) / 1000   # ms -> s
-    return (np.array(image, dtype=np.float64)[..., :3], seconds, cpu,
-            kernels_compiled(history), kernel)
+    image = image if raw else np.array(image, dtype=np.float64)[..., :3]
+    return image, seconds, cpu, kernels_compiled(history), kernel
 
 
-def warm_render(view, spp: int, seed: int, sequence: dict | None = None,
-                tries: int = WARM_TRIES):
-    """:func:`_render` again (same seed, same image) until a render compiled nothing;
-    returns (image, seconds, cpu seconds, renders discarded, compiled in the kept one,
-    kernel seconds)."""
-    for attempt in range(tries):
-        image, seconds, cpu, compiled, kernel = _render(view, spp, seed, sequence)
-        if not compiled:
-            return image, seconds, cpu, attempt, 0, kernel
-    return image, seconds, cpu, tries - 1, compiled, kernel
+class Timed(NamedTuple):
+    """A job's image and what its passes took (before the retries are counted)."""
+    image: np.ndarray            # the job's mean image (H, W, 3) float64
+    sq: np.ndarray               # sum over passes of k_i m_i^2
+    spp: int                     # samples rendered (what the sampler ran)
+    pass_seconds: list           # wall seconds per pass
+    cpu_seconds: float
+    kernel_seconds: float
+    host_seconds: float          # CPU time of the method's hooks between passes
+    compiled: int                # passes during which a kernel compiled
 
 
-def run_job(job: Job, variant: str) -> JobResult:
-    """Render ``job`` in this process with the Mitsuba ``variant``."""
-    import integrators  # noqa: F401  (chooses libLLVM before drjit loads; registers plugins)
-    import mitsuba as mi
-    if mi.variant() != variant:
-        mi.set_variant(variant)
-    view = _view(job, variant)
+def _render_job(view: View, integrator, job: Job) -> Timed:
+    """Every pass of ``job`` with ``integrator``: the memory-bounded passes of
+    :meth:`.jobs.Job.passes`, or a :class:`MultiPass` method's own schedule with its hooks
+    between them (their CPU time measured on this thread, the kernels they launch synced
+    first so that their time is the hooks' own)."""
+    import drjit as dr
+    multi = isinstance(integrator, MultiPass)
     continues = job.method.continues_sequence
+    schedule = integrator.pass_schedule(job.spp) if multi else job.passes()
     mean = np.zeros((job.height, job.width, 3))
     sq = np.zeros_like(mean)
-    done, times, cpu, recompiled, compiled_passes, kernels = 0, [], 0.0, 0, 0, 0.0
-    for i, k in enumerate(job.passes()):
+    images, spps = [], []
+    done, times, cpu, kernels, host, compiled = 0, [], 0.0, 0.0, 0.0, 0
+    for i, k in enumerate(schedule):
         seed = job.seed if continues else derive_seed(job.seed, i)
-        image, seconds, cpu_seconds, discarded, compiled, kernel = warm_render(
-            view, k, seed, sequence_state(job, done))
-        kernels += kernel
-        recompiled += discarded
-        compiled_passes += compiled > 0
+        image, seconds, cpu_seconds, compiled_now, kernel = _render(
+            view, integrator, k, seed, sequence_state(job, done), raw=multi)
         # Mitsuba's stratified, orthogonal and ldsampler round the count (e.g.
         # orthogonal: 16 -> 25, a prime squared): count what was rendered
         k = view.sensor.sampler().sample_count()
+        if multi:
+            dr.sync_thread()
+            start = time.thread_time()
+            integrator.after_pass(i, image, k)
+            dr.sync_thread()
+            host += time.thread_time() - start
+            image = np.array(image, dtype=np.float64)[..., :3]
+            images.append(image)
+            spps.append(k)
         mean += image * k
         sq += k * image * image
         done += k
         times.append(seconds)
         cpu += cpu_seconds
-    return JobResult(image=(mean / done).astype(np.float32), sq=sq, spp=done,
-                     passes=len(times), seconds=float(sum(times)), pass_seconds=times,
-                     cpu_seconds=cpu, host=socket.gethostname(),
-                     cpu=f"{cpu_model()} ({os.cpu_count()} cores)", recompiled=recompiled,
-                     compiled_passes=compiled_passes, kernel_seconds=kernels)
+        kernels += kernel
+        compiled += compiled_now > 0
+    mean /= done
+    if multi:
+        start = time.thread_time()
+        mean = np.asarray(integrator.combine(images, spps), dtype=np.float64)
+        host += time.thread_time() - start
+    return Timed(mean, sq, done, times, cpu, kernels, host, compiled)
+
+
+def run_job(job: Job, variant: str) -> JobResult:
+    """Render ``job`` in this process with the Mitsuba ``variant``: with a fresh
+    integrator, its time kept from a try during which nothing compiled (up to
+    :data:`WARM_TRIES` tries, each with a fresh integrator and the same seeds)."""
+    import integrators  # noqa: F401  (chooses libLLVM before drjit loads; registers plugins)
+    import mitsuba as mi
+    if mi.variant() != variant:
+        mi.set_variant(variant)
+    view = _view(job, variant)
+    for attempt in range(WARM_TRIES):
+        timed = _render_job(view, fresh_integrator(job), job)
+        if not timed.compiled:
+            break
+    return JobResult(image=timed.image.astype(np.float32), sq=timed.sq, spp=timed.spp,
+                     passes=len(timed.pass_seconds),
+                     wall_seconds=float(sum(timed.pass_seconds)),
+                     pass_seconds=timed.pass_seconds, cpu_seconds=timed.cpu_seconds,
+                     host=socket.gethostname(), cpu=f"{cpu_model()} ({os.cpu_count()} cores)",
+                     recompiled=attempt, compiled_passes=timed.compiled,
+                     kernel_seconds=timed.kernel_seconds, host_seconds=timed.host_seconds)
 
 
 class LocalExecutor:

@@ -1,4 +1,4 @@
-"""Render jobs and their results as plain data: the base of the library (imports none of it).
+"""Render jobs and their results as plain data: the base of the library (imports only the clock).
 
 A :class:`Job` is one render (a scene, a parsed method, a resolution, a number of
 samples per pixel, rendered in passes of at most ``pass_spp``); the planner
@@ -25,6 +25,8 @@ from dataclasses import dataclass, field
 from typing import Iterable
 
 import numpy as np
+
+from . import clock
 
 #: Largest number of samples (pixels x spp) rendered in one pass; bigger jobs
 #: render in several passes, which bounds memory (1024x512 -> 8 spp per pass).
@@ -70,7 +72,7 @@ class JobResult:
     sq: np.ndarray | None        # (H, W, 3) sum over passes of k_i * m_i^2 (float64)
     spp: int
     passes: int
-    seconds: float               # warm render time (wall clock), summed over passes
+    wall_seconds: float          # warm render time (wall clock), summed over passes
     pass_seconds: list = field(default_factory=list)
     cpu_seconds: float = 0.0     # CPU time of this process (all threads) over the passes
     host: str = ""
@@ -79,12 +81,15 @@ class JobResult:
     compiled_passes: int = 0     # timed passes that compiled even after the warm tries
     kernel_seconds: float = 0.0  # execution time of the timed passes' kernels (Dr.Jit's
                                  # kernel history): the sample work, no tracing or launch
+    host_seconds: float = 0.0    # CPU time of the method's own host work between its passes
+                                 # (:mod:`.clock`: the cost is kernel + host seconds)
 
     def metadata(self) -> dict:
-        return {"spp": self.spp, "passes": self.passes, "seconds": self.seconds,
+        return {"spp": self.spp, "passes": self.passes, "wall_seconds": self.wall_seconds,
                 "pass_seconds": list(self.pass_seconds), "cpu_seconds": self.cpu_seconds,
                 "host": self.host, "cpu": self.cpu, "recompiled": self.recompiled,
-                "compiled_passes": self.compiled_passes, "kernel_seconds": self.kernel_seconds}
+                "compiled_passes": self.compiled_passes, "kernel_seconds": self.kernel_seconds,
+                "host_seconds": self.host_seconds}
 
 
 def cpu_model() -> str:
@@ -112,14 +117,14 @@ class Accumulator:
     sq: np.ndarray
     spp: int = 0
     passes: int = 0
-    seconds: float = 0.0
+    cost: float = 0.0            # seconds of the images added (:func:`.clock.cost`)
 
     @classmethod
     def empty(cls, height: int, width: int, channels: int = 3) -> "Accumulator":
         shape = (height, width, channels)
         return cls(np.zeros(shape), np.zeros(shape))
 
-    def add(self, image: np.ndarray, spp: int, seconds: float = 0.0, sq=None,
+    def add(self, image: np.ndarray, spp: int, cost: float = 0.0, sq=None,
             passes: int = 1) -> None:
         """Fold in an image that averages ``spp`` samples per pixel (``passes`` passes whose
         sum of squares is ``sq``; one pass when None)."""
@@ -129,10 +134,10 @@ class Accumulator:
         self.sq = self.sq + (spp * image * image if sq is None else np.asarray(sq, np.float64))
         self.spp += spp
         self.passes += passes
-        self.seconds += seconds
+        self.cost += cost
 
     def add_result(self, result: JobResult) -> None:
-        self.add(result.image, result.spp, result.seconds, result.sq, result.passes)
+        self.add(result.image, result.spp, clock.cost(result), result.sq, result.passes)
 
     def variance_of_mean(self) -> np.ndarray:
         """Per-pixel variance of :attr:`mean`, from the spread of the pass images.

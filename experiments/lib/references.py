@@ -181,7 +181,7 @@ class Reference:
     def from_accumulator(cls, acc: Accumulator, method: str, source: str) -> "Reference":
         var = acc.variance_of_mean()
         rel = var / (acc.mean ** 2 + RELMSE_EPS)
-        return cls(acc.mean, acc.spp, acc.passes, acc.seconds, method, source,
+        return cls(acc.mean, acc.spp, acc.passes, acc.cost, method, source,
                    float(np.mean(var)), float(np.mean(rel)), rel)
 
 

@@ -61,6 +61,8 @@ class JobStore:
         if data is None:
             raise KeyError(f"no finished job '{key}' in {self.root}")
         meta = json.loads(str(data["meta"]))["result"]
+        if "seconds" in meta:                   # entries stored before the field's rename
+            meta["wall_seconds"] = meta.pop("seconds")
         result = JobResult(image=data["image"], sq=data.get("sq"), **meta)
         size = 0
         for array in (result.image, result.sq):

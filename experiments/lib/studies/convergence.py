@@ -23,7 +23,7 @@ import os
 import time
 from dataclasses import dataclass
 
-from experiments.lib import cli, files, metrics
+from experiments.lib import cli, clock, files, metrics
 from experiments.lib import jobs as J
 from experiments.lib import plan as P
 from experiments.lib.methods import Method
@@ -145,7 +145,7 @@ def plan_equal_time(st: Study, settings: ConvergenceSettings, plan: Plan) -> dic
     jobs = {}
     for name, reps in plan.ladders.items():
         results = [st.store.get(j.key) for ladder in reps for j in ladder]
-        spp = A.equal_time_spp([r.seconds for r in results], [r.spp for r in results],
+        spp = A.equal_time_spp([clock.cost(r) for r in results], [r.spp for r in results],
                                settings.time_budget)
         method = reps[0][0].method
         jobs[name] = [st.job(repeat_prefix(f"equal_time/{name}", r), method, spp,
@@ -166,7 +166,7 @@ def measure(st: Study, plan: Plan, equal_jobs: dict) -> A.Measured:
         for accs in zip(*runs):
             first = accs[0]
             ladders[name].append(A.Rung(
-                first.spp, len(accs), st.per_repeat(a.seconds for a in accs),
+                first.spp, len(accs), st.per_repeat(a.cost for a in accs),
                 st.per_repeat(metrics.mse(a.mean, ref) for a in accs),
                 st.per_repeat(metrics.relmse(a.mean, ref) for a in accs),
                 metrics.flip_mean(first.mean, ref)))
@@ -175,7 +175,7 @@ def measure(st: Study, plan: Plan, equal_jobs: dict) -> A.Measured:
         results = [st.store.get(j.key) for j in reps]
         shown = results[0].image.astype(float)
         equal[name] = A.Rung(
-            results[0].spp, len(results), st.per_repeat(r.seconds for r in results),
+            results[0].spp, len(results), st.per_repeat(clock.cost(r) for r in results),
             st.per_repeat(metrics.mse(r.image.astype(float), ref) for r in results),
             st.per_repeat(metrics.relmse(r.image.astype(float), ref) for r in results),
             metrics.flip_mean(shown, ref))

@@ -44,7 +44,7 @@ from experiments.lib import execute as E
 from experiments.lib import jobs as J
 from experiments.lib import files
 from experiments.lib.studies import StudySpec, register_study
-from experiments.lib import cli, figures, metrics, report, stats
+from experiments.lib import cli, clock, figures, metrics, report, stats
 from experiments.lib import plan as P
 from experiments.lib import sampler_study as SS
 from experiments.lib import samplers as S
@@ -64,8 +64,6 @@ BASE = "bsdf+nee"
 #: in efficiency, within about 10%, come out as ties at 3: --repeats 8 tells more of them
 #: apart; make run keeps to its time budget).
 REPEATS = 3
-CPU_TIME = ("the CPU time of the rendering process (all its threads), which load from other "
-            "processes perturbs far less than wall-clock time")
 
 
 # ------------------------------------------------------------------ settings
@@ -238,11 +236,8 @@ def ladder_job(st: Study, cfg: Settings, root: str, d: int, label: str, count: i
 
 
 def timing(st: Study, result) -> float:
-    """Render time compared: process CPU time on the CPU (LLVM) backend, where other
-    processes sharing the machine perturb wall-clock time, else wall-clock time."""
-    if st.variant.startswith("llvm") and result.cpu_seconds > 0:
-        return result.cpu_seconds
-    return result.seconds
+    """Render time compared: the one clock (:func:`.clock.cost`)."""
+    return clock.cost(result)
 
 
 # ------------------------------------------------------------------ passes
@@ -667,7 +662,7 @@ def introduction(st: Study, cfg: Settings) -> str:
     bundled = [s for s in cfg.samplers if s not in natives]
     fixed = [s for s in cfg.samplers if S.split_label(s)[0].is_deterministic(
         S.split_label(s)[1])]
-    time_is = CPU_TIME if st.variant.startswith("llvm") else "wall-clock time"
+    time_is = clock.DESCRIPTION
     metric = SS.METRIC_NAMES[SS.METRIC]
     return "\n\n".join([
         f"Which sampler to use with {cfg.base} on {os.path.basename(cfg.scene)} at "

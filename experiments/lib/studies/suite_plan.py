@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 import scenes as bundled
-from .. import files, metrics
+from .. import clock, files, metrics
 from .. import references as R
 from .. import scenes as SC
 from ..jobs import Job
@@ -163,24 +163,18 @@ def plan_cells(st: Study, cfg: Settings, sp: ScenePlan) -> None:
             timing_group=f"{NAME}/{sp.name}") for r in range(st.repeats_of(m))])
 
 
-def sample_seconds(result) -> float:
-    """The seconds of a render's sample work: its kernels' execution time (Dr.Jit's kernel
-    history; no tracing of the integrator, no launch), or its render time where a result
-    has none recorded."""
-    return result.kernel_seconds if result.kernel_seconds > 0 else result.seconds
-
-
 def per_sample(cfg: Settings, st: Study, cell: CellJobs) -> tuple[float, list[float]]:
-    """(a, [b per repeat]) of a cell: a the mean per-call seconds of its renders (render
-    time minus kernel time: tracing, launching), b per repeat the kernel seconds per spp
-    (whole film) of the repeat's renders at both budgets (phase 1 alone before phase 2)."""
+    """(a, [b per repeat]) of a cell: a the mean per-call seconds of its renders
+    (:func:`.clock.overhead`: tracing, launching), b per repeat the cost per spp (whole
+    film, :func:`.clock.cost`) of the repeat's renders at both budgets (phase 1 alone before
+    phase 2)."""
     results = [st.store.get(j.key) for j in cell.all()]
-    a = float(np.mean([r.seconds - sample_seconds(r) for r in results]))
+    a = float(np.mean([clock.overhead(r) for r in results]))
     b = []
     for r in range(len(cell.equal_spp)):
         runs = [st.store.get(j.key) for j in ([cell.equal_spp[r]] + (
             [cell.equal_time[r]] if cell.equal_time else []))]
-        b.append(sum(map(sample_seconds, runs)) / sum(x.spp for x in runs))
+        b.append(clock.total(runs) / sum(x.spp for x in runs))
     return a, b
 
 

@@ -191,8 +191,8 @@ def measure_full(st: Study, plan: Plan) -> tuple:
             check = metrics.bias_check(acc_a.mean, acc_a.variance_of_mean(), acc_b.mean,
                                        acc_b.variance_of_mean())
         shown[(a, b)] = (acc_a.mean, acc_b.mean, var)
-        out.append(A.FullMeasured(a, b, plan.full_spp, acc_a.passes, acc_a.seconds,
-                                  acc_b.seconds, deterministic, check))
+        out.append(A.FullMeasured(a, b, plan.full_spp, acc_a.passes, acc_a.cost,
+                                  acc_b.cost, deterministic, check))
     return out, ref.mean, shown
 
 

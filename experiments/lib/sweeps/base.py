@@ -27,7 +27,7 @@ from typing import Protocol
 import numpy as np
 
 from .. import jobs as J
-from .. import metrics, report, stats
+from .. import clock, metrics, report, stats
 from .. import plan as P
 from ..methods import Depth, parse_method
 from ..scenes import Needs, SceneInfo
@@ -265,7 +265,7 @@ class Context:
         o = self.outliers.add(label(method), image, ref)
         sel = mask if mask is not None else np.ones(image.shape[:2], bool)
         level = metrics.ratio(float(np.mean(image[sel])), float(np.mean(ref[sel])))
-        secs = sum(self.st.store.get(j.key).seconds for j in jobs)
+        secs = clock.total(self.st.store.get(j.key) for j in jobs)
         whole, masked = metrics.relmse(image, ref), metrics.relmse(image, ref, mask)
         if floor is not None:
             whole -= float(np.mean(floor))

@@ -139,7 +139,7 @@ class HaltonSweep:
                 curves[d][m], corr[d][m] = [], []
                 for r, jobs in enumerate(reps):
                     accs = ctx.st.accumulate(jobs)
-                    curves[d][m].append([(a.spp, a.seconds, metrics.relmse(a.mean, ref)
+                    curves[d][m].append([(a.spp, a.cost, metrics.relmse(a.mean, ref)
                                           - meta["relmse_floor"])
                                          for a in accs])
                     image = accs[-1].mean
