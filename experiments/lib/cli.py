@@ -62,6 +62,22 @@ def nonnegative_int(text: str) -> int:
     return _int_at_least(text, 0)
 
 
+def int_list(option: str, lowest: int):
+    """An argparse type for ``option``: comma-separated integers >= ``lowest``, duplicates
+    dropped."""
+    def parse(text: str) -> list[int]:
+        try:
+            values = [int(x) for x in text.split(",") if x.strip()]
+        except ValueError:
+            values = []
+        if not values or min(values) < lowest:
+            raise argparse.ArgumentTypeError(
+                f"invalid {option} '{text}': expected comma-separated integers >= {lowest}, "
+                f"e.g. {lowest},{lowest + 4}")
+        return list(dict.fromkeys(values))
+    return parse
+
+
 def positive_float(text: str) -> float:
     try:
         value = float(text)

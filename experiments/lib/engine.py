@@ -1,0 +1,264 @@
+"""The experiment engine: a study declares what it compares, the engine does the rest.
+
+A :class:`Declaration` names the methods, the scenes (each with its film and path
+settings), the budgets (equal spp, equal time, a ladder of counts), a swept parameter if
+any, and the repeats. :class:`Engine` then
+
+1. plans the jobs (:mod:`.plan`: keys and seeds from the plan, a deterministic method
+   rendered once for every repeat, the references in the shared reference store);
+2. renders what the stores lack through the study's executor (local or Dask; a rerun
+   resumes), the equal-time budgets after the budgets that measure their cost per sample;
+3. costs every image with the one clock (:mod:`.clock`) and measures its errors against
+   the reference (whose own expected error, the floor, comes with it);
+4. gives errors, ratios and efficiencies with their intervals from one implementation
+   (:mod:`.stats`), in :class:`Measurements`.
+
+A study adds its own analysis and figures over :class:`Measurements`.
+``examples/roulette_study.py`` is a whole study in this form. Models: SeeSharp's
+``Experiment`` and ``Benchmark`` (a list of methods over a list of scenes against cached
+references), Mitsuba's ``ADIntegrator`` (the shared work in one base).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Callable
+
+import numpy as np
+
+from . import clock, metrics, stats
+from .methods import Depth, Method
+from .scenes import SceneInfo
+from .study import Study, repeat_prefix
+
+
+@dataclass(frozen=True)
+class SceneSetup:
+    """A scene as a study renders it: its file, film and path settings, and a short name
+    (its part of the job keys and of the report)."""
+    name: str
+    info: SceneInfo
+    resolution: tuple            # (width, height)
+    depth: Depth = Depth()
+
+
+@dataclass(frozen=True)
+class Budget:
+    """How much every method renders in a cell. Make one with :meth:`equal_spp`,
+    :meth:`equal_time` or :meth:`progressive`."""
+    name: str
+    spp: int = 0                 # equal spp: the count
+    seconds: float = 0.0         # equal time: seconds of cost (the clock) per image ...
+    after: str = ""              # ... at the cost per sample measured by this budget's renders
+    power_of_two: bool = False   # equal time: the count rounded to the nearest power of two
+    ladder: tuple = ()           # progressive: the counts, each image all samples up to it
+
+    @classmethod
+    def equal_spp(cls, spp: int, name: str = "equal-spp") -> "Budget":
+        return cls(name, spp=int(spp))
+
+    @classmethod
+    def equal_time(cls, seconds: float, after: str = "equal-spp", name: str = "equal-time",
+                   power_of_two: bool = False) -> "Budget":
+        return cls(name, seconds=float(seconds), after=after, power_of_two=power_of_two)
+
+    @classmethod
+    def progressive(cls, targets, name: str = "ladder") -> "Budget":
+        return cls(name, ladder=tuple(sorted({int(t) for t in targets})))
+
+    @property
+    def timed(self) -> bool:
+        return self.seconds > 0
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """A swept parameter: ``apply(value, scene)`` gives the scene set up at ``value`` (its
+    depth, film or file). ``shared_reference``: the parameter changes the estimator, not
+    the image it converges to (rr_depth), so every value is measured against the reference
+    of the scene as declared."""
+    name: str
+    values: tuple
+    apply: Callable[[object, SceneSetup], SceneSetup]
+    shared_reference: bool = False
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One comparison point: a scene, a method, a budget and (in a sweep) a value."""
+    scene: str
+    method: str
+    budget: str
+    point: object = None
+
+
+def default_key(declaration: "Declaration", cell: Cell) -> str:
+    """``NAME/scene/method/budget[/sweep=value]``: the prefix of a cell's jobs."""
+    point = "" if cell.point is None else f"/{declaration.sweep.name}={cell.point}"
+    return f"{declaration.name}/{cell.scene}/{cell.method}/{cell.budget}{point}"
+
+
+@dataclass(frozen=True)
+class Declaration:
+    """What a study compares. ``key(declaration, cell)`` names a cell's jobs (their seeds
+    derive from it; default :func:`default_key`), the repeat and ladder parts appended."""
+    name: str
+    methods: tuple               # Method values
+    scenes: tuple                # SceneSetup values
+    budgets: tuple               # Budget values, in the order they render
+    repeats: int = 1
+    sweep: Sweep | None = None
+    reference_spp: int | None = None        # None: the study's --reference-spp
+    reference_method: Method | None = None  # None: the study's --reference-method
+    key: Callable = default_key
+
+    def __post_init__(self):
+        names = [b.name for b in self.budgets]
+        for b in self.budgets:
+            if b.timed and b.after not in names[:names.index(b.name)]:
+                raise ValueError(f"budget '{b.name}' measures its cost per sample on budget "
+                                 f"'{b.after}', which must come before it among "
+                                 f"{', '.join(names)}")
+        if not self.methods or not self.scenes or not self.budgets or self.repeats < 1:
+            raise ValueError(f"declaration '{self.name}': give at least one method, scene "
+                             f"and budget, and repeats >= 1 (got {self.repeats})")
+
+    def points(self) -> tuple:
+        return self.sweep.values if self.sweep else (None,)
+
+    def setup(self, scene: SceneSetup, point) -> SceneSetup:
+        return scene if point is None else self.sweep.apply(point, scene)
+
+    def cells(self, budget: Budget) -> list[tuple[Cell, SceneSetup, Method]]:
+        return [(Cell(s.name, m.name, budget.name, p), self.setup(s, p), m)
+                for s in self.scenes for p in self.points() for m in self.methods]
+
+
+@dataclass
+class Run:
+    """One repeat of a cell (one rung of a ladder): what it rendered and cost, its errors
+    against the reference (the reference's own floor not subtracted)."""
+    spp: int
+    cost: float
+    mse: float
+    relmse: float
+    image: np.ndarray
+
+
+@dataclass
+class Measurements:
+    """Every run of every cell, and the references they were measured against."""
+    declaration: Declaration
+    runs: dict                   # Cell -> [per repeat: [Run per rung (one without a ladder)]]
+    references: dict             # (scene, point) -> (image, metadata with the floors)
+
+    def reference_of(self, cell: Cell) -> tuple:
+        return self.references[self._reference_key(cell)]
+
+    def _reference_key(self, cell: Cell):
+        sweep = self.declaration.sweep
+        return (cell.scene, None if sweep is None or sweep.shared_reference else cell.point)
+
+    def floor(self, cell: Cell, metric: str = "relmse") -> float:
+        return float(self.reference_of(cell)[1][f"{metric}_floor"])
+
+    def final(self, cell: Cell) -> list[Run]:
+        """The last rung of each repeat (the cell's image)."""
+        return [rungs[-1] for rungs in self.runs[cell]]
+
+    def error(self, cell: Cell, metric: str = "relmse", rung: int = -1) -> stats.Estimate:
+        """The cell's expected error (floor subtracted) with its interval."""
+        values = [getattr(rungs[rung], metric) for rungs in self.runs[cell]]
+        return stats.excess_interval(values, self.floor(cell, metric))
+
+    def efficiency(self, a: Cell, b: Cell, metric: str = "relmse",
+                   rung: int = -1) -> stats.Estimate:
+        """Efficiency 1/(error x cost) of ``a`` over ``b`` with its interval (errors less
+        their floors, costs from the clock, per repeat); exactly 1 for a cell against itself."""
+        if a == b:
+            return stats.Estimate(1.0, 1.0, 1.0, len(self.runs[a]))
+        ea, eb = ([getattr(r[rung], metric) - self.floor(c, metric) for r in self.runs[c]]
+                  for c in (a, b))
+        ca, cb = ([r[rung].cost for r in self.runs[c]] for c in (a, b))
+        return stats.efficiency_ratio(ea, ca, eb, cb)
+
+
+class Engine:
+    """Plans, renders and measures a :class:`Declaration` with a :class:`.study.Study`'s
+    stores and executor."""
+
+    def __init__(self, study: Study):
+        self.study = study
+
+    # ---------------------------------------------------------------- plan
+    def jobs(self, declaration: Declaration, budget: Budget, spp: dict | None = None) -> dict:
+        """{cell: [per repeat: [jobs]]} of one budget (``spp``: an equal-time budget's count
+        per cell). A deterministic method renders one run, which stands for every repeat."""
+        st, out = self.study, {}
+        for cell, setup, method in declaration.cells(budget):
+            prefix = declaration.key(declaration, cell)
+            options = dict(info=setup.info, depth=setup.depth, resolution=setup.resolution,
+                           timing_group=f"{declaration.name}/{cell.scene}")
+            repeats = 1 if method.deterministic else declaration.repeats
+            out[cell] = [st.ladder(repeat_prefix(prefix, r), method, budget.ladder, **options)
+                         if budget.ladder else
+                         [st.job(repeat_prefix(prefix, r), method,
+                                 spp[cell] if budget.timed else budget.spp, **options)]
+                         for r in range(repeats)]
+        return out
+
+    def reference_jobs(self, declaration: Declaration) -> dict:
+        """{(scene, point): the chunks of its reference} in the shared reference store."""
+        out = {}
+        for scene in declaration.scenes:
+            for point in declaration.points():
+                shared = declaration.sweep is None or declaration.sweep.shared_reference
+                key = (scene.name, None if shared else point)
+                if key in out:
+                    continue
+                setup = scene if shared else declaration.setup(scene, point)
+                out[key] = self.study.reference_jobs(
+                    setup.info, setup.depth, setup.resolution, declaration.reference_spp,
+                    declaration.reference_method)
+        return out
+
+    def equal_time_spp(self, budget: Budget, measured: list) -> int:
+        """Samples per pixel that cost ``budget.seconds`` at the cost per sample of the
+        ``measured`` renders (each repeat's, averaged)."""
+        per_sample = np.mean([clock.total(rs) / sum(r.spp for r in rs) for rs in measured])
+        spp = budget.seconds / max(float(per_sample), 1e-12)
+        if budget.power_of_two:
+            return int(2 ** max(0, round(math.log2(max(spp, 1.0)))))
+        return max(1, int(spp))
+
+    # ---------------------------------------------------------------- run
+    def run(self, declaration: Declaration) -> Measurements:
+        """Plan, render (resuming) and measure every cell of ``declaration``."""
+        st = self.study
+        references = self.reference_jobs(declaration)
+        st.run([j for jobs in references.values() for j in jobs],
+               f"{declaration.name}: references")
+        planned = {}
+        for budget in declaration.budgets:
+            spp = None
+            if budget.timed:
+                spp = {cell: self.equal_time_spp(budget, [st.results(jobs) for jobs in reps])
+                       for cell, reps in planned[budget.after].items()}
+                spp = {replace(cell, budget=budget.name): n for cell, n in spp.items()}
+            planned[budget.name] = self.jobs(declaration, budget, spp)
+            st.run([j for reps in planned[budget.name].values() for jobs in reps
+                    for j in jobs], f"{declaration.name}: {budget.name}")
+        return self.measure(declaration, planned, references)
+
+    def measure(self, declaration: Declaration, planned: dict, references: dict) -> Measurements:
+        st = self.study
+        refs = {key: st.reference(jobs) for key, jobs in references.items()}
+        out = Measurements(declaration, {}, refs)
+        for cells in planned.values():
+            for cell, reps in cells.items():
+                ref = out.reference_of(cell)[0]
+                runs = [[Run(acc.spp, acc.cost, metrics.mse(acc.mean, ref),
+                             metrics.relmse(acc.mean, ref), acc.mean)
+                         for acc in st.accumulate(jobs)] for jobs in reps]
+                out.runs[cell] = runs * (declaration.repeats if len(runs) == 1 else 1)
+        return out
