@@ -67,7 +67,7 @@ class HaltonSampler(SequenceSampler):
     and ``sample_offset`` are opaque, so reseeding does not recompile the
     render kernel.
 
-    Wavefront layout and multi-pass renders: as every
+    Wavefront layout and multi-pass renders: as for every
     :class:`~integrators.sequence_sampler.SequenceSampler`, lane ``l`` of a render is
     sample ``l % k`` of pixel ``l // k``, ``k`` the samples per pixel of one pass: the
     sample count when it divides the lanes (one pass, Mitsuba's ``mi.render``), unless a

@@ -111,7 +111,7 @@ class ZSobolSampler(SequenceSampler):
     seed, ``sample_offset``, the film width and the sequence length are
     opaque: reseeding or a new count does not recompile the render kernel.
 
-    Wavefront layout and multi-pass renders: as every
+    Wavefront layout and multi-pass renders: as for every
     :class:`~integrators.sequence_sampler.SequenceSampler`, lane ``l`` of
     a render is sample ``l % k`` of pixel ``l // k``, ``k`` the samples per
     pixel of one pass: the sample count, unless a caller that renders in
