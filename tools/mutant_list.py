@@ -74,6 +74,13 @@ MUTANTS = [
            "sequence starts over at every job",
            ("tests/test_experiments.py::test_passes_of_a_continuing_sampler_continue_one_sequence",
             "tests/test_halton.py")),
+    Mutant("pass-dimension", "integrators/sequence_sampler.py",
+           "        self._dimension = dr.zeros(mi.UInt32, dr.width(self._dimension))\n"
+           "        self._advanced()",
+           "        self._advanced()",
+           "the sequence samplers' advance() keeps the dimension counter: a declared pass "
+           "draws its camera sample from the dimensions where the previous pass stopped",
+           ("tests/test_sequence_sampler.py", "tests/test_halton.py")),
     Mutant("zsobol-matrix", "integrators/qmc.py",
            "v = v ^ ((v >> 4) & 0x0F0F0F0F)",
            "v = v ^ ((v >> 4) & 0x0F0F0F0E)",
