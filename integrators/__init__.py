@@ -43,6 +43,8 @@ __all__ = ["register", "register_strategy", "strategies", "PLUGIN_MODULES",
 
 #: Modules that each define and register one plugin for the current variant.
 PLUGIN_MODULES = ("phong", "path", "halton", "zsobol")
+#: Modules of per-variant base classes, defined again before the plugins that derive from them.
+BASE_MODULES = ("sequence_sampler",)
 
 _registered: set[str] = set()
 
@@ -65,14 +67,15 @@ def register() -> None:
     _check_variant(variant)
     if variant in _registered:
         return
-    for name in PLUGIN_MODULES:
+    for name in BASE_MODULES + PLUGIN_MODULES:
         qualified = f"{__name__}.{name}"
         module = sys.modules.get(qualified)
         if module is None:
             importlib.import_module(qualified)
         else:
             # Plugin classes derive from the variant's mi.BSDF / mi.Sampler /
-            # mi.SamplingIntegrator: define them again for the new variant.
+            # mi.SamplingIntegrator (or a base class that does): define them
+            # again for the new variant, base classes first.
             importlib.reload(module)
     _registered.add(variant)
 

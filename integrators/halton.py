@@ -1,13 +1,14 @@
-"""The ``halton`` sampler: randomized Halton sequences (state only; maths in :mod:`.qmc`)."""
+"""The ``halton`` sampler: randomized Halton sequences (state in
+:mod:`.sequence_sampler`, maths in :mod:`.qmc`)."""
 from __future__ import annotations
 
-import drjit as dr
 import mitsuba as mi
 
 from . import qmc
+from .sequence_sampler import SequenceSampler
 
 
-class HaltonSampler(mi.Sampler):
+class HaltonSampler(SequenceSampler):
     r"""
     .. _sampler-halton:
 
@@ -66,22 +67,16 @@ class HaltonSampler(mi.Sampler):
     and ``sample_offset`` are opaque, so reseeding does not recompile the
     render kernel.
 
-    Wavefront layout: in a JIT render the wavefront has ``width * height * k``
-    lanes, lane ``l`` being sample ``l % k`` of pixel ``l // k``, where ``k``
-    is the number of samples per pixel of one pass. A caller that renders in
-    passes declares ``k`` with ``set_samples_per_wavefront(k)`` before
-    ``seed()``; it applies to that seeding only (the next ``seed`` starts
-    over). Without it, ``seed(seed, wavefront_size)`` takes ``k =
-    sample_count`` (one pass, Mitsuba's ``mi.render``) when ``sample_count``
-    divides ``wavefront_size``, and one sample per lane otherwise.
-
-    Multi-pass renders: when an integrator has ``samples_per_pass`` (or a
-    single render exceeds 2^32 samples), Mitsuba's C++ render loop declares
-    ``k`` through a C++ call that a Python sampler never sees, and calls
-    ``advance()`` between the passes. The sampler cannot know ``k`` there, so
-    ``advance()`` after a seeding whose layout was not declared raises a
-    ``RuntimeError`` (the render stops before any pass is evaluated) instead
-    of continuing with wrong sample indices. Render in one pass per
+    Wavefront layout and multi-pass renders: as for every
+    :class:`~integrators.sequence_sampler.SequenceSampler`, lane ``l`` of a render is
+    sample ``l % k`` of pixel ``l // k``, ``k`` the samples per pixel of one pass: the
+    sample count when it divides the lanes (one pass, Mitsuba's ``mi.render``), unless a
+    caller that renders in passes declares ``k`` with ``set_samples_per_wavefront(k)``
+    before ``seed()`` (for that seeding only). Mitsuba's own multi-pass renders (an
+    integrator's ``samples_per_pass``, or more than 2^32 samples in one render) declare
+    it through a C++ call a Python sampler never sees, so ``advance()`` after an
+    undeclared seeding raises a ``RuntimeError`` (the render stops before any pass is
+    evaluated) instead of continuing with wrong sample indices. Render in one pass per
     ``mi.render`` call instead, and continue the sequence over calls with
     ``sample_offset`` (below).
 
@@ -121,124 +116,27 @@ class HaltonSampler(mi.Sampler):
             'randomization': 'owen'
     """
 
-    def __init__(self, props: mi.Properties):
-        sample_count = props.get("sample_count", 4)
-        self._check_sample_count(sample_count)
-        randomization = props.get("randomization", "owen")
-        if randomization not in qmc.RANDOMIZATIONS:
-            raise ValueError(f"halton: unknown randomization {randomization!r}; "
-                             f"valid choices are {', '.join(qmc.RANDOMIZATIONS)}")
-        seed = props.get("seed", 0)
-        if not isinstance(seed, int) or not 0 <= seed < 2**32:
-            raise ValueError(f"halton: 'seed' must be an integer in [0, 2^32), got {seed!r}")
-        offset = props.get("sample_offset", 0)
-        mi.Sampler.__init__(self, props)
-        self.randomization = randomization
-        self.base_seed = seed
-        #: Samples per pixel per pass declared for the next seed() (0: none).
-        self._declared_spw = 0
-        self.sample_offset = offset
-        self._reset_state(mi.UInt32(seed), 1, 1, declared=False)
+    PLUGIN = "halton"
+    PARAMETERS = ("randomization",)
+    STATE = SequenceSampler.STATE + ("_pixel_seed",)
 
-    # ------------------------------------------------------------ parameters
+    def __init__(self, props: mi.Properties):
+        self._check_sample_count(props.get("sample_count", 4))
+        randomization = self._read_choice(props, "randomization", qmc.RANDOMIZATIONS, "owen")
+        super().__init__(props, randomization=randomization)
 
     @staticmethod
     def _check_sample_count(spp) -> None:
         if not isinstance(spp, int) or isinstance(spp, bool) or spp <= 0:
             raise ValueError(f"halton: 'sample_count' must be an integer > 0, got {spp!r}")
 
-    @property
-    def sample_offset(self) -> int:
-        """Halton index of each pixel's first sample (see the class docs)."""
-        return int(dr.slice(self._sample_offset, 0))
-
-    @sample_offset.setter
-    def sample_offset(self, value) -> None:
-        value = int(value if not isinstance(value, dr.ArrayBase) else dr.slice(value, 0))
-        if not 0 <= value <= qmc.MAX_INDEX:
-            raise ValueError(f"halton: 'sample_offset' must lie in [0, 2^31), got {value}")
-        self._sample_offset = dr.opaque(mi.UInt32, value)
-
     def set_sample_count(self, spp: int) -> None:
         self._check_sample_count(spp)
         mi.Sampler.set_sample_count(self, spp)
 
-    def set_samples_per_wavefront(self, samples_per_wavefront: int) -> None:
-        if samples_per_wavefront <= 0:
-            raise ValueError(f"halton: samples per wavefront must be > 0, got "
-                             f"{samples_per_wavefront}")
-        mi.Sampler.set_samples_per_wavefront(self, samples_per_wavefront)
-        self._declared_spw = samples_per_wavefront       # for the next seed() only
-
-    def traverse(self, callback):
-        callback.put("sample_offset", self._sample_offset, mi.ParamFlags.NonDifferentiable)
-
-    def parameters_changed(self, keys=[]):
-        self.sample_offset = self._sample_offset
-
-    # ----------------------------------------------------------------- state
-
-    def _reset_state(self, seed, wavefront_size: int, samples_per_wavefront: int,
-                     declared: bool) -> None:
-        lanes = dr.arange(mi.UInt32, wavefront_size)
-        spw = dr.opaque(mi.UInt32, samples_per_wavefront)
-        pixel = lanes // spw
-        #: Sample of this lane within its pixel's samples of one pass.
-        self._lane_sample = lanes - pixel * spw
+    def _seed_lanes(self, seed, pixel, wavefront_size: int) -> None:
         #: Per-pixel scramble seed.
         self._pixel_seed = qmc.pixel_seed(seed, pixel)
-        #: Passes (``advance`` calls) since the last seed, times samples per wavefront.
-        self._pass_offset = dr.opaque(mi.UInt32, 0)
-        #: Next dimension to be drawn (one per lane).
-        self._dimension = dr.zeros(mi.UInt32, wavefront_size)
-        self._spw = samples_per_wavefront
-        #: Whether a caller declared the layout (set_samples_per_wavefront before seed).
-        self._declared = declared
-
-    def seed(self, seed, wavefront_size: int = 0xFFFFFFFF) -> None:
-        # Read before the base call: nanobind may dispatch it back into this
-        # override once (nested), which must see the same declaration.
-        declared_spw = self._declared_spw
-        mi.Sampler.seed(self, seed, wavefront_size)
-        if isinstance(seed, int):
-            seed = dr.opaque(mi.UInt32, (seed + self.base_seed) & 0xFFFFFFFF)
-        else:
-            seed = mi.UInt32(seed) + self.base_seed
-            dr.make_opaque(seed)
-        wavefront_size = self.wavefront_size()
-        spp = self.sample_count()
-        declared = declared_spw > 0
-        if declared:
-            spw = declared_spw
-        else:
-            # one JIT render pass (width * height * spp lanes), else a sequence per lane
-            spw = spp if wavefront_size % spp == 0 else 1
-        self._reset_state(seed, wavefront_size, spw, declared)
-        self._declared_spw = 0                   # the declaration is for this seeding only
-
-    def advance(self) -> None:
-        if not self._declared:
-            raise RuntimeError(
-                "halton: advance() after a seed() whose samples per pixel per pass were not "
-                "declared. Mitsuba calls it when it renders in several passes (an integrator "
-                "with 'samples_per_pass', or more than 2^32 samples in one render), and it does "
-                "not tell a Python sampler how many samples each pass takes, so the Halton "
-                "sample indices would be wrong. Render without 'samples_per_pass' (at most "
-                "2^32 samples per mi.render call) and, for more samples, render in passes of "
-                "your own: keep the seed and set the sampler's 'sample_offset' to the samples "
-                "already taken before each mi.render call. A caller that drives the sampler "
-                "itself calls set_samples_per_wavefront(k) before seed().")
-        self._pass_offset = self._pass_offset + self._spw
-        dr.make_opaque(self._pass_offset)
-        self._dimension = dr.zeros(mi.UInt32, dr.width(self._dimension))
-
-    def schedule_state(self) -> None:
-        dr.schedule(self._lane_sample, self._pixel_seed, self._pass_offset,
-                    self._dimension, self._sample_offset)
-
-    def current_sample_index(self) -> mi.UInt32:
-        """Halton index of every lane's current sample."""
-        return self._sample_offset + self._pass_offset + self._lane_sample
 
     # -------------------------------------------------------------- sampling
 
@@ -252,35 +150,6 @@ class HaltonSampler(mi.Sampler):
         x = self.next_1d(active)
         y = self.next_1d(active)
         return mi.Point2f(x, y)
-
-    # ------------------------------------------------------------ copy/fork
-
-    def _properties(self) -> mi.Properties:
-        props = mi.Properties("halton")
-        props["sample_count"] = self.sample_count()
-        props["seed"] = self.base_seed
-        props["randomization"] = self.randomization
-        props["sample_offset"] = self.sample_offset
-        return props
-
-    def fork(self) -> mi.Sampler:
-        return type(self)(self._properties())  # this variant's class
-
-    def clone(self) -> mi.Sampler:
-        sampler = self.fork()
-        if self.wavefront_size() > 1:
-            mi.Sampler.seed(sampler, 0, self.wavefront_size())
-        sampler._lane_sample = mi.UInt32(self._lane_sample)
-        sampler._pixel_seed = mi.UInt32(self._pixel_seed)
-        sampler._pass_offset = mi.UInt32(self._pass_offset)
-        sampler._dimension = mi.UInt32(self._dimension)
-        sampler._spw = self._spw
-        sampler._declared = self._declared
-        return sampler
-
-    def to_string(self):
-        return (f"HaltonSampler[sample_count={self.sample_count()}, seed={self.base_seed}, "
-                f"randomization={self.randomization}, sample_offset={self.sample_offset}]")
 
 
 mi.register_sampler("halton", HaltonSampler)  # the class of this variant, bound now

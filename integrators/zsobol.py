@@ -1,5 +1,5 @@
 """The ``zsobol`` sampler: Owen-scrambled Sobol' points in Morton order across
-pixels (state only; maths in :mod:`.qmc`)."""
+pixels (state in :mod:`.sequence_sampler`, maths in :mod:`.qmc`)."""
 from __future__ import annotations
 
 import warnings
@@ -8,13 +8,14 @@ import drjit as dr
 import mitsuba as mi
 
 from . import qmc
+from .sequence_sampler import SequenceSampler
 
 
 def _round_up_pow2(n: int) -> int:
     return 1 << max(0, (n - 1).bit_length())
 
 
-class ZSobolSampler(mi.Sampler):
+class ZSobolSampler(SequenceSampler):
     r"""
     .. _sampler-zsobol:
 
@@ -110,7 +111,8 @@ class ZSobolSampler(mi.Sampler):
     seed, ``sample_offset``, the film width and the sequence length are
     opaque: reseeding or a new count does not recompile the render kernel.
 
-    Wavefront layout and multi-pass renders: as in ``halton``, lane ``l`` of
+    Wavefront layout and multi-pass renders: as for every
+    :class:`~integrators.sequence_sampler.SequenceSampler`, lane ``l`` of
     a render is sample ``l % k`` of pixel ``l // k``, ``k`` the samples per
     pixel of one pass: the sample count, unless a caller that renders in
     passes declares ``k`` with ``set_samples_per_wavefront(k)`` before
@@ -151,33 +153,22 @@ class ZSobolSampler(mi.Sampler):
             'randomization': 'owen'
     """
 
+    PLUGIN = "zsobol"
+    PARAMETERS = ("randomization", "film_width", "sequence_length")
+    STATE = SequenceSampler.STATE + ("_pixel_base", "_x_mask", "_seed", "_error")
+    ADVANCE_HINT = ", set the sampler's 'sequence_length' to the total"
+    #: Why the current seeding cannot be drawn from (None: it can).
+    _error = "zsobol: seed() the sampler before drawing samples"
+
     def __init__(self, props: mi.Properties):
         sample_count = props.get("sample_count", 4)
         self._check_count("sample_count", sample_count)
-        randomization = props.get("randomization", "owen")
-        if randomization not in qmc.RANDOMIZATIONS:
-            raise ValueError(f"zsobol: unknown randomization {randomization!r}; "
-                             f"valid choices are {', '.join(qmc.RANDOMIZATIONS)}")
-        seed = props.get("seed", 0)
-        if not isinstance(seed, int) or not 0 <= seed < 2**32:
-            raise ValueError(f"zsobol: 'seed' must be an integer in [0, 2^32), got {seed!r}")
-        film_width = props.get("film_width", 0)
-        sequence_length = props.get("sequence_length", 0)
-        offset = props.get("sample_offset", 0)
-        mi.Sampler.__init__(self, props)
-        mi.Sampler.set_sample_count(self, self._rounded("sample_count", sample_count))
-        self.randomization = randomization
-        self.base_seed = seed
-        self.film_width = film_width
-        self.sequence_length = sequence_length
-        #: Samples per pixel per pass declared for the next seed() (0: none).
-        self._declared_spw = 0
-        self._pass_offset = 0
-        self._seeded = False
-        #: Why the current seeding cannot be drawn from (None: it can).
-        self._error = "zsobol: seed() the sampler before drawing samples"
-        self.sample_offset = offset
-        self._reset_state(mi.UInt32(seed), 1, 1, 1, 1, declared=False)
+        randomization = self._read_choice(props, "randomization", qmc.RANDOMIZATIONS, "owen")
+        sample_count = self._rounded("sample_count", sample_count)
+        super().__init__(props, randomization=randomization,
+                         film_width=props.get("film_width", 0),
+                         sequence_length=props.get("sequence_length", 0))
+        mi.Sampler.set_sample_count(self, sample_count)
 
     # ------------------------------------------------------------ parameters
 
@@ -219,38 +210,9 @@ class ZSobolSampler(mi.Sampler):
     def _length(self) -> int:
         return self._sequence_length or self.sample_count()
 
-    @property
-    def sample_offset(self) -> int:
-        """Index of each pixel's first sample within its sequence (see the class docs)."""
-        return self._offset
-
-    @sample_offset.setter
-    def sample_offset(self, value) -> None:
-        value = int(value if not isinstance(value, dr.ArrayBase) else dr.slice(value, 0))
-        if not 0 <= value < 2**31:
-            raise ValueError(f"zsobol: 'sample_offset' must lie in [0, 2^31), got {value}")
-        if self._seeded and value != self._offset:
-            # Applies at once to a seeded sampler (and to later seedings).
-            self._index = self._index + dr.opaque(mi.UInt32, (value - self._offset) % 2**32)
-        self._offset = value
-        self._sample_offset = dr.opaque(mi.UInt32, value)
-
     def set_sample_count(self, spp: int) -> None:
         self._check_count("sample_count", spp)
         mi.Sampler.set_sample_count(self, self._rounded("sample_count", spp))
-
-    def set_samples_per_wavefront(self, samples_per_wavefront: int) -> None:
-        if samples_per_wavefront <= 0:
-            raise ValueError(f"zsobol: samples per wavefront must be > 0, got "
-                             f"{samples_per_wavefront}")
-        mi.Sampler.set_samples_per_wavefront(self, samples_per_wavefront)
-        self._declared_spw = samples_per_wavefront       # for the next seed() only
-
-    def traverse(self, callback):
-        callback.put("sample_offset", self._sample_offset, mi.ParamFlags.NonDifferentiable)
-
-    def parameters_changed(self, keys=[]):
-        self.sample_offset = self._sample_offset
 
     # ----------------------------------------------------------------- state
 
@@ -264,32 +226,32 @@ class ZSobolSampler(mi.Sampler):
                     f"sequence take together")
         return None
 
-    def _reset_state(self, seed, wavefront_size: int, samples_per_wavefront: int,
-                     width: int, length: int, declared: bool) -> None:
-        lanes = dr.arange(mi.UInt32, wavefront_size)
+    def _samples_per_wavefront(self, wavefront_size: int, declared: int) -> int:
+        spw = declared or self.sample_count()
+        # A layout that does not fit is refused when the sampler is drawn from,
+        # not here: Mitsuba's render reseeds with seed(0, 1) after every render.
+        self._error = self._layout_error(wavefront_size, spw)
+        return spw if self._error is None else 1
+
+    def _pixels(self, lanes, samples_per_wavefront: int) -> mi.UInt32:
         # No vector integer division (x86 executes it lane by lane): a shift for
         # the samples per pixel (a power of two: they divide the sample count,
-        # Mitsuba checks it), a float64 reciprocal for the width (exact:
-        # (pixel + 1/2) / width lies at least 2^-17 from an integer, the
-        # product's error is below 2^-20).
-        spw = samples_per_wavefront
-        pixel = lanes >> dr.opaque(mi.UInt32, spw.bit_length() - 1)
+        # Mitsuba checks it).
+        return lanes >> dr.opaque(mi.UInt32, samples_per_wavefront.bit_length() - 1)
+
+    def _seed_lanes(self, seed, pixel, wavefront_size: int) -> None:
+        # The row by a float64 reciprocal of the width (exact: (pixel + 1/2) / width
+        # lies at least 2^-17 from an integer, the product's error is below 2^-20).
+        width = self._film_width if self._error is None else wavefront_size
         Float64 = dr.float64_array_t(mi.Float)
         row = mi.UInt32(dr.floor((Float64(pixel) + 0.5) * dr.opaque(Float64, 1.0 / width)))
-        log2_length = length.bit_length() - 1
+        log2_length = self._length().bit_length() - 1
         morton = qmc.morton_encode(pixel - row * dr.opaque(mi.UInt32, width), row)
-        #: Sequence index of every lane's current sample, before the permutation.
-        self._index = ((morton << dr.opaque(mi.UInt32, log2_length))
-                       + (lanes - pixel * dr.opaque(mi.UInt32, spw)) + self._sample_offset)
+        #: First sequence index of every lane's pixel (its Morton index times the length).
+        self._pixel_base = morton << dr.opaque(mi.UInt32, log2_length)
         #: The Morton digits' x bits of a reversed index (qmc.morton_x_mask).
         self._x_mask = dr.opaque(mi.UInt32, qmc.morton_x_mask(log2_length))
         self._seed = seed
-        #: Next dimension to be drawn (one per lane).
-        self._dimension = dr.zeros(mi.UInt32, wavefront_size)
-        self._spw = samples_per_wavefront
-        self._pass_offset = 0
-        #: Whether a caller declared the layout (set_samples_per_wavefront before seed).
-        self._declared = declared
 
     def _layout_error(self, wavefront_size: int, spw: int) -> str | None:
         """Why ``wavefront_size`` lanes of ``spw`` samples per pixel cannot be
@@ -319,52 +281,13 @@ class ZSobolSampler(mi.Sampler):
                     f"or samples per pixel")
         return self._fit_error(spw)
 
-    def seed(self, seed, wavefront_size: int = 0xFFFFFFFF) -> None:
-        # Read before the base call: nanobind may dispatch it back into this
-        # override once (nested), which must see the same declaration.
-        declared_spw = self._declared_spw
-        mi.Sampler.seed(self, seed, wavefront_size)
-        if isinstance(seed, int):
-            seed = dr.opaque(mi.UInt32, (seed + self.base_seed) & 0xFFFFFFFF)
-        else:
-            seed = mi.UInt32(seed) + self.base_seed
-            dr.make_opaque(seed)
-        wavefront_size = self.wavefront_size()
-        spw = declared_spw if declared_spw > 0 else self.sample_count()
-        # A layout that does not fit is refused when the sampler is drawn from,
-        # not here: Mitsuba's render reseeds with seed(0, 1) after every render.
-        self._error = self._layout_error(wavefront_size, spw)
-        width = self._film_width if self._error is None else wavefront_size
-        self._reset_state(seed, wavefront_size, spw if self._error is None else 1, width,
-                          self._length(), declared_spw > 0)
-        self._seeded = True
-        self._declared_spw = 0                   # the declaration is for this seeding only
-
-    def advance(self) -> None:
-        if not self._declared:
-            raise RuntimeError(
-                "zsobol: advance() after a seed() whose samples per pixel per pass were not "
-                "declared. Mitsuba calls it when it renders in several passes (an integrator "
-                "with 'samples_per_pass', or more than 2^32 samples in one render), and it does "
-                "not tell a Python sampler how many samples each pass takes, so the sample "
-                "indices would be wrong. Render without 'samples_per_pass' (at most 2^32 "
-                "samples per mi.render call) and, for more samples, render in passes of your "
-                "own: keep the seed, set the sampler's 'sequence_length' to the total and "
-                "'sample_offset' to the samples already taken before each mi.render call. A "
-                "caller that drives the sampler itself calls set_samples_per_wavefront(k) "
-                "before seed().")
-        self._error = self._error or self._fit_error(self._pass_offset + 2 * self._spw)
-        self._pass_offset += self._spw
-        self._index = self._index + dr.opaque(mi.UInt32, self._spw)
-        self._dimension = dr.zeros(mi.UInt32, dr.width(self._dimension))
-
-    def schedule_state(self) -> None:
-        dr.schedule(self._index, self._dimension, self._seed, self._x_mask)
+    def _advanced(self) -> None:
+        self._error = self._error or self._fit_error((self._passes + 1) * self._spw)
 
     def current_sample_index(self) -> mi.UInt32:
         """Sequence index of every lane's current sample, before the permutation
         (``morton(pixel) * sequence_length + sample``)."""
-        return mi.UInt32(self._index)
+        return self._pixel_base + super().current_sample_index()
 
     # -------------------------------------------------------------- sampling
 
@@ -374,52 +297,19 @@ class ZSobolSampler(mi.Sampler):
 
     def next_1d(self, active=True) -> mi.Float:
         self._check_layout()
-        (x,) = qmc.zsobol_sample(self._index, self._dimension, self._seed, self._x_mask,
+        index = self.current_sample_index()
+        (x,) = qmc.zsobol_sample(index, self._dimension, self._seed, self._x_mask,
                                  self.randomization, components=1)
         self._dimension += 1
         return x
 
     def next_2d(self, active=True) -> mi.Point2f:
         self._check_layout()
-        x, y = qmc.zsobol_sample(self._index, self._dimension, self._seed, self._x_mask,
+        index = self.current_sample_index()
+        x, y = qmc.zsobol_sample(index, self._dimension, self._seed, self._x_mask,
                                  self.randomization)
         self._dimension += 2
         return mi.Point2f(x, y)
-
-    # ------------------------------------------------------------ copy/fork
-
-    def _properties(self) -> mi.Properties:
-        props = mi.Properties("zsobol")
-        props["sample_count"] = self.sample_count()
-        props["seed"] = self.base_seed
-        props["randomization"] = self.randomization
-        props["film_width"] = self._film_width
-        props["sequence_length"] = self._sequence_length
-        props["sample_offset"] = self._offset
-        return props
-
-    def fork(self) -> mi.Sampler:
-        return type(self)(self._properties())  # this variant's class
-
-    def clone(self) -> mi.Sampler:
-        sampler = self.fork()
-        if self.wavefront_size() > 1:
-            mi.Sampler.seed(sampler, 0, self.wavefront_size())
-        sampler._index = mi.UInt32(self._index)
-        sampler._x_mask = mi.UInt32(self._x_mask)
-        sampler._seed = mi.UInt32(self._seed)
-        sampler._dimension = mi.UInt32(self._dimension)
-        sampler._spw = self._spw
-        sampler._pass_offset = self._pass_offset
-        sampler._declared = self._declared
-        sampler._seeded = self._seeded
-        sampler._error = self._error
-        return sampler
-
-    def to_string(self):
-        return (f"ZSobolSampler[sample_count={self.sample_count()}, seed={self.base_seed}, "
-                f"randomization={self.randomization}, film_width={self._film_width}, "
-                f"sequence_length={self._sequence_length}, sample_offset={self._offset}]")
 
 
 mi.register_sampler("zsobol", ZSobolSampler)  # the class of this variant, bound now

@@ -214,9 +214,10 @@ class OffByOne(ZSobolSampler):
     """next_2d takes y from the next dimension's pair (an off-by-one)."""
 
     def next_2d(self, active=True):
-        x = qmc.zsobol_sample(self._index, self._dimension, self._seed, self._x_mask,
+        index = self.current_sample_index()
+        x = qmc.zsobol_sample(index, self._dimension, self._seed, self._x_mask,
                               self.randomization, components=1)[0]
-        y = qmc.zsobol_sample(self._index, self._dimension + 1, self._seed, self._x_mask,
+        y = qmc.zsobol_sample(index, self._dimension + 1, self._seed, self._x_mask,
                               self.randomization)[1]
         self._dimension += 2
         return mi.Point2f(x, y)
@@ -363,8 +364,8 @@ class FrozenZSobol(ZSobolSampler):
         self._py_dimension = 0
 
     def _draw(self, components):
-        values = qmc.zsobol_sample(self._index, mi.UInt32(self._py_dimension), self._seed,
-                                   self._x_mask, self.randomization, components)
+        values = qmc.zsobol_sample(self.current_sample_index(), mi.UInt32(self._py_dimension),
+                                   self._seed, self._x_mask, self.randomization, components)
         self._py_dimension += components
         return values
 

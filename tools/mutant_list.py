@@ -67,12 +67,20 @@ MUTANTS = [
            "halton's dimension counter advanced twice per draw (every other prime base "
            "skipped: an off-by-one in the dimension bookkeeping)",
            ("tests/test_halton.py",)),
-    Mutant("halton-offset", "integrators/halton.py",
+    Mutant("halton-offset", "integrators/sequence_sampler.py",
            "return self._sample_offset + self._pass_offset + self._lane_sample",
            "return self._pass_offset + self._lane_sample",
-           "halton ignores sample_offset: a continued sequence starts over at every job",
+           "the sequence samplers' base (halton's state) ignores sample_offset: a continued "
+           "sequence starts over at every job",
            ("tests/test_experiments.py::test_passes_of_a_continuing_sampler_continue_one_sequence",
             "tests/test_halton.py")),
+    Mutant("pass-dimension", "integrators/sequence_sampler.py",
+           "        self._dimension = dr.zeros(mi.UInt32, dr.width(self._dimension))\n"
+           "        self._advanced()",
+           "        self._advanced()",
+           "the sequence samplers' advance() keeps the dimension counter: a declared pass "
+           "draws its camera sample from the dimensions where the previous pass stopped",
+           ("tests/test_sequence_sampler.py", "tests/test_halton.py")),
     Mutant("zsobol-matrix", "integrators/qmc.py",
            "v = v ^ ((v >> 4) & 0x0F0F0F0F)",
            "v = v ^ ((v >> 4) & 0x0F0F0F0E)",
