@@ -1,0 +1,141 @@
+"""The experiment engine (experiments/lib/engine.py): a study declared here, run end to end.
+
+* Two methods on two bundled scenes at both budgets (equal spp, then equal time at the
+  cost per sample the equal-spp renders measured), two repeats: every cell measured, the
+  equal-time count the rule's, a rerun renders nothing, and on two Dask workers the same
+  jobs give the same images (negative control: another seed does not).
+* A deterministic sampler renders once for every repeat (negative control: its randomized
+  twin renders each repeat).
+* Bad declarations are refused naming the bad value.
+(That every job starts with an untrained integrator, and that the clock counts every pass
+of a method and its host work, is tests/test_clock.py's: the engine renders through the
+same executor.)
+"""
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import pytest
+
+from _paths import scene_path
+from experiments.lib import clock
+from experiments.lib.engine import Budget, Cell, Declaration, Engine, SceneSetup
+from experiments.lib.methods import Depth, parse_method
+from experiments.lib.scenes import read_scene
+from experiments.lib.studies.settings import StudySettings
+from experiments.lib.study import Study
+
+VARIANT = "llvm_ad_rgb"
+METHODS = (parse_method("bsdf+nee"), parse_method("path"))
+SCENES = tuple(SceneSetup(name, read_scene(scene_path(f"{name}.xml")), (16, 8), Depth(3))
+               for name in ("cbox", "furnace"))
+BUDGETS = (Budget.equal_spp(4), Budget.equal_time(2e-3))
+DECLARED = Declaration("engine-test", METHODS, SCENES, BUDGETS, repeats=2)
+
+
+def make_study(out, seed: int = 0, executor=None, repeats: int = 2) -> Study:
+    settings = StudySettings(
+        out=str(out), scene=SCENES[0].info.path, info=SCENES[0].info, resolution=(16, 8),
+        depth=Depth(3), methods=METHODS, repeats=repeats, variant=VARIANT, seed=seed,
+        reference_spp=64, reference_method=parse_method("path"), executor=executor)
+    return Study(settings, executor)
+
+
+@pytest.fixture(scope="module")
+def local(tmp_path_factory):
+    out = tmp_path_factory.mktemp("engine-local")
+    engine = Engine(make_study(out))
+    return out, engine, engine.run(DECLARED)
+
+
+def test_every_cell_of_the_declaration_is_measured(local):
+    _, engine, measured = local
+    cells = {Cell(s.name, m.name, b.name) for s in SCENES for m in METHODS for b in BUDGETS}
+    assert set(measured.runs) == cells
+    for cell, runs in measured.runs.items():
+        assert len(runs) == 2 and all(len(rungs) == 1 for rungs in runs)
+        for run in (rungs[-1] for rungs in runs):
+            assert run.cost > 0 and np.isfinite(run.relmse) and run.image.shape == (8, 16, 3)
+            if cell.budget == "equal-spp":
+                assert run.spp == 4
+    # the two repeats are independent renders
+    first = measured.runs[Cell("cbox", "path", "equal-spp")]
+    assert not np.array_equal(first[0][0].image, first[1][0].image)
+    # the furnace's reference is exact up to its floor: its errors are small
+    assert measured.error(Cell("furnace", "path", "equal-spp")).hi < 1e-2
+    ratio = measured.efficiency(Cell("cbox", "bsdf+nee", "equal-spp"),
+                                Cell("cbox", "path", "equal-spp"))
+    assert 0 < ratio.lo <= ratio.value <= ratio.hi < np.inf
+
+
+def test_equal_time_count_is_the_budget_at_the_measured_cost_per_sample(local):
+    out, engine, measured = local
+    for s in SCENES:
+        for m in METHODS:
+            spp_runs = [rungs[0] for rungs in measured.runs[Cell(s.name, m.name, "equal-spp")]]
+            per_sample = np.mean([r.cost / r.spp for r in spp_runs])
+            expected = max(1, int(BUDGETS[1].seconds / per_sample))
+            got = {rungs[0].spp for rungs in measured.runs[Cell(s.name, m.name, "equal-time")]}
+            assert got == {expected}, (s.name, m.name, got, expected)
+
+
+def test_a_rerun_renders_nothing(local, count_jobs):
+    out, _, measured = local
+    again = Engine(make_study(out)).run(DECLARED)
+    assert count_jobs == []
+    cell = Cell("cbox", "bsdf+nee", "equal-spp")
+    np.testing.assert_array_equal(again.runs[cell][1][0].image, measured.runs[cell][1][0].image)
+
+
+def _equal_spp_images(measured) -> dict:
+    return {(cell, r): rungs[0].image for cell, runs in measured.runs.items()
+            if cell.budget == "equal-spp" for r, rungs in enumerate(runs)}
+
+
+def test_on_two_dask_workers_the_same_jobs_give_the_same_images(local, tmp_path):
+    from dask.distributed import Client
+    from experiments.lib import cluster
+    _, _, measured = local
+    with cluster.local_cluster(2, silence_logs=logging.CRITICAL) as dask_cluster:
+        with cluster.DaskExecutor(Client(dask_cluster, set_as_default=False),
+                                  VARIANT) as executor:
+            remote = Engine(make_study(tmp_path / "dask", executor=executor)).run(DECLARED)
+            other = Engine(make_study(tmp_path / "seed1", seed=1,
+                                      executor=executor)).run(DECLARED)
+    ours, theirs = _equal_spp_images(measured), _equal_spp_images(remote)
+    assert sorted(map(str, ours)) == sorted(map(str, theirs))
+    for key, image in ours.items():
+        np.testing.assert_allclose(theirs[key], image, rtol=1e-5, atol=1e-6, err_msg=str(key))
+    assert all(r[0].cost > 0 for runs in remote.runs.values() for r in runs)
+    # negative control: another seed gives other images, and the comparison says so
+    seed1 = _equal_spp_images(other)
+    key = (Cell("cbox", "path", "equal-spp"), 0)
+    assert not np.allclose(seed1[key], ours[key], rtol=1e-5, atol=1e-6)
+
+
+def test_a_deterministic_sampler_renders_once_for_every_repeat(tmp_path, count_jobs):
+    fixed, randomized = parse_method("bsdf+halton:none"), parse_method("bsdf+halton:owen")
+    declared = Declaration("engine-det", (fixed, randomized), SCENES[:1],
+                           (Budget.equal_spp(4),), repeats=3)
+    measured = Engine(make_study(tmp_path, repeats=3)).run(declared)
+    rendered = [key for key in count_jobs if key.startswith("engine-det")]
+    assert sum("halton-none" in k for k in rendered) == 1
+    assert sum("halton-owen" in k for k in rendered) == 3          # the negative control
+    runs = {m.name: measured.runs[Cell("cbox", m.name, "equal-spp")] for m in (fixed, randomized)}
+    assert all(len(r) == 3 for r in runs.values())
+    images = [r[0].image for r in runs[fixed.name]]
+    assert all(np.array_equal(images[0], im) for im in images)
+    assert not np.array_equal(runs[randomized.name][0][0].image, runs[randomized.name][1][0].image)
+    # one run standing for three has no spread: its error's interval is a point
+    error = measured.error(Cell("cbox", fixed.name, "equal-spp"))
+    assert error.lo == pytest.approx(error.hi)
+
+
+def test_bad_declarations_are_refused():
+    with pytest.raises(ValueError, match="'equal-time' measures its cost per sample on budget "
+                                         "'ladder'"):
+        Declaration("x", METHODS, SCENES, (Budget.equal_spp(4), Budget.equal_time(1.0, "ladder")))
+    with pytest.raises(ValueError, match=r"repeats >= 1 \(got 0\)"):
+        Declaration("x", METHODS, SCENES, BUDGETS, repeats=0)
+    assert clock.NAME == "kernel time"
