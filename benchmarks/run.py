@@ -305,8 +305,9 @@ def markdown(rows: list[list[str]], res: dict) -> str:
     h = res.get("halton")
     if h:
         rc = h["recompiles_per_2_passes"]
-        notes.append("Kernels recompiled over two further passes (new seed, new sample offset): "
-                     + ", ".join(f"{n} {v}" for n, v in rc.items()) + ".")
+        # a paragraph of its own: right below the sampler table, a line is a table row
+        notes += ["", "Kernels recompiled over two further passes (new seed, new sample offset): "
+                  + ", ".join(f"{n} {v}" for n, v in rc.items()) + "."]
     return "\n".join(lines + notes) + "\n"
 
 
