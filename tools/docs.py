@@ -39,9 +39,9 @@ import sys
 import textwrap
 
 if __package__:
-    from . import markdown as MD
+    from . import markdown
 else:                                            # python tools/docs.py
-    import markdown as MD                        # type: ignore
+    import markdown                              # type: ignore
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 #: A generated block: ``<!-- generated: KEY -->`` ... ``<!-- /generated -->``.
@@ -235,7 +235,7 @@ def plugins_page(root: str = ROOT) -> str:
            "way). Each plugin registers for every JIT variant once `integrators` is "
            "imported (see the [README](../README.md#use-the-plugins)).", ""]
     heading = {p["name"]: f"{p['name']} ({p['kind']})" for p in found}
-    out += [f"- [`{p['name']}`](#{MD.anchors('# ' + heading[p['name']]).pop()}): "
+    out += [f"- [`{p['name']}`](#{markdown.anchors('# ' + heading[p['name']]).pop()}): "
             f"{_title(p['doc'])}" for p in found]
     for p in found:
         out += ["", f"## {heading[p['name']]}", "",
@@ -334,13 +334,14 @@ def forwarded_table() -> str:
 
 
 def grammar_table() -> str:
-    from experiments.lib import methods as M, samplers as S
-    rand = "; ".join(f"`{n}`: " + ", ".join(f"`{r}`" for r in S.get(n).randomizations)
-                     for n in S.names() if S.get(n).randomizations)
+    from experiments.lib import methods, samplers
+    rand = "; ".join(f"`{n}`: " + ", ".join(f"`{r}`" for r in samplers.get(n).randomizations)
+                     for n in samplers.names() if samplers.get(n).randomizations)
     return "\n".join([
         "| part | registered now |", "|---|---|",
-        "| STRATEGY | " + ", ".join(f"`{s}`" for s in M.strategies()) + " |",
-        "| SAMPLER | " + ", ".join(f"`{s}`" for s in S.names()) + f" (default `{S.DEFAULT}`) |",
+        "| STRATEGY | " + ", ".join(f"`{s}`" for s in methods.strategies()) + " |",
+        "| SAMPLER | " + ", ".join(f"`{s}`" for s in samplers.names())
+        + f" (default `{samplers.DEFAULT}`) |",
         f"| RANDOMIZATION | {rand} |"]) + "\n"
 
 

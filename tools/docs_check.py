@@ -36,12 +36,12 @@ from contextlib import redirect_stderr, redirect_stdout
 from urllib.parse import unquote
 
 if __package__:
-    from . import docs as D, markdown as MD
+    from . import docs, markdown
 else:                                            # python tools/docs_check.py
-    import docs as D                             # type: ignore
-    import markdown as MD                        # type: ignore
+    import docs                                  # type: ignore
+    import markdown                              # type: ignore
 
-ROOT = D.ROOT
+ROOT = docs.ROOT
 #: A measured ratio in prose: a decimal number followed by x ("1.04x", "0.54-1.06x").
 MEASURED = re.compile(r"(?<![\w.])\d+\.\d+(?:-\d+(?:\.\d+)?)?x\b")
 #: A section whose example file does not exist yet: ``<!-- pending: PATH -->``.
@@ -62,7 +62,7 @@ def links(pages: dict, root: str = ROOT) -> list[str]:
     ``pages`` first, then from disk."""
     out = []
     for path, text in pages.items():
-        for line, token in MD.tokens(text):
+        for line, token in markdown.tokens(text):
             if token.type not in ("link_open", "image"):
                 continue
             target = unquote(token.attrGet("href") or token.attrGet("src") or "")
@@ -81,7 +81,7 @@ def links(pages: dict, root: str = ROOT) -> list[str]:
                 other = pages.get(dest)
                 if other is None:
                     other = open(full, encoding="utf-8").read()
-                if anchor not in MD.anchors(other):
+                if anchor not in markdown.anchors(other):
                     out.append(f"{path}:{line}: link to {target}: {dest} has no heading "
                                f"with anchor #{anchor}")
     return out
@@ -92,10 +92,10 @@ def links(pages: dict, root: str = ROOT) -> list[str]:
 def pending_sections(text: str) -> list[tuple[str, int, int]]:
     """(path, first line, last line) of each section marked pending: from the marker to
     the next heading of the same or a higher level than the one above the marker."""
-    heads = MD.headings(text)
+    heads = markdown.headings(text)
     lines = text.count("\n") + 1
     out = []
-    for n, line in MD.prose_lines(text):
+    for n, line in markdown.prose_lines(text):
         m = PENDING.search(line)
         if not m:
             continue
@@ -161,7 +161,7 @@ def shown_commands(text: str) -> list[Command]:
     """Every project command a page shows: in shell code blocks (``\\`` continuations
     joined, ``$`` prompts and comments dropped) and in inline code spans."""
     out = []
-    for block in MD.blocks(text):
+    for block in markdown.blocks(text):
         if block.lang not in SHELL:
             continue
         joined, start = "", None
@@ -173,7 +173,7 @@ def shown_commands(text: str) -> list[Command]:
                 continue
             out += _commands_in(joined + line, start)
             joined, start = "", None
-    for n, token in MD.tokens(text):
+    for n, token in markdown.tokens(text):
         if token.type == "code_inline":
             out += _commands_in(token.content.strip(), n)
     return out
@@ -283,16 +283,16 @@ def commands(pages: dict, root: str = ROOT) -> list[str]:
 
 # ------------------------------------------------------------------ option tables
 
-def option_tables(pages: dict) -> list[tuple[str, MD.Table, str]]:
+def option_tables(pages: dict) -> list[tuple[str, markdown.Table, str]]:
     """(path, table, command) of every options table: the command of the nearest
     ``<!-- options COMMAND -->`` marker above it in its section (none past a heading),
     or ""."""
     out = []
     for path, text in pages.items():
-        marks = [(n, m.group("command")) for n, line in MD.prose_lines(text)
+        marks = [(n, m.group("command")) for n, line in markdown.prose_lines(text)
                  for m in OPTIONS_MARK.finditer(line)]
-        heads = [n for n, _, _ in MD.headings(text)]
-        for t in MD.tables(text):
+        heads = [n for n, _, _ in markdown.headings(text)]
+        for t in markdown.tables(text):
             if [h.lower() for h in t.header[:2]] == ["option", "default"]:
                 n, command = max(((n, c) for n, c in marks if n < t.line), default=(0, ""))
                 out.append((path, t, "" if any(n < h < t.line for h in heads) else command))
@@ -300,7 +300,7 @@ def option_tables(pages: dict) -> list[tuple[str, MD.Table, str]]:
 
 
 def _option_name(cell: str) -> str:
-    spans = MD.code_spans(cell)
+    spans = markdown.code_spans(cell)
     return (spans[0] if spans else cell).split()[0] if (spans or cell) else ""
 
 
@@ -313,7 +313,7 @@ def defaults(pages: dict) -> list[str]:
                        f"'<!-- options COMMAND -->' marker above it in its section")
             continue
         if context not in parsers:
-            parsers[context] = D.options(D.parser_for(context))
+            parsers[context] = docs.options(docs.parser_for(context))
         known = parsers[context]
         for k, row in enumerate(table.rows):
             name = _option_name(row[0])
@@ -321,10 +321,10 @@ def defaults(pages: dict) -> list[str]:
             where = f"{path}:{table.line + 2 + k}"
             if action is None:
                 out.append(f"{where}: {context} has no option {name}")
-            elif len(row) < 2 or row[1] != D.default_cell(action):
+            elif len(row) < 2 or row[1] != docs.default_cell(action):
                 out.append(f"{where}: {context} {name}: the page says "
                            f"{row[1] if len(row) > 1 else '(nothing)'}, the parser's default "
-                           f"is {D.default_cell(action)}")
+                           f"is {docs.default_cell(action)}")
     return out
 
 
@@ -339,8 +339,8 @@ def complete(pages: dict, page: str = "docs/experiments.md") -> list[str]:
     out = []
     for name in study_commands():
         mine = tables.get(name, {})
-        for option, action in D.options(D.parser_for(name)).items():
-            cell = D.default_cell(action)
+        for option, action in docs.options(docs.parser_for(name)).items():
+            cell = docs.default_cell(action)
             if option not in mine and common.get(option) != cell:
                 out.append(f"{page}: python -m {name} {option} (default {cell}) is in no "
                            f"options table (make docs writes them)")
@@ -367,11 +367,11 @@ def prose_defaults(pages: dict) -> list[str]:
     option (else it is ambiguous: state it in the study's options table)."""
     cells: dict[str, set] = {}
     for name in study_commands():
-        for option, action in D.options(D.parser_for(name)).items():
-            cells.setdefault(option, set()).add(D.default_cell(action))
+        for option, action in docs.options(docs.parser_for(name)).items():
+            cells.setdefault(option, set()).add(docs.default_cell(action))
     out = []
     for path, text in pages.items():
-        for n, line in MD.prose_lines(D.outside_generated(text)):
+        for n, line in markdown.prose_lines(docs.outside_generated(text)):
             if line.lstrip().startswith("|"):
                 continue
             found = {m.start(): m for m in _PROSE_DEFAULT.finditer(line)}
@@ -440,7 +440,7 @@ def _same(stated: str, value) -> bool:
 def constants(pages: dict, root: str = ROOT) -> list[str]:
     out = []
     for path, text in pages.items():
-        lines = dict(MD.prose_lines(D.outside_generated(text)))
+        lines = dict(markdown.prose_lines(docs.outside_generated(text)))
         prose = "\n".join(lines.get(n, "") for n in range(1, text.count("\n") + 2))
         for m in _CONSTANT.finditer(prose):
             n = prose.count("\n", 0, m.start()) + 1
@@ -464,9 +464,9 @@ def measured_prose(pages: dict) -> list[str]:
     """A measured ratio written by hand: figures belong in generated blocks or the report."""
     out = []
     for path, text in pages.items():
-        if os.path.normpath(path) == D.PLUGINS_PAGE:      # generated whole
+        if os.path.normpath(path) == docs.PLUGINS_PAGE:      # generated whole
             continue
-        for n, token in MD.tokens(D.outside_generated(text)):
+        for n, token in markdown.tokens(docs.outside_generated(text)):
             for m in MEASURED.finditer(token.content if token.type == "text" else ""):
                 out.append(f"{path}:{n}: '{m.group(0)}' looks like a measured ratio in "
                            f"hand-written prose: generate it or point to the report")
@@ -480,11 +480,11 @@ def output_files(pages: dict, root: str = ROOT) -> list[str]:
                        glob.glob(os.path.join(root, "experiments", "**", "*.py"), recursive=True))
     out = []
     for path, text in pages.items():
-        for table in MD.tables(text):
+        for table in markdown.tables(text):
             if not table.header or not table.header[0].lower().startswith("file"):
                 continue
             for row in table.rows:
-                for name in MD.code_spans(row[0]):
+                for name in markdown.code_spans(row[0]):
                     stem = os.path.basename(name.rstrip("/"))
                     parts = [p for p in re.split(r"<[^>]*>|\*", os.path.splitext(stem)[0]) if p]
                     longest = max(parts, key=len, default="")
@@ -500,14 +500,14 @@ def plugin_tables(text: str, root: str = ROOT) -> list[str]:
     pages = {}
     for section in sections:
         name = section.split()[0]
-        for table in MD.tables("## " + section):
+        for table in markdown.tables("## " + section):
             if table.header[:3] == ["parameter", "type", "default"]:
-                pages[name] = [(MD.code_spans(r[0])[0] if MD.code_spans(r[0]) else r[0],
+                pages[name] = [(markdown.code_spans(r[0])[0] if markdown.code_spans(r[0]) else r[0],
                                 r[1], r[2]) for r in table.rows]
     out = []
-    for p in D.plugin_classes(root):
-        want = [(e["name"], D.inline(e["type"]).strip(), D.inline(e["default"]).strip())
-                for e in D.parameters(p["doc"])]
+    for p in docs.plugin_classes(root):
+        want = [(e["name"], docs.inline(e["type"]).strip(), docs.inline(e["default"]).strip())
+                for e in docs.parameters(p["doc"])]
         have = pages.get(p["name"])
         if have is None:
             out.append(f"plugins.md: no parameter table for {p['name']} ({p['file']})")
