@@ -29,10 +29,10 @@ import integrators  # noqa: F401  (chooses libLLVM; must come before mitsuba/drj
 import mitsuba as mi  # noqa: E402
 
 from experiments.lib import cluster, execute  # noqa: E402
-from experiments.lib import scenes as SC  # noqa: E402
+from experiments.lib import scenes  # noqa: E402
 from experiments.lib.methods import parse_method  # noqa: E402
 from experiments.lib.references import RefSpec, ReferenceStore  # noqa: E402
-from experiments.lib import plan as P  # noqa: E402
+from experiments.lib import plan  # noqa: E402
 from experiments.lib.jobs import cpu_model  # noqa: E402
 
 from .common import ROOT, SCENE  # noqa: E402
@@ -66,12 +66,12 @@ def overhead(repeats: int, argv: list[str]) -> dict:
 
 def _reference_jobs(spp: int, width: int, height: int) -> tuple[list, list]:
     """The reference jobs, and 1-spp warm-up jobs of the same scene (one per worker)."""
-    info = SC.read_scene(SCENE)
-    depth = SC.effective_depth(info)
+    info = scenes.read_scene(SCENE)
+    depth = scenes.effective_depth(info)
     jobs = ReferenceStore("").plan(RefSpec(info, width, height, depth, parse_method("path"),
                                            VARIANT), spp)
-    warm = [P.make_job(f"warm-up/{i}", info, parse_method("path"), width, height, 1, 7 + i, depth, VARIANT,
-                       timing_group=f"warm-up/{i}") for i in range(2)]
+    warm = [plan.make_job(f"warm-up/{i}", info, parse_method("path"), width, height, 1, 7 + i,
+                          depth, VARIANT, timing_group=f"warm-up/{i}") for i in range(2)]
     return jobs, warm
 
 

@@ -12,9 +12,9 @@ import drjit as dr  # noqa: E402
 import mitsuba as mi  # noqa: E402
 
 import scenes  # noqa: E402
-from experiments.lib import methods as M  # noqa: E402  (strategies, the method grammar)
-from experiments.lib import samplers as S  # noqa: E402  (the sampler table)
-from experiments.lib import scenes as SC  # noqa: E402  (scene loading)
+from experiments.lib import methods  # noqa: E402  (strategies, the method grammar)
+from experiments.lib import samplers  # noqa: E402  (the sampler table)
+from experiments.lib import scenes as scene_loading  # noqa: E402  (`scenes`: the bundled ones)
 from experiments.lib.jobs import cpu_model  # noqa: E402  (one definition, shared)
 
 #: The checkout (the benchmarks run from it: docs/benchmarks.md, results/); the one definition for
@@ -23,8 +23,8 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 #: The bundled default scene (package data of :mod:`scenes`).
 SCENE = scenes.path("cbox.xml")
 VARIANT = "llvm_ad_rgb"
-RANDOMIZATIONS = S.get("halton").randomizations
-STRATEGIES = M.strategies()
+RANDOMIZATIONS = samplers.get("halton").randomizations
+STRATEGIES = methods.strategies()
 
 
 def set_variant(variant: str = VARIANT) -> None:
@@ -40,7 +40,8 @@ def load_scene(width: int, height: int, spp: int, sampler: str = "independent",
     (:func:`experiments.lib.scenes.load_scene`)."""
     name = "bsdf+nee" + ("" if sampler == "independent" else f"+{sampler}") \
         + (f":{randomization}" if randomization is not None else "")
-    return SC.load_scene(SCENE, width, height, M.parse_method(name), M.Depth(max_depth), spp)
+    return scene_loading.load_scene(SCENE, width, height, methods.parse_method(name),
+                                    methods.Depth(max_depth), spp)
 
 
 def plugin_available(plugin: str) -> bool:
@@ -65,7 +66,7 @@ def path_integrator(max_depth: int):
 def vr_path_integrator(strategy: str, max_depth: int, count_segments: bool = False,
                        emitter_sampling: bool = True):
     """``vr_path``, by default with emitter sampling (NEE + MIS), comparable with ``path``."""
-    integrator = mi.load_dict(M.vr_path_dict(strategy, emitter_sampling, max_depth))
+    integrator = mi.load_dict(methods.vr_path_dict(strategy, emitter_sampling, max_depth))
     integrator.count_segments = count_segments
     return integrator
 

@@ -43,7 +43,7 @@ import time
 
 import numpy as np
 
-from . import common as C
+from . import common
 from .common import mi
 from experiments.lib.samplers import native as _native
 
@@ -72,7 +72,7 @@ def scene_for(name: str, width: int, height: int, spp: int, sampler: str, max_de
               randomization: str | None = None):
     if name == "cornell_box":
         return cornell_box(width, height, spp, sampler, max_depth, randomization)
-    return C.load_scene(width, height, spp, sampler, randomization, max_depth)
+    return common.load_scene(width, height, spp, sampler, randomization, max_depth)
 
 
 def sampler_label(sampler: str, randomization: str | None, spp: int | None = None) -> str:
@@ -85,13 +85,14 @@ def sampler_label(sampler: str, randomization: str | None, spp: int | None = Non
 def measure_cost(reps: int, width: int = 256, spp: int = 32) -> dict:
     """{integrator: {halton:<r>: {cpu, wall}}}: time per sample over independent."""
     out = {}
-    configs = [("independent", None)] + [("halton", r) for r in C.halton_randomizations()]
+    configs = [("independent", None)] + [("halton", r) for r in common.halton_randomizations()]
     scenes = {sampler_label(s, r): cornell_box(width, width, spp, s, 8, r) for s, r in configs}
-    integrators = {"path": C.path_integrator(8), "vr_path": C.vr_path_integrator("bsdf", 8)}
+    integrators = {"path": common.path_integrator(8),
+                   "vr_path": common.vr_path_integrator("bsdf", 8)}
     for name, integrator in integrators.items():
-        runs = {n: (lambda rep, s=s: C.render(s, integrator, seed=rep + 1))
+        runs = {n: (lambda rep, s=s: common.render(s, integrator, seed=rep + 1))
                 for n, s in scenes.items()}
-        out[name] = C.interleaved(runs, "independent", reps)
+        out[name] = common.interleaved(runs, "independent", reps)
     return out
 
 
@@ -114,8 +115,9 @@ def measure_cost_floor(reps: int, width: int = 256, spp: int = 32) -> dict:
     """{integrator: {probe: {cpu, wall}}}: the cost probes over independent."""
     from integrators import qmc
     original = qmc._radical_inverse_odd
-    probes = ["hash", "none"] + [r for r in C.halton_randomizations() if r != "none"]
-    configs = {"independent": None} | {f"halton:{r}": None for r in C.halton_randomizations()} \
+    probes = ["hash", "none"] + [r for r in common.halton_randomizations() if r != "none"]
+    configs = {"independent": None} \
+        | {f"halton:{r}": None for r in common.halton_randomizations()} \
         | {"probe:hash" if p == "hash" else f"probe:hash+{p}": p for p in probes}
     scenes = {n: cornell_box(width, width, spp, "independent" if n == "independent" else "halton",
                              8, None if n == "independent" else
@@ -123,16 +125,17 @@ def measure_cost_floor(reps: int, width: int = 256, spp: int = 32) -> dict:
               for n, p in configs.items()}
     probe_fns = {p: _probe(p) for p in probes}
     out = {}
-    integrators = {"path": C.path_integrator(8), "vr_path": C.vr_path_integrator("bsdf", 8)}
+    integrators = {"path": common.path_integrator(8),
+                   "vr_path": common.vr_path_integrator("bsdf", 8)}
     try:
         for name, integrator in integrators.items():
             def run(n, integrator=integrator):
                 def fn(rep):
                     p = configs[n]
                     qmc._radical_inverse_odd = original if p is None else probe_fns[p]
-                    C.render(scenes[n], integrator, seed=rep + 1)
+                    common.render(scenes[n], integrator, seed=rep + 1)
                 return fn
-            out[name] = C.interleaved({n: run(n) for n in configs}, "independent", reps)
+            out[name] = common.interleaved({n: run(n) for n in configs}, "independent", reps)
     finally:
         qmc._radical_inverse_odd = original
     return out
@@ -150,20 +153,20 @@ def measure_efficiency(scene: str, max_depth: int, seeds: int, width: int, heigh
     different sample counts.
     """
     configs = [(s, None, None) for s in NATIVE]
-    configs += [("halton", r, None) for r in C.halton_randomizations() if r != "none"]
+    configs += [("halton", r, None) for r in common.halton_randomizations() if r != "none"]
     configs += [("halton", "owen", n) for n in EXTRA_HALTON_SPP]
-    integrator = C.vr_path_integrator("bsdf", max_depth)
+    integrator = common.vr_path_integrator("bsdf", max_depth)
     scenes = {sampler_label(s, r, n): scene_for(scene, width, height, n or spp, s, max_depth, r)
               for s, r, n in configs}
     images: dict[str, list[np.ndarray]] = {n: [] for n in scenes}
 
     def run(name):
         def fn(rep):
-            img = C.render(scenes[name], integrator, seed=rep + 1 if rep >= 0 else 999)
+            img = common.render(scenes[name], integrator, seed=rep + 1 if rep >= 0 else 999)
             if rep >= 0:
                 images[name].append(np.array(img, dtype=np.float64)[..., :3])
         return fn
-    times = C.interleaved({n: run(n) for n in scenes}, "independent", seeds)
+    times = common.interleaved({n: run(n) for n in scenes}, "independent", seeds)
     out = {}
     for n, s in scenes.items():
         stack = np.stack(images[n])
@@ -178,8 +181,8 @@ def measure_efficiency(scene: str, max_depth: int, seeds: int, width: int, heigh
 
 
 def measure(quick: bool = False) -> dict:
-    C.set_variant()
-    res = {"machine": C.machine_info(), "quick": quick}
+    common.set_variant()
+    res = {"machine": common.machine_info(), "quick": quick}
     t0 = time.perf_counter()
     res["cost"] = measure_cost(reps=3 if quick else 7, width=128 if quick else 256)
     seeds = 3 if quick else 5
@@ -258,7 +261,7 @@ def main(argv=None) -> None:
                    help="only the cost probes (why the randomized variants cost more)")
     args = p.parse_args(argv)
     if args.floor:
-        C.set_variant()
+        common.set_variant()
         t0 = time.perf_counter()
         floor = measure_cost_floor(reps=3 if args.quick else 7, width=128 if args.quick else 256)
         table = [["sampler / probe", "path", "vr_path bsdf NEE"]]

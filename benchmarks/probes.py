@@ -22,7 +22,7 @@ import resource
 import sys
 import time
 
-from . import common as C
+from . import common
 from .common import mi
 
 
@@ -31,14 +31,15 @@ from .common import mi
 def config_scene_and_integrator(name: str, width: int, height: int, spp: int, max_depth: int):
     """``path``, ``vr:<strategy>`` or ``halton:<randomization>`` (vr_path bsdf + halton)."""
     if name == "path":
-        return C.load_scene(width, height, spp, max_depth=max_depth), C.path_integrator(max_depth)
+        return (common.load_scene(width, height, spp, max_depth=max_depth),
+                common.path_integrator(max_depth))
     kind, _, arg = name.partition(":")
     if kind == "vr":
-        return (C.load_scene(width, height, spp, max_depth=max_depth),
-                C.vr_path_integrator(arg, max_depth))
+        return (common.load_scene(width, height, spp, max_depth=max_depth),
+                common.vr_path_integrator(arg, max_depth))
     if kind == "halton":
-        return (C.load_scene(width, height, spp, "halton", arg, max_depth),
-                C.vr_path_integrator("bsdf", max_depth))
+        return (common.load_scene(width, height, spp, "halton", arg, max_depth),
+                common.vr_path_integrator("bsdf", max_depth))
     raise ValueError(f"unknown configuration {name!r}")
 
 
@@ -48,9 +49,10 @@ def probe_compile(args) -> dict:
         scene, integrator = config_scene_and_integrator(name, args.width, args.height,
                                                         args.spp, args.max_depth)
         kernels = []
-        first = C.timed(lambda: kernels.extend(
-            C.jit_kernels(lambda: C.render(scene, integrator, seed=1))))
-        warm = min(C.timed(lambda s=s: C.render(scene, integrator, seed=s)) for s in (2, 3))
+        first = common.timed(lambda: kernels.extend(
+            common.jit_kernels(lambda: common.render(scene, integrator, seed=1))))
+        warm = min(common.timed(lambda s=s: common.render(scene, integrator, seed=s))
+                   for s in (2, 3))
         out[name] = {"first_s": first[0], "warm_s": warm[0],
                      "compile_s": max(first[0] - warm[0], 0.0),
                      "kernels": len(kernels),
@@ -63,16 +65,16 @@ def probe_compile(args) -> dict:
 # ---------------------------------------------------------------- RSS
 
 def probe_rss(args) -> dict:
-    from experiments.lib import execute as X
-    from experiments.lib import methods as M
-    from experiments.lib import plan as P
-    from experiments.lib import scenes as SC
+    from experiments.lib import execute
+    from experiments.lib import methods
+    from experiments.lib import plan
+    from experiments.lib import scenes
     width, height, spp = args.width, args.height, args.spp
     start = time.perf_counter()
-    info = SC.read_scene(C.SCENE)
-    job = P.make_job("bench-rss", info, M.parse_method(args.method), width, height, spp, 0, info.depth,
-                     mi.variant())
-    result = X.run_job(job, mi.variant())
+    info = scenes.read_scene(common.SCENE)
+    job = plan.make_job("bench-rss", info, methods.parse_method(args.method), width, height,
+                        spp, 0, info.depth, mi.variant())
+    result = execute.run_job(job, mi.variant())
     seconds = time.perf_counter() - start
     return {"width": width, "height": height, "spp": spp, "passes": result.passes,
             "seconds": seconds, "runner": "experiments.lib.execute.run_job",
@@ -95,7 +97,7 @@ def main(argv=None) -> None:
     r.add_argument("--spp", type=int, default=1000)
     r.add_argument("--method", default="bsdf")
     args = p.parse_args(argv)
-    C.set_variant()
+    common.set_variant()
     result = probe_compile(args) if args.probe == "compile" else probe_rss(args)
     sys.stdout.write(json.dumps(result) + "\n")
     sys.stdout.flush()

@@ -52,9 +52,9 @@ import numpy as np
 
 from experiments.lib import files
 
-from . import cluster as CL
-from . import common as C
-from . import halton as H
+from . import cluster
+from . import common
+from . import halton
 from .common import dr, mi
 
 RSS_LIMIT_MB = 1.5e9 / 2**20          # 1.5 GB in MiB
@@ -64,13 +64,13 @@ RSS_FLAT = 1.10                       # "flat": peak at 10x the spp within 10 %
 # ------------------------------------------------------------ 1: vs path
 
 def bench_vs_path(args) -> dict:
-    scene = C.load_scene(args.width, args.height, args.spp, max_depth=args.max_depth)
-    configs = {"path": C.path_integrator(args.max_depth)}
-    for s in C.STRATEGIES:
-        configs[f"vr_path:{s}"] = C.vr_path_integrator(s, args.max_depth)
-    runs = {n: (lambda rep, i=i: C.render(scene, i, seed=rep + 1)) for n, i in configs.items()}
-    ratios = C.interleaved(runs, "path", args.reps)
-    kernels = {n: C.jit_kernels(lambda i=i: C.render(scene, i, seed=12345))
+    scene = common.load_scene(args.width, args.height, args.spp, max_depth=args.max_depth)
+    configs = {"path": common.path_integrator(args.max_depth)}
+    for s in common.STRATEGIES:
+        configs[f"vr_path:{s}"] = common.vr_path_integrator(s, args.max_depth)
+    runs = {n: (lambda rep, i=i: common.render(scene, i, seed=rep + 1)) for n, i in configs.items()}
+    ratios = common.interleaved(runs, "path", args.reps)
+    kernels = {n: common.jit_kernels(lambda i=i: common.render(scene, i, seed=12345))
                for n, i in configs.items()}
     samples = args.width * args.height * args.spp
     base = next(iter(ratios.values()))
@@ -82,15 +82,16 @@ def bench_vs_path(args) -> dict:
 # ---------------------------------------------------------- 2: halton
 
 def bench_halton(args) -> dict:
-    randomizations = C.halton_randomizations()
-    integrator = C.vr_path_integrator("bsdf", args.max_depth)
-    scenes = {"independent": C.load_scene(args.width, args.height, args.spp,
+    randomizations = common.halton_randomizations()
+    integrator = common.vr_path_integrator("bsdf", args.max_depth)
+    scenes = {"independent": common.load_scene(args.width, args.height, args.spp,
                                           max_depth=args.max_depth)}
     for r in randomizations:
-        scenes[f"halton:{r}"] = C.load_scene(args.width, args.height, args.spp, "halton", r,
-                                             args.max_depth)
-    runs = {n: (lambda rep, s=s: C.render(s, integrator, seed=rep + 1)) for n, s in scenes.items()}
-    ratios = C.interleaved(runs, "independent", args.reps)
+        scenes[f"halton:{r}"] = common.load_scene(args.width, args.height, args.spp, "halton", r,
+                                                  args.max_depth)
+    runs = {n: (lambda rep, s=s: common.render(s, integrator, seed=rep + 1))
+            for n, s in scenes.items()}
+    ratios = common.interleaved(runs, "independent", args.reps)
     # Passes must not recompile: a new seed and (Halton) a new sample offset.
     recompiles = {}
     for n, s in scenes.items():
@@ -100,8 +101,8 @@ def bench_halton(args) -> dict:
             for k in (1, 2):
                 if hasattr(sampler, "sample_offset"):
                     sampler.sample_offset = k * args.spp
-                C.render(s, integrator, seed=1000 + k)
-        recompiles[n] = sum(not k["cache_hit"] for k in C.jit_kernels(two_passes))
+                common.render(s, integrator, seed=1000 + k)
+        recompiles[n] = sum(not k["cache_hit"] for k in common.jit_kernels(two_passes))
         if hasattr(sampler, "sample_offset"):
             sampler.sample_offset = 0
     return {"ratios": ratios, "recompiles_per_2_passes": recompiles}
@@ -125,7 +126,7 @@ def count_segments(scene, integrator, spp: int) -> tuple[int, int]:
     """(path segments, shadow rays) of one render, from ``vr_path``'s counting AOVs."""
     integrator.count_segments = True
     try:
-        img = np.array(C.render(scene, integrator, seed=1), dtype=np.float64)
+        img = np.array(common.render(scene, integrator, seed=1), dtype=np.float64)
     finally:
         integrator.count_segments = False
     # Box filter: each sample lands in one pixel with weight 1, so a pixel's
@@ -135,10 +136,11 @@ def count_segments(scene, integrator, spp: int) -> tuple[int, int]:
 
 def bench_segments(args) -> dict:
     """Segments per second of vr_path (bsdf) with and without NEE, over ray_intersect's rays/s."""
-    scene = C.load_scene(args.width, args.height, args.spp, max_depth=args.max_depth)
+    scene = common.load_scene(args.width, args.height, args.spp, max_depth=args.max_depth)
     samples = args.width * args.height * args.spp
-    integrators = {"nee": C.vr_path_integrator("bsdf", args.max_depth),
-                   "no_nee": C.vr_path_integrator("bsdf", args.max_depth, emitter_sampling=False)}
+    integrators = {"nee": common.vr_path_integrator("bsdf", args.max_depth),
+                   "no_nee": common.vr_path_integrator("bsdf", args.max_depth,
+                                                       emitter_sampling=False)}
     counts = {n: count_segments(scene, i, args.spp) for n, i in integrators.items()}
     n_rays = counts["nee"][0]
     rays = random_rays(n_rays)
@@ -148,9 +150,9 @@ def bench_segments(args) -> dict:
         dr.eval(si.t, si.n)
         dr.sync_thread()
     runs = {"ray_intersect": cast}
-    runs.update({n: (lambda rep, i=i: C.render(scene, i, seed=rep + 1))
+    runs.update({n: (lambda rep, i=i: common.render(scene, i, seed=rep + 1))
                  for n, i in integrators.items()})
-    ratios = C.interleaved(runs, "ray_intersect", args.reps)
+    ratios = common.interleaved(runs, "ray_intersect", args.reps)
     out = {"samples": samples, "rays": n_rays,
            "rays_per_s_cpu": n_rays / ratios["nee"]["base_cpu"],
            "rays_per_s_wall": n_rays / ratios["nee"]["base_wall"]}
@@ -170,7 +172,7 @@ def bench_segments(args) -> dict:
 
 def run_probe(argv: list[str], env: dict | None = None, timeout: float = 3600) -> dict:
     cmd = [sys.executable, "-m", "benchmarks.probes", *argv]
-    proc = subprocess.run(cmd, cwd=C.ROOT, env=env, capture_output=True, text=True,
+    proc = subprocess.run(cmd, cwd=common.ROOT, env=env, capture_output=True, text=True,
                           timeout=timeout)
     if proc.returncode != 0:
         tail = (proc.stderr or proc.stdout).strip().splitlines()[-3:]
@@ -216,7 +218,7 @@ def build_rows(res: dict, args) -> list[list[str]]:
     rows = []
     vp = res.get("vs_path")
     if vp:
-        for s in C.STRATEGIES:
+        for s in common.STRATEGIES:
             r = vp["ratios"][f"vr_path:{s}"]
             rows.append([f"1. vr_path {s} (NEE) / path, per-sample time", fmt_ratio(r["cpu"], r["wall"]),
                          "<= 1.00", "yes" if r["cpu"] <= 1.0 else "no"])
@@ -249,7 +251,7 @@ def build_rows(res: dict, args) -> list[list[str]]:
                      f"flat (<= {RSS_FLAT:.2f})", "yes" if flat <= RSS_FLAT else "no"])
     hn = res.get("halton_native")
     if hn:
-        rows += [[f"2b. {r[0].split('. ', 1)[-1]}"] + r[1:] for r in H.build_rows(hn)]
+        rows += [[f"2b. {r[0].split('. ', 1)[-1]}"] + r[1:] for r in halton.build_rows(hn)]
     cl = res.get("cluster")
     if cl:
         rows += cl["rows"]
@@ -301,12 +303,13 @@ def markdown(rows: list[list[str]], res: dict) -> str:
     if hn:
         notes += ["", "Efficiency 1/(MSE x time) of every sampler over independent "
                   "(rows 2b; MSE and time ratios in brackets):", "",
-                  H.markdown(H.sampler_table(hn))]
+                  halton.markdown(halton.sampler_table(hn))]
     h = res.get("halton")
     if h:
         rc = h["recompiles_per_2_passes"]
-        notes.append("Kernels recompiled over two further passes (new seed, new sample offset): "
-                     + ", ".join(f"{n} {v}" for n, v in rc.items()) + ".")
+        # a paragraph of its own: right below the sampler table, a line is a table row
+        notes += ["", "Kernels recompiled over two further passes (new seed, new sample offset): "
+                  + ", ".join(f"{n} {v}" for n, v in rc.items()) + "."]
     return "\n".join(lines + notes) + "\n"
 
 
@@ -316,9 +319,9 @@ write_atomic = files.write_text
 
 def update_docs(md: str) -> str:
     """Put the table into docs/benchmarks.md (its generated ``bench`` block); the path."""
-    sys.path.insert(0, C.ROOT)
+    sys.path.insert(0, common.ROOT)
     from tools import docs
-    return docs.write_benchmarks(md, C.ROOT)
+    return docs.write_benchmarks(md, common.ROOT)
 
 
 # ---------------------------------------------------------------- main
@@ -342,7 +345,7 @@ def parse_args(argv=None):
     p.add_argument("--quick", action="store_true",
                    help="smaller images and fewer rounds for the halton_native and cluster "
                         "parts (checks that they run; not figures to quote)")
-    p.add_argument("--out", default=os.path.join(C.ROOT, "results"))
+    p.add_argument("--out", default=os.path.join(common.ROOT, "results"))
     p.add_argument("--update-docs", action="store_true",
                    help="also put the table into docs/benchmarks.md (make bench does; by "
                         "default the tracked docs are left alone)")
@@ -354,13 +357,13 @@ def parse_args(argv=None):
 def main(argv=None) -> None:
     args = parse_args(argv)
     start = time.perf_counter()
-    C.set_variant()
+    common.set_variant()
     res = {"date": datetime.datetime.now().isoformat(timespec="seconds"),
-           "machine": C.machine_info(),
+           "machine": common.machine_info(),
            "settings": {k: (sorted(v) if isinstance(v, set) else v) for k, v in vars(args).items()}}
     parts = [("vs_path", bench_vs_path), ("halton", bench_halton),
-             ("halton_native", lambda a: H.measure(a.quick)), ("segments", bench_segments),
-             ("rss", bench_rss), ("cluster", lambda a: {"rows": CL.rows(quick=a.quick)})]
+             ("halton_native", lambda a: halton.measure(a.quick)), ("segments", bench_segments),
+             ("rss", bench_rss), ("cluster", lambda a: {"rows": cluster.rows(quick=a.quick)})]
     for name, fn in parts:
         if name in args.skip:
             continue
@@ -369,8 +372,8 @@ def main(argv=None) -> None:
         res[name] = fn(args)
         print(f"[bench] {name} done in {time.perf_counter() - t0:.0f} s", flush=True)
     if "compile" not in args.skip:
-        configs = ["path"] + [f"vr:{s}" for s in C.STRATEGIES]
-        configs += [f"halton:{r}" for r in C.halton_randomizations()]
+        configs = ["path"] + [f"vr:{s}" for s in common.STRATEGIES]
+        configs += [f"halton:{r}" for r in common.halton_randomizations()]
         t0 = time.perf_counter()
         print("[bench] compile ...", flush=True)
         res["compile"] = bench_compile(args, configs)

@@ -22,7 +22,7 @@ import os
 import sys
 import time
 
-from . import common as C
+from . import common
 from .common import mi
 
 #: Cost per sample over independent that the sampler must stay under.
@@ -47,7 +47,7 @@ def scene(which: str, width: int, height: int, sampler: str,
         d["sensor"]["film"]["width"], d["sensor"]["film"]["height"] = width, height
         d["sensor"]["sampler"] = _sampler(sampler, spp, width, randomization)
         return mi.load_dict(d)
-    s = mi.load_file(C.SCENE, width=width, height=height, spp=spp, max_depth=MAX_DEPTH,
+    s = mi.load_file(common.SCENE, width=width, height=height, spp=spp, max_depth=MAX_DEPTH,
                      sampler=sampler)
     if sampler == "zsobol":
         smp = s.sensors()[0].sampler()
@@ -80,12 +80,14 @@ def measure(rounds: int = 7, quick: bool = False) -> dict:
                 def fn(rep):
                     nonlocal uncached
                     if rep < 0:
-                        C.render(configs[n], integrator, seed=999)
+                        common.render(configs[n], integrator, seed=999)
                         return
-                    ks = C.jit_kernels(lambda: C.render(configs[n], integrator, seed=rep + 1))
+                    ks = common.jit_kernels(
+                        lambda: common.render(configs[n], integrator, seed=rep + 1))
                     uncached += sum(not k["cache_hit"] for k in ks)
                 return fn
-            out[case][name] = C.interleaved({n: run(n) for n in configs}, "independent", rounds)
+            out[case][name] = common.interleaved({n: run(n) for n in configs}, "independent",
+                                                 rounds)
     return {"ratios": out, "uncached_timed_kernels": uncached}
 
 
@@ -110,7 +112,7 @@ def main(argv=None) -> None:
     p.add_argument("--quick", action="store_true", help="half the resolution, 3 rounds")
     p.add_argument("--rounds", type=int, default=None, help="timed rounds (default 7)")
     args = p.parse_args(argv)
-    C.set_variant()
+    common.set_variant()
     t0 = time.perf_counter()
     load0 = [round(x, 2) for x in os.getloadavg()]
     res = measure(args.rounds or (3 if args.quick else 7), args.quick)
@@ -119,7 +121,7 @@ def main(argv=None) -> None:
     print()
     print(markdown(table(res)))
     print()
-    m = C.machine_info()
+    m = common.machine_info()
     print(f"{m['cpu']}, Mitsuba {m['mitsuba']}, Dr.Jit {m['drjit']}, libLLVM {m['libllvm']}; "
           f"load average {load0} at start, {m['load_average']} at the end; timed renders "
           f"that compiled a kernel: {res['uncached_timed_kernels']}; "

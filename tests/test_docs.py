@@ -162,7 +162,7 @@ def runnable_blocks() -> list[tuple[str, MD.Block]]:
     out = []
     for page in RUNNABLE:
         text = PAGES[page]
-        generated = [(start, start + body.count("\n")) for _, body, start in MD.generated(text)]
+        generated = [(start, start + body.count("\n")) for _, body, start in D.generated(text)]
         for block in MD.blocks(text):
             if block.lang == "python" and not any(a <= block.line <= b for a, b in generated):
                 out.append((page, block))
@@ -318,13 +318,13 @@ def test_negative_control_a_pending_marker_on_an_existing_file_is_caught():
 # ------------------------------------------------------------------ benchmarks page
 
 def test_benchmarks_page_has_its_generated_table(tmp_path):
-    blocks = {k: body for k, body, _ in MD.generated(PAGES[D.BENCH_PAGE])}
+    blocks = {k: body for k, body, _ in D.generated(PAGES[D.BENCH_PAGE])}
     assert blocks.get("bench", "").startswith("| measure | value | target | holds? |")
     (tmp_path / "docs").mkdir()
     shutil.copy(os.path.join(ROOT, D.BENCH_PAGE), tmp_path / D.BENCH_PAGE)
     D.write_benchmarks("| measure | value |\n|---|---|\n| a | 1 |\n", str(tmp_path))
     text = (tmp_path / D.BENCH_PAGE).read_text()
-    assert dict((k, b) for k, b, _ in MD.generated(text))["bench"] == \
+    assert dict((k, b) for k, b, _ in D.generated(text))["bench"] == \
         "| measure | value |\n|---|---|\n| a | 1 |\n"
     assert text.split("<!-- generated: bench -->")[0] == \
         PAGES[D.BENCH_PAGE].split("<!-- generated: bench -->")[0]

@@ -39,11 +39,14 @@ import sys
 import textwrap
 
 if __package__:
-    from . import markdown as MD
+    from . import markdown
 else:                                            # python tools/docs.py
-    import markdown as MD                        # type: ignore
+    import markdown                              # type: ignore
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+#: A generated block: ``<!-- generated: KEY -->`` ... ``<!-- /generated -->``.
+GENERATED = re.compile(r"<!-- generated: (?P<key>[^>]*?) -->\n(?P<body>.*?)<!-- /generated -->",
+                       re.DOTALL)
 PLUGINS_PAGE = os.path.join("docs", "plugins.md")
 BENCH_PAGE = os.path.join("docs", "benchmarks.md")
 #: The pages that hold generated blocks (and that the docs test reads).
@@ -231,10 +234,11 @@ def plugins_page(root: str = ROOT) -> str:
            "docstrings (the one source; Mitsuba's own plugin reference is made the same "
            "way). Each plugin registers for every JIT variant once `integrators` is "
            "imported (see the [README](../README.md#use-the-plugins)).", ""]
-    out += [f"- [`{p['name']}`](#{MD.slug(p['name'] + ' ' + p['kind'])}): {_title(p['doc'])}"
-            for p in found]
+    heading = {p["name"]: f"{p['name']} ({p['kind']})" for p in found}
+    out += [f"- [`{p['name']}`](#{markdown.anchors('# ' + heading[p['name']]).pop()}): "
+            f"{_title(p['doc'])}" for p in found]
     for p in found:
-        out += ["", f"## {p['name']} ({p['kind']})", "",
+        out += ["", f"## {heading[p['name']]}", "",
                 f"{_title(p['doc'])}: class `{p['class']}` in "
                 f"[{p['file']}](../{p['file']}).", "",
                 "| parameter | type | default | description |", "|---|---|---|---|"]
@@ -330,13 +334,14 @@ def forwarded_table() -> str:
 
 
 def grammar_table() -> str:
-    from experiments.lib import methods as M, samplers as S
-    rand = "; ".join(f"`{n}`: " + ", ".join(f"`{r}`" for r in S.get(n).randomizations)
-                     for n in S.names() if S.get(n).randomizations)
+    from experiments.lib import methods, samplers
+    rand = "; ".join(f"`{n}`: " + ", ".join(f"`{r}`" for r in samplers.get(n).randomizations)
+                     for n in samplers.names() if samplers.get(n).randomizations)
     return "\n".join([
         "| part | registered now |", "|---|---|",
-        "| STRATEGY | " + ", ".join(f"`{s}`" for s in M.strategies()) + " |",
-        "| SAMPLER | " + ", ".join(f"`{s}`" for s in S.names()) + f" (default `{S.DEFAULT}`) |",
+        "| STRATEGY | " + ", ".join(f"`{s}`" for s in methods.strategies()) + " |",
+        "| SAMPLER | " + ", ".join(f"`{s}`" for s in samplers.names())
+        + f" (default `{samplers.DEFAULT}`) |",
         f"| RANDOMIZATION | {rand} |"]) + "\n"
 
 
@@ -461,17 +466,37 @@ def render(key: str, root: str = ROOT) -> str | None:
                      f"include FILE[::NAME], fields MODULE.CLASS, bench)")
 
 
+def generated(text: str) -> list[tuple[str, str, int]]:
+    """(key, body, first line of the body) of every generated block."""
+    return [(m.group("key"), m.group("body"), text.count("\n", 0, m.start("body")) + 1)
+            for m in GENERATED.finditer(text)]
+
+
+def replace_generated(text: str, render) -> str:
+    """``text`` with the body of every generated block replaced by ``render(key)``
+    (a string ending in a newline)."""
+    def one(m):
+        return f"<!-- generated: {m.group('key')} -->\n{render(m.group('key'))}<!-- /generated -->"
+    return GENERATED.sub(one, text)
+
+
+def outside_generated(text: str) -> str:
+    """``text`` with every generated block's body blanked (line numbers kept)."""
+    return GENERATED.sub(lambda m: m.group(0)[:m.start("body") - m.start()]
+                         + "\n" * m.group("body").count("\n") + "<!-- /generated -->", text)
+
+
 def regenerate(path: str, root: str = ROOT) -> str:
     """The page ``path`` with its generated parts as they should be."""
     if os.path.normpath(path) == PLUGINS_PAGE:
         return plugins_page(root)
     text = read(path, root)
-    current = {k: body for k, body, _ in MD.generated(text)}
+    current = {k: body for k, body, _ in generated(text)}
 
     def body(key: str) -> str:
         made = render(key, root)
         return current[key] if made is None else made
-    return MD.replace_generated(text, body)
+    return replace_generated(text, body)
 
 
 def stale(root: str = ROOT) -> list[str]:
@@ -500,10 +525,10 @@ def stale(root: str = ROOT) -> list[str]:
 def write_benchmarks(md: str, root: str = ROOT) -> str:
     """Put ``make bench``'s table into the ``bench`` block of docs/benchmarks.md."""
     text = read(BENCH_PAGE, root)
-    if not any(k == "bench" for k, _, _ in MD.generated(text)):
+    if not any(k == "bench" for k, _, _ in generated(text)):
         raise ValueError(f"{BENCH_PAGE} has no '<!-- generated: bench -->' block")
-    write(BENCH_PAGE, MD.replace_generated(text, lambda k: md if k == "bench" else
-                                           dict((a, b) for a, b, _ in MD.generated(text))[k]),
+    write(BENCH_PAGE, replace_generated(text, lambda k: md if k == "bench" else
+                                           dict((a, b) for a, b, _ in generated(text))[k]),
           root)
     return BENCH_PAGE
 

@@ -7,7 +7,8 @@ texts: each returns a list of problems, one line each, empty when the pages are 
   or Makefile (parse only, nothing runs); inside a section marked
   ``<!-- pending: PATH -->`` (its example file does not exist yet) only the option names;
 * :func:`defaults`: every option table's defaults are its parser's (tables of
-  :func:`tools.markdown.tables` whose header starts ``option | default``);
+  :func:`tools.markdown.tables` whose header starts ``option | default``, each after an
+  ``<!-- options COMMAND -->`` marker in its section);
   :func:`prose_defaults`: a default stated in prose is the option's default in every
   study; :func:`complete`: every option of every study is in docs/experiments.md;
 * :func:`constants`: every ``module.NAME`` stated with its value in brackets is the code's;
@@ -30,17 +31,25 @@ import os
 import re
 import shlex
 import sys
+from collections import namedtuple
 from contextlib import redirect_stderr, redirect_stdout
+from urllib.parse import unquote
 
 if __package__:
-    from . import docs as D, markdown as MD
+    from . import docs, markdown
 else:                                            # python tools/docs_check.py
-    import docs as D                             # type: ignore
-    import markdown as MD                        # type: ignore
+    import docs                                  # type: ignore
+    import markdown                              # type: ignore
 
-ROOT = D.ROOT
+ROOT = docs.ROOT
 #: A measured ratio in prose: a decimal number followed by x ("1.04x", "0.54-1.06x").
 MEASURED = re.compile(r"(?<![\w.])\d+\.\d+(?:-\d+(?:\.\d+)?)?x\b")
+#: A section whose example file does not exist yet: ``<!-- pending: PATH -->``.
+PENDING = re.compile(r"<!-- pending: (?P<path>\S+) -->")
+#: The command an options table belongs to, written before a hand-made table.
+OPTIONS_MARK = re.compile(r"<!-- (?:generated: )?options (?P<command>\S+) -->")
+#: Code-block languages whose lines are shell commands.
+SHELL = ("sh", "bash", "shell", "console", "")
 #: Folders searched, in order, for the module of a ``module.NAME`` constant.
 CONSTANT_HOMES = ("experiments/lib", "experiments/lib/studies", "experiments/lib/sweeps",
                   "integrators", "experiments", "tools", "benchmarks", "tests")
@@ -53,7 +62,10 @@ def links(pages: dict, root: str = ROOT) -> list[str]:
     ``pages`` first, then from disk."""
     out = []
     for path, text in pages.items():
-        for line, target in MD.links(text):
+        for line, token in markdown.tokens(text):
+            if token.type not in ("link_open", "image"):
+                continue
+            target = unquote(token.attrGet("href") or token.attrGet("src") or "")
             if re.match(r"[a-z][a-z0-9+.-]*:", target):        # http:, mailto:, ...
                 continue
             file, _, anchor = target.partition("#")
@@ -69,7 +81,7 @@ def links(pages: dict, root: str = ROOT) -> list[str]:
                 other = pages.get(dest)
                 if other is None:
                     other = open(full, encoding="utf-8").read()
-                if anchor not in MD.anchors(other):
+                if anchor not in markdown.anchors(other):
                     out.append(f"{path}:{line}: link to {target}: {dest} has no heading "
                                f"with anchor #{anchor}")
     return out
@@ -80,11 +92,11 @@ def links(pages: dict, root: str = ROOT) -> list[str]:
 def pending_sections(text: str) -> list[tuple[str, int, int]]:
     """(path, first line, last line) of each section marked pending: from the marker to
     the next heading of the same or a higher level than the one above the marker."""
-    heads = MD.headings(text)
+    heads = markdown.headings(text)
     lines = text.count("\n") + 1
     out = []
-    for n, line in MD.prose_lines(text):
-        m = MD.PENDING.search(line)
+    for n, line in markdown.prose_lines(text):
+        m = PENDING.search(line)
         if not m:
             continue
         level = max((lv for ln, lv, _ in heads if ln < n), default=1)
@@ -105,6 +117,67 @@ def pending(pages: dict, root: str = ROOT) -> list[str]:
 
 
 # ------------------------------------------------------------------ commands
+
+#: A command shown: its line, words (e.g. ``("python", "-m", "experiments.lab",
+#: "--quick")``) and text.
+Command = namedtuple("Command", "line argv text")
+
+
+def _commands_in(line: str, n: int) -> list[Command]:
+    try:
+        tokens = shlex.split(line, comments=True)
+    except ValueError:
+        return []
+    out, current = [], []
+    for token in tokens + [";"]:
+        if token in (";", "&&", "||", "&", "|"):
+            while current and re.fullmatch(r"[A-Z_][A-Z0-9_]*=.*", current[0]):
+                current = current[1:]          # VAR=value before a command
+            if current:
+                out.append(Command(n, tuple(current), line.strip()))
+            current = []
+        else:
+            current.append(token)
+    return [c for c in out if is_project_command(c.argv)]
+
+
+def is_project_command(argv) -> bool:
+    """``python -m experiments.X ...`` (or ``benchmarks.X``, ``tools.X``), ``python
+    examples/FILE.py ...`` or ``make TARGET ...``; placeholders (``experiments.NAME``,
+    ``make ...``) are not commands."""
+    if not argv:
+        return False
+    if argv[0] == "make":
+        return all(re.fullmatch(r"[a-z][\w-]*|[A-Z_][A-Z0-9_]*=.*", w) for w in argv[1:])
+    if len(argv) < 2 or re.fullmatch(r"(\S*/)?python[\d.]*", argv[0]) is None:
+        return False
+    if argv[1] == "-m":
+        return len(argv) >= 3 and re.fullmatch(
+            r"(experiments|benchmarks|tools)(\.[a-z_][a-z0-9_]*)+", argv[2]) is not None
+    return re.fullmatch(r"examples/[\w/]+\.py", argv[1]) is not None
+
+
+def shown_commands(text: str) -> list[Command]:
+    """Every project command a page shows: in shell code blocks (``\\`` continuations
+    joined, ``$`` prompts and comments dropped) and in inline code spans."""
+    out = []
+    for block in markdown.blocks(text):
+        if block.lang not in SHELL:
+            continue
+        joined, start = "", None
+        for k, raw in enumerate(block.body.split("\n")):
+            line = re.sub(r"^\s*\$\s+", "", raw)
+            start = block.line + k if start is None else start
+            if line.rstrip().endswith("\\"):
+                joined += line.rstrip()[:-1] + " "
+                continue
+            out += _commands_in(joined + line, start)
+            joined, start = "", None
+    for n, token in markdown.tokens(text):
+        if token.type == "code_inline":
+            out += _commands_in(token.content.strip(), n)
+    return out
+
 
 def makefile_targets(root: str = ROOT) -> dict:
     """{target: [recipe lines]} of the Makefile."""
@@ -201,7 +274,7 @@ def commands(pages: dict, root: str = ROOT) -> list[str]:
     """Every project command of ``pages`` checked (see the module docstring)."""
     out = []
     for path, text in pages.items():
-        for c in MD.commands(text):
+        for c in shown_commands(text):
             why = command(c.argv, in_pending(text, c.line) is not None, root)
             if why:
                 out.append(f"{path}:{c.line}: {c.text}: {why}")
@@ -210,37 +283,48 @@ def commands(pages: dict, root: str = ROOT) -> list[str]:
 
 # ------------------------------------------------------------------ option tables
 
-def option_tables(pages: dict) -> list[tuple[str, MD.Table]]:
-    return [(path, t) for path, text in pages.items() for t in MD.tables(text)
-            if [h.lower() for h in t.header[:2]] == ["option", "default"]]
+def option_tables(pages: dict) -> list[tuple[str, markdown.Table, str]]:
+    """(path, table, command) of every options table: the command of the nearest
+    ``<!-- options COMMAND -->`` marker above it in its section (none past a heading),
+    or ""."""
+    out = []
+    for path, text in pages.items():
+        marks = [(n, m.group("command")) for n, line in markdown.prose_lines(text)
+                 for m in OPTIONS_MARK.finditer(line)]
+        heads = [n for n, _, _ in markdown.headings(text)]
+        for t in markdown.tables(text):
+            if [h.lower() for h in t.header[:2]] == ["option", "default"]:
+                n, command = max(((n, c) for n, c in marks if n < t.line), default=(0, ""))
+                out.append((path, t, "" if any(n < h < t.line for h in heads) else command))
+    return out
 
 
 def _option_name(cell: str) -> str:
-    spans = MD.code_spans(cell)
+    spans = markdown.code_spans(cell)
     return (spans[0] if spans else cell).split()[0] if (spans or cell) else ""
 
 
 def defaults(pages: dict) -> list[str]:
     """Every option table's rows against its command's parser."""
     out, parsers = [], {}
-    for path, table in option_tables(pages):
-        if not table.context:
+    for path, table, context in option_tables(pages):
+        if not context:
             out.append(f"{path}:{table.line}: an options table without an "
                        f"'<!-- options COMMAND -->' marker above it in its section")
             continue
-        if table.context not in parsers:
-            parsers[table.context] = D.options(D.parser_for(table.context))
-        known = parsers[table.context]
+        if context not in parsers:
+            parsers[context] = docs.options(docs.parser_for(context))
+        known = parsers[context]
         for k, row in enumerate(table.rows):
             name = _option_name(row[0])
             action = known.get(name)
             where = f"{path}:{table.line + 2 + k}"
             if action is None:
-                out.append(f"{where}: {table.context} has no option {name}")
-            elif len(row) < 2 or row[1] != D.default_cell(action):
-                out.append(f"{where}: {table.context} {name}: the page says "
+                out.append(f"{where}: {context} has no option {name}")
+            elif len(row) < 2 or row[1] != docs.default_cell(action):
+                out.append(f"{where}: {context} {name}: the page says "
                            f"{row[1] if len(row) > 1 else '(nothing)'}, the parser's default "
-                           f"is {D.default_cell(action)}")
+                           f"is {docs.default_cell(action)}")
     return out
 
 
@@ -248,15 +332,15 @@ def complete(pages: dict, page: str = "docs/experiments.md") -> list[str]:
     """Every option of every study (and of run_all) is in ``page``'s tables: its own, or the
     common one with the same default."""
     tables = {}
-    for path, table in option_tables({page: pages[page]}):
-        tables.setdefault(table.context, {}).update(
+    for path, table, context in option_tables({page: pages[page]}):
+        tables.setdefault(context, {}).update(
             {_option_name(r[0]): r[1] for r in table.rows if len(r) > 1})
     common = tables.get("common", {})
     out = []
     for name in study_commands():
         mine = tables.get(name, {})
-        for option, action in D.options(D.parser_for(name)).items():
-            cell = D.default_cell(action)
+        for option, action in docs.options(docs.parser_for(name)).items():
+            cell = docs.default_cell(action)
             if option not in mine and common.get(option) != cell:
                 out.append(f"{page}: python -m {name} {option} (default {cell}) is in no "
                            f"options table (make docs writes them)")
@@ -283,11 +367,11 @@ def prose_defaults(pages: dict) -> list[str]:
     option (else it is ambiguous: state it in the study's options table)."""
     cells: dict[str, set] = {}
     for name in study_commands():
-        for option, action in D.options(D.parser_for(name)).items():
-            cells.setdefault(option, set()).add(D.default_cell(action))
+        for option, action in docs.options(docs.parser_for(name)).items():
+            cells.setdefault(option, set()).add(docs.default_cell(action))
     out = []
     for path, text in pages.items():
-        for n, line in MD.prose_lines(MD.outside_generated(text)):
+        for n, line in markdown.prose_lines(docs.outside_generated(text)):
             if line.lstrip().startswith("|"):
                 continue
             found = {m.start(): m for m in _PROSE_DEFAULT.finditer(line)}
@@ -356,7 +440,7 @@ def _same(stated: str, value) -> bool:
 def constants(pages: dict, root: str = ROOT) -> list[str]:
     out = []
     for path, text in pages.items():
-        lines = dict(MD.prose_lines(MD.outside_generated(text)))
+        lines = dict(markdown.prose_lines(docs.outside_generated(text)))
         prose = "\n".join(lines.get(n, "") for n in range(1, text.count("\n") + 2))
         for m in _CONSTANT.finditer(prose):
             n = prose.count("\n", 0, m.start()) + 1
@@ -380,10 +464,10 @@ def measured_prose(pages: dict) -> list[str]:
     """A measured ratio written by hand: figures belong in generated blocks or the report."""
     out = []
     for path, text in pages.items():
-        if os.path.normpath(path) == D.PLUGINS_PAGE:      # generated whole
+        if os.path.normpath(path) == docs.PLUGINS_PAGE:      # generated whole
             continue
-        for n, line in MD.prose_lines(MD.outside_generated(text)):
-            for m in MEASURED.finditer(MD.without_code_spans(line)):
+        for n, token in markdown.tokens(docs.outside_generated(text)):
+            for m in MEASURED.finditer(token.content if token.type == "text" else ""):
                 out.append(f"{path}:{n}: '{m.group(0)}' looks like a measured ratio in "
                            f"hand-written prose: generate it or point to the report")
     return out
@@ -396,11 +480,11 @@ def output_files(pages: dict, root: str = ROOT) -> list[str]:
                        glob.glob(os.path.join(root, "experiments", "**", "*.py"), recursive=True))
     out = []
     for path, text in pages.items():
-        for table in MD.tables(text):
+        for table in markdown.tables(text):
             if not table.header or not table.header[0].lower().startswith("file"):
                 continue
             for row in table.rows:
-                for name in MD.code_spans(row[0]):
+                for name in markdown.code_spans(row[0]):
                     stem = os.path.basename(name.rstrip("/"))
                     parts = [p for p in re.split(r"<[^>]*>|\*", os.path.splitext(stem)[0]) if p]
                     longest = max(parts, key=len, default="")
@@ -416,14 +500,14 @@ def plugin_tables(text: str, root: str = ROOT) -> list[str]:
     pages = {}
     for section in sections:
         name = section.split()[0]
-        for table in MD.tables("## " + section):
+        for table in markdown.tables("## " + section):
             if table.header[:3] == ["parameter", "type", "default"]:
-                pages[name] = [(MD.code_spans(r[0])[0] if MD.code_spans(r[0]) else r[0],
+                pages[name] = [(markdown.code_spans(r[0])[0] if markdown.code_spans(r[0]) else r[0],
                                 r[1], r[2]) for r in table.rows]
     out = []
-    for p in D.plugin_classes(root):
-        want = [(e["name"], D.inline(e["type"]).strip(), D.inline(e["default"]).strip())
-                for e in D.parameters(p["doc"])]
+    for p in docs.plugin_classes(root):
+        want = [(e["name"], docs.inline(e["type"]).strip(), docs.inline(e["default"]).strip())
+                for e in docs.parameters(p["doc"])]
         have = pages.get(p["name"])
         if have is None:
             out.append(f"plugins.md: no parameter table for {p['name']} ({p['file']})")
