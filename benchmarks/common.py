@@ -66,7 +66,8 @@ def path_integrator(max_depth: int):
 def vr_path_integrator(strategy: str, max_depth: int, count_segments: bool = False,
                        emitter_sampling: bool = True):
     """``vr_path``, by default with emitter sampling (NEE + MIS), comparable with ``path``."""
-    integrator = mi.load_dict(methods.vr_path_dict(strategy, emitter_sampling, max_depth))
+    method = methods.Method(strategy, strategy, emitter_sampling)
+    integrator = mi.load_dict(method.integrator_dict(methods.Depth(max_depth)))
     integrator.count_segments = count_segments
     return integrator
 
