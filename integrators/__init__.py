@@ -46,7 +46,10 @@ PLUGIN_MODULES = ("phong", "path", "halton", "zsobol")
 #: Modules of per-variant base classes, defined again before the plugins that derive from them.
 BASE_MODULES = ("sequence_sampler",)
 
-_registered: set[str] = set()
+#: Per registered variant, the namespaces its modules had: switching back to a variant
+#: registered before restores them, so that ``integrators.sequence_sampler.SequenceSampler``
+#: (which a user's sampler derives from) is the class of the current variant's ``mi.Sampler``.
+_registered: dict[str, dict[str, dict]] = {}
 
 
 def supported_variant(variant: str | None) -> bool:
@@ -66,6 +69,8 @@ def register() -> None:
     variant = mi.variant()
     _check_variant(variant)
     if variant in _registered:
+        for name, namespace in _registered[variant].items():
+            vars(sys.modules[f"{__name__}.{name}"]).update(namespace)
         return
     for name in BASE_MODULES + PLUGIN_MODULES:
         qualified = f"{__name__}.{name}"
@@ -77,7 +82,8 @@ def register() -> None:
             # mi.SamplingIntegrator (or a base class that does): define them
             # again for the new variant, base classes first.
             importlib.reload(module)
-    _registered.add(variant)
+    _registered[variant] = {name: dict(vars(sys.modules[f"{__name__}.{name}"]))
+                            for name in BASE_MODULES + PLUGIN_MODULES}
 
 
 def _on_variant_change(old: str | None, new: str | None) -> None:

@@ -209,3 +209,19 @@ def test_fork_has_the_parameters_and_no_state(name):
     np.testing.assert_array_equal(draws(fork, 2), draws(fresh, 2))
     with pytest.raises(RuntimeError, match="were not declared"):
         fork.advance()
+
+
+def test_a_variant_switch_and_back_keeps_the_base_class_of_the_current_variant():
+    """A user's sampler derives from ``integrators.sequence_sampler.SequenceSampler``: after
+    another variant was used, and this one again, the base must be this variant's (a class
+    deriving from another variant's ``mi.Sampler`` cannot be instantiated here)."""
+    from integrators import sequence_sampler
+    mi.set_variant("llvm_ad_mono")
+    assert issubclass(sequence_sampler.SequenceSampler, mi.Sampler)
+    mi.set_variant("llvm_ad_rgb")
+    assert issubclass(sequence_sampler.SequenceSampler, mi.Sampler)
+    assert issubclass(HaltonSampler, mi.Sampler)
+    assert issubclass(lattice_class(), mi.Sampler)
+    sampler = make("lattice")
+    sampler.seed(1, 4 * SPP)
+    assert dr.width(sampler.next_1d()) == 4 * SPP
