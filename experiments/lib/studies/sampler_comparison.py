@@ -14,16 +14,16 @@ against the best native sampler and the others, with the counts where the order 
 and three sentences computed from it. Renders of one depth are interleaved (every sampler at
 one spp, then the next spp) so that changing machine load affects them alike.
 
-The screen-space pass (:class:`.sampler_comparison_screen.ScreenSpace`, options --screen-*) renders a short ladder
-(1, 4, 16 spp) on a larger image (128x128; a spectrum needs it) at max_depth 2, for a
-subset of labels by default (the baseline, multijitter, ldsampler and each bundled sampler
-at its last randomization: every FLIP of a 128x128 image costs a few tenths of a CPU
-second; --screen-samplers all for every label). Per count: mean FLIP against the
-reference, the radially averaged power spectrum of the error image and its low-frequency
-share (:mod:`experiments.lib.screen_space`: power below a quarter of Nyquist over the
-total, the reference's own white noise subtracted), and MSE efficiency; a conclusion table
-per depth (each bundled sampler's best against every native one and the other bundled
-ones, per count) and three sentences computed from it.
+The screen-space pass (:class:`.sampler_comparison_screen.ScreenSpace`, options --screen-*)
+renders a short ladder (1, 4, 16 spp) on a larger image (128x128; a spectrum needs it) at
+max_depth 2, for a subset of labels by default (the baseline, multijitter, ldsampler and
+each bundled sampler at its last randomization: every FLIP of a 128x128 image costs a few
+tenths of a CPU second; --screen-samplers all for every label). Per count: mean FLIP against
+the reference, the radially averaged power spectrum of the error image and its low-frequency
+share (:mod:`experiments.lib.screen_space`: power below a quarter of Nyquist over the total,
+the reference's own white noise subtracted), and MSE efficiency; a conclusion table per
+depth (each bundled sampler's best against every native one and the other bundled ones, per
+count) and three sentences computed from it.
 
 The study is a list of measurement passes (:data:`PASSES`), each plan -> measure -> pure
 analysis -> report: its settings and plan (:mod:`.sampler_comparison_plan`), the efficiency

@@ -97,8 +97,10 @@ class ScreenSpace:
             for s, reps in by_sampler.items():
                 pts = []
                 for target, results, images in rungs(st, reps):
-                    powers = [screen_space.periodogram(screen_space.error_field(im, ref)) for im in images]
-                    freqs, power = screen_space.spectrum(screen_space.normalized(np.mean(powers, axis=0), floor))
+                    powers = [screen_space.periodogram(screen_space.error_field(im, ref))
+                              for im in images]
+                    freqs, power = screen_space.spectrum(
+                        screen_space.normalized(np.mean(powers, axis=0), floor))
                     error = Point(
                         results[0].spp, _replicate((timing(st, r) for r in results), sc.repeats),
                         _replicate((metrics.mse(im, ref) for im in images), sc.repeats),
@@ -135,8 +137,9 @@ class ScreenSpace:
                                                  pts[sc.counts.index(n)].power)
                                              for s, pts in by_sampler.items()} for n in shown}
             figures.spectrum_panels(os.path.join(out, NAME, f"screen_spectra_depth{d}.png"),
-                                    panels, screen_space.LOW, f"max_depth {d}: radially averaged power "
-                                    f"spectrum of the luminance error, mean over the repeats")
+                                    panels, screen_space.LOW, f"max_depth {d}: radially "
+                                    f"averaged power spectrum of the luminance error, mean "
+                                    f"over the repeats")
             blocks += [
                 report.image(f"{NAME}/screen_flip_depth{d}.png",
                              f"max_depth {d}: mean FLIP against spp per sampler at "
@@ -148,8 +151,8 @@ class ScreenSpace:
                              f"reference, luminance, mean subtracted; the reference's white "
                              f"noise subtracted), relative to its mean (white noise: 1), at "
                              f"{' and '.join(map(str, shown))} spp. Dashed: "
-                             f"{screen_space.LOW} cycles per pixel, below which the low-frequency share "
-                             f"is taken."),
+                             f"{screen_space.LOW} cycles per pixel, below which the "
+                             f"low-frequency share is taken."),
                 report.write_table(out, f"{NAME}/screen_conclusion_depth{d}",
                                    SCREEN_HEADER,
                                    [c.cells() for c in result.comparisons if c.depth == d],
@@ -214,6 +217,6 @@ def screen_introduction(cfg: Settings, m: ScreenMeasured) -> str:
             f"max_depth {', '.join(map(str, sc.depths))}, {', '.join(map(str, sc.counts))} "
             f"spp, {sc.repeats} repeats, against {sc.reference_spp} spp of {sc.reference}."
             f"\n\nPer count: mean FLIP, the low-frequency share of the error's power (below "
-            f"{screen_space.LOW} cycles per pixel; white noise {m.white:.3f}) with the reference's own "
-            f"white noise subtracted, and MSE efficiency. FLIP is not corrected for the "
-            f"reference's noise, which pulls every FLIP ratio towards 1.")
+            f"{screen_space.LOW} cycles per pixel; white noise {m.white:.3f}) with the "
+            f"reference's own white noise subtracted, and MSE efficiency. FLIP is not "
+            f"corrected for the reference's noise, which pulls every FLIP ratio towards 1.")

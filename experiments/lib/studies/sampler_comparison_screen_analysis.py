@@ -1,25 +1,25 @@
 """The sampler study's screen-space analysis: numbers in, numbers and sentences out.
 
 The screen-space pass (:func:`analyse_screen`): :class:`ScreenPoint` holds a label's
-mean FLIP, low-frequency share of the error spectrum (:mod:`experiments.lib.screen_space`) and MSE per
-repeat at one count; the result is a :class:`ScreenRow` per label and count, a
+mean FLIP, low-frequency share of the error spectrum (:mod:`experiments.lib.screen_space`)
+and MSE per repeat at one count; the result is a :class:`ScreenRow` per label and count, a
 :class:`ScreenComparison` per pair and count (each bundled family's lowest-FLIP label
 against every native label and the other families': mean FLIP A / B, share A / B and MSE
 efficiency A / B, each with its interval and a verdict only where the interval excludes
 1, FLIP only between equal counts rendered) and at most three sentences per depth computed
 from them (:func:`screen_sentences`).
 
-Every label renders every count of a short ladder R times at a resolution with a
-spectrum worth the name (128x128 by default). Per count: the mean FLIP against the
-reference, the low-frequency share of the error's power spectrum
-(:mod:`experiments.lib.screen_space`), and the MSE and render time (for the MSE efficiency), each over
-the repeats. The conclusion compares each bundled sampler family's best label (lowest
-mean FLIP at the largest count) with every native sampler and with the other families'
-best, at every count, in three ways: mean FLIP A / B (below 1: A is better), low-frequency
-share A / B (below 1: A's error is bluer) and MSE efficiency A / B (above 1: A is
-better); a verdict only where the interval excludes 1, in FLIP only where both rendered
-the same count (orthogonal renders 25 samples for 16: more samples, not a better
-sampler; the efficiency, per unit of time, allows for it).
+Every label renders every count of a short ladder R times at a resolution with a spectrum
+worth the name (128x128 by default). Per count: the mean FLIP against the reference, the
+low-frequency share of the error's power spectrum (:mod:`experiments.lib.screen_space`), and
+the MSE and render time (for the MSE efficiency), each over the repeats. The conclusion
+compares each bundled sampler family's best label (lowest mean FLIP at the largest count)
+with every native sampler and with the other families' best, at every count, in three ways:
+mean FLIP A / B (below 1: A is better), low-frequency share A / B (below 1: A's error is
+bluer) and MSE efficiency A / B (above 1: A is better); a verdict only where the interval
+excludes 1, in FLIP only where both rendered the same count (orthogonal renders 25 samples
+for 16: more samples, not a better sampler; the efficiency, per unit of time, allows for
+it).
 
 Which label is bundled and which native comes from :class:`.sampler_comparison_analysis.Family`
 values (the sampler table's ``native``), never from a name. Tests feed synthetic points
