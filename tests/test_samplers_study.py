@@ -591,9 +591,10 @@ def test_the_screen_pass_plans_exactly_the_jobs_it_needs(tmp_path):
                 assert j.key.startswith("samplers/screen-8x8-depth2/")
     refs = plan.refs[2]
     # the reference store's chunks (their size set by the film) give at least the 16 asked
-    from experiments.lib import references as R
-    chunk = R.chunk_spp_for(8, 8, SCREEN_REFERENCE_SPP)
-    assert [j.spp for j in refs] == [chunk] * R.MIN_CHUNKS and chunk * R.MIN_CHUNKS >= 16
+    from experiments.lib import references
+    chunk = references.chunk_spp_for(8, 8, SCREEN_REFERENCE_SPP)
+    chunks = references.MIN_CHUNKS
+    assert [j.spp for j in refs] == [chunk] * chunks and chunk * chunks >= 16
     assert {j.method.name for j in refs} == {"path"}
     assert {(j.width, j.height) for j in refs} == {(8, 8)}
     jobs = ScreenSpace().jobs(plan)
