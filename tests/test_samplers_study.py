@@ -1,4 +1,5 @@
-"""The sampler study's analysis (experiments.lib.sampler_study) on synthetic numbers.
+"""The sampler study's analysis (experiments.lib.studies.sampler_comparison_analysis and
+_screen_analysis) on synthetic numbers.
 
 Synthetic ladders with a known answer: every count of a ladder has R repeats whose errors
 scatter around a known value (a fixed relative spread, the same pattern for every sampler,
@@ -19,14 +20,22 @@ import math
 
 import pytest
 
-from experiments.lib import sampler_study as SS
-from experiments.lib import samplers as S
-from experiments.lib import stats
+from experiments.lib import samplers, stats
+from experiments.lib.studies import sampler_comparison_analysis
+from experiments.lib.studies.sampler_comparison_analysis import (
+    BEST, BUNDLED, COMPARISON_HEADER, METRIC, NATIVE, Family, Point, onsets, order_changes,
+    order_text, overtakes, ratio)
+from experiments.lib.studies.sampler_comparison_efficiency import Efficiency
+from experiments.lib.studies.sampler_comparison_plan import SCREEN_REFERENCE_SPP
+from experiments.lib.studies.sampler_comparison_screen import ScreenSpace
+from experiments.lib.studies.sampler_comparison_screen_analysis import (
+    SCREEN_HEADER, UNEQUAL, ScreenPoint, analyse_screen, lower_sign, lower_verdict,
+    screen_pairs)
 
 PIXELS = 100
 #: Relative scatter of the repeats around their mean (mean exactly 1).
 SPREAD = (0.9, 1.0, 1.1)
-NATIVE, BUNDLED = True, False
+IS_NATIVE, IS_BUNDLED = True, False
 
 
 def ladder(mse_at_1: float, slope: float, us: float, spps=(1, 4, 16, 64), spread=SPREAD,
@@ -35,7 +44,7 @@ def ladder(mse_at_1: float, slope: float, us: float, spps=(1, 4, 16, 64), spread
     = ``us`` per sample; ``floor`` added to both errors (the reference's own, subtracted
     again by the analysis)."""
     requested = requested or spps
-    return [SS.Point(n, tuple(us * 1e-6 * n * PIXELS for _ in spread),
+    return [Point(n, tuple(us * 1e-6 * n * PIXELS for _ in spread),
                      tuple(floor + mse_at_1 * n ** slope * f for f in spread),
                      tuple(floor + rel * mse_at_1 * n ** slope * f for f in spread), t,
                      floor, floor)
@@ -45,11 +54,11 @@ def ladder(mse_at_1: float, slope: float, us: float, spps=(1, 4, 16, 64), spread
 def kinds(**natives):
     """``{label: Family}``: the family is the label's part before ':'; ``natives`` says which
     are native (every label not named is bundled)."""
-    return {label: SS.Family(label.split(":")[0], native) for label, native in natives.items()}
+    return {label: Family(label.split(":")[0], native) for label, native in natives.items()}
 
 
 def analyse(points, families):
-    return SS.analyse(points, PIXELS, families)
+    return sampler_comparison_analysis.analyse(points, PIXELS, families)
 
 
 def of(analysis, role, depth=2):
@@ -61,7 +70,7 @@ def of(analysis, role, depth=2):
 def test_table_numbers_follow_from_the_points():
     points = {2: {"independent": ladder(1.0, -1.0, 10.0),
                   "orthogonal": ladder(0.07, -1.0, 20.0)}}
-    rows = {r.sampler: r for r in SS.table(points, PIXELS)}
+    rows = {r.sampler: r for r in sampler_comparison_analysis.table(points, PIXELS)}
     o = rows["orthogonal"]
     assert o.relative_mse.value == pytest.approx(0.07)
     assert o.relative_efficiency.value == pytest.approx(1 / (0.07 * 2.0))
@@ -79,7 +88,7 @@ def test_table_numbers_follow_from_the_points():
 
 
 def test_curves_give_the_ratio_at_every_count():
-    curves = SS.curves({2: {"independent": ladder(1.0, -1.0, 10.0),
+    curves = sampler_comparison_analysis.curves({2: {"independent": ladder(1.0, -1.0, 10.0),
                             "orthogonal": ladder(0.07, -1.0, 20.0)}})
     pts = curves[2]["orthogonal"]
     assert [spp for spp, _ in pts] == [1, 4, 16, 64]
@@ -87,7 +96,7 @@ def test_curves_give_the_ratio_at_every_count():
 
 
 def test_slope_of_a_qmc_like_ladder():
-    rows = SS.table({2: {"independent": ladder(1.0, -1.0, 10.0),
+    rows = sampler_comparison_analysis.table({2: {"independent": ladder(1.0, -1.0, 10.0),
                          "ldsampler": ladder(1.0, -1.5, 20.0)}}, PIXELS)
     assert [r.slope for r in rows] == pytest.approx([-1.0, -1.5])
     assert math.isfinite(rows[1].relative_efficiency.value)
@@ -102,12 +111,12 @@ def three(bundled_mse, native_mse, spread=SPREAD):
                 "bund": ladder(bundled_mse, -1.0, 10.0, spread=spread)}}
 
 
-FAMILIES = kinds(independent=NATIVE, nat=NATIVE, bund=BUNDLED)
+FAMILIES = kinds(independent=IS_NATIVE, nat=IS_NATIVE, bund=IS_BUNDLED)
 
 
 def test_the_better_sampler_reads_more_efficient():
     better = analyse(three(0.1, 0.2), FAMILIES)
-    c, = of(better, SS.BUNDLED)
+    c, = of(better, BUNDLED)
     assert (c.a, c.b) == ("bund", "nat")
     assert c.ratio.value == pytest.approx(2.0) and c.ratio.excludes(1.0)
     assert c.short_verdict() == "bund is more efficient"
@@ -119,7 +128,7 @@ def test_the_better_sampler_reads_more_efficient():
     assert prose.count("bund is more efficient than nat") == 1
     # negative control: the same numbers swapped read the other way
     worse = analyse(three(0.2, 0.1), FAMILIES)
-    c, = of(worse, SS.BUNDLED)
+    c, = of(worse, BUNDLED)
     assert c.ratio.value == pytest.approx(0.5)
     assert c.short_verdict() == "nat is more efficient"
     assert c.verdict.startswith("nat is more efficient than bund by 2 (95% CI")
@@ -128,22 +137,22 @@ def test_the_better_sampler_reads_more_efficient():
 
 def test_a_tie_is_not_distinguishable():
     tie = analyse(three(0.2, 0.2), FAMILIES)
-    c, = of(tie, SS.BUNDLED)
+    c, = of(tie, BUNDLED)
     assert c.ratio.value == pytest.approx(1.0)
     assert c.short_verdict() == "not distinguishable"
     assert "nat and bund are not distinguishable at this budget" in tie.conclusions[2][0]
     # 3% apart with a 20% scatter: still no verdict; 2x apart with it: a verdict
     wide = (0.8, 1.0, 1.2)
-    assert of(analyse(three(0.2 / 1.03, 0.2, wide), FAMILIES), SS.BUNDLED)[0] \
+    assert of(analyse(three(0.2 / 1.03, 0.2, wide), FAMILIES), BUNDLED)[0] \
         .short_verdict() == "not distinguishable"
-    assert of(analyse(three(0.1, 0.2, wide), FAMILIES), SS.BUNDLED)[0] \
+    assert of(analyse(three(0.1, 0.2, wide), FAMILIES), BUNDLED)[0] \
         .short_verdict() == "bund is more efficient"
 
 
 def test_one_repeat_gives_no_interval_and_no_verdict():
     one = analyse(three(0.1, 0.2, spread=(1.0,)), FAMILIES)
     assert not any(r.relative_efficiency.known for r in one.rows if r.sampler != "independent")
-    c, = of(one, SS.BUNDLED)
+    c, = of(one, BUNDLED)
     assert c.short_verdict() == "not distinguishable" and "1 run" in c.cells()[5]
     assert "no interval" in one.conclusions[2][0]
     assert "is more efficient than" not in " ".join(one.conclusions[2])
@@ -163,16 +172,16 @@ def many():
 
 
 def test_each_bundled_family_meets_the_best_native_sampler():
-    families = kinds(independent=NATIVE, stratified=NATIVE, orthogonal=NATIVE,
-                     **{"halton:none": BUNDLED, "halton:owen": BUNDLED, "mine": BUNDLED})
+    families = kinds(independent=IS_NATIVE, stratified=IS_NATIVE, orthogonal=IS_NATIVE,
+                     **{"halton:none": IS_BUNDLED, "halton:owen": IS_BUNDLED, "mine": IS_BUNDLED})
     a = analyse(many(), families)
-    best, = of(a, SS.BEST)
+    best, = of(a, BEST)
     assert (best.a, best.b) == ("halton:owen", "orthogonal")
-    assert [(c.a, c.b) for c in of(a, SS.BUNDLED)] == [("halton:owen", "orthogonal"),
-                                                        ("mine", "orthogonal")]
-    assert {(c.a, c.b) for c in of(a, SS.NATIVE)} == {
+    assert [(c.a, c.b) for c in of(a, BUNDLED)] == [("halton:owen", "orthogonal"),
+                                                    ("mine", "orthogonal")]
+    assert {(c.a, c.b) for c in of(a, NATIVE)} == {
         (f, n) for f in ("halton:owen", "mine") for n in ("independent", "stratified")}
-    assert of(a, SS.BUNDLED)[1].short_verdict() == "orthogonal is more efficient"
+    assert of(a, BUNDLED)[1].short_verdict() == "orthogonal is more efficient"
     assert a.conclusions[2][1].startswith("Against the best native sampler, orthogonal: "
                                           "orthogonal is more efficient than mine by 1.5")
     assert a.best[2].sampler == "halton:owen"
@@ -181,28 +190,28 @@ def test_each_bundled_family_meets_the_best_native_sampler():
 def test_native_or_bundled_comes_from_the_table_not_the_name():
     """Negative control: the same numbers with halton's labels declared native and
     orthogonal bundled: the pairs follow the declaration."""
-    families = kinds(independent=NATIVE, stratified=NATIVE, orthogonal=BUNDLED,
-                     **{"halton:none": NATIVE, "halton:owen": NATIVE, "mine": BUNDLED})
+    families = kinds(independent=IS_NATIVE, stratified=IS_NATIVE, orthogonal=IS_BUNDLED,
+                     **{"halton:none": IS_NATIVE, "halton:owen": IS_NATIVE, "mine": IS_BUNDLED})
     a = analyse(many(), families)
-    assert [(c.a, c.b) for c in of(a, SS.BUNDLED)] == [("orthogonal", "halton:owen"),
-                                                        ("mine", "halton:owen")]
+    assert [(c.a, c.b) for c in of(a, BUNDLED)] == [("orthogonal", "halton:owen"),
+                                                    ("mine", "halton:owen")]
 
 
 def test_families_come_from_the_sampler_table():
-    table = SS.families(S.labels())
+    table = sampler_comparison_analysis.families(samplers.labels())
     for label, family in table.items():
-        spec, _ = S.split_label(label)
-        assert family == SS.Family(spec.name, spec.native)
+        spec, _ = samplers.split_label(label)
+        assert family == Family(spec.name, spec.native)
     assert not table["halton:owen"].native and table["independent"].native
-    spec = S.register_sampler(S.SamplerSpec("haltonlike_test", native=True))
+    spec = samplers.register_sampler(samplers.SamplerSpec("haltonlike_test", native=True))
     try:
-        mine = S.register_sampler(S.SamplerSpec("independent_test"))
-        assert SS.families(["haltonlike_test", "independent_test"]) == {
-            "haltonlike_test": SS.Family("haltonlike_test", True),
-            "independent_test": SS.Family("independent_test", False)}
+        mine = samplers.register_sampler(samplers.SamplerSpec("independent_test"))
+        assert sampler_comparison_analysis.families(["haltonlike_test", "independent_test"]) == {
+            "haltonlike_test": Family("haltonlike_test", True),
+            "independent_test": Family("independent_test", False)}
     finally:
-        S.unregister_sampler(spec.name)
-        S.unregister_sampler(mine.name)
+        samplers.unregister_sampler(spec.name)
+        samplers.unregister_sampler(mine.name)
 
 
 # ------------------------------------------------------------------ order along the ladder
@@ -215,28 +224,28 @@ def test_order_changes_are_found_where_the_curves_cross():
     spp^0.5, i.e. 0.25, 0.5, 1, 2, 4: A loses at 1 and 4 spp, ties at 16, wins from 64."""
     b = ladder(0.1, -1.0, 10.0, SPPS)
     a = ladder(0.4, -1.5, 10.0, SPPS)
-    changes = SS.order_changes(a, b)
+    changes = order_changes(a, b)
     assert [c[1] for c in changes] == [-1, -1, 0, 1, 1]
     assert changes[3][2].value == pytest.approx(2.0)
-    assert SS.onsets(changes) == [16, 64]
-    assert SS.overtakes("A", "B", changes) == ("A", "B", 64)
-    assert SS.order_text(changes) == ("less efficient at 1-4 spp, not distinguishable at "
-                                      "16 spp, more efficient from 64 spp")
+    assert onsets(changes) == [16, 64]
+    assert overtakes("A", "B", changes) == ("A", "B", 64)
+    assert order_text(changes) == ("less efficient at 1-4 spp, not distinguishable at "
+                                   "16 spp, more efficient from 64 spp")
     # the other way round: B overtakes... no, B is overtaken; swapped roles agree
-    back = SS.order_changes(b, a)
-    assert SS.onsets(back) == [16, 64] and SS.overtakes("B", "A", back) == ("A", "B", 64)
+    back = order_changes(b, a)
+    assert onsets(back) == [16, 64] and overtakes("B", "A", back) == ("A", "B", 64)
 
 
 def test_parallel_curves_have_no_order_change():
     """Negative control: A twice as efficient at every count: no onset, nobody overtakes."""
     b = ladder(0.2, -1.0, 10.0, SPPS)
     a = ladder(0.1, -1.0, 10.0, SPPS)
-    changes = SS.order_changes(a, b)
+    changes = order_changes(a, b)
     assert [c[1] for c in changes] == [1] * 5
-    assert SS.onsets(changes) == [] and SS.overtakes("A", "B", changes) is None
-    assert SS.order_text(changes) == "more efficient at 1-256 spp (no change)"
-    same = SS.order_changes(b, b)
-    assert SS.onsets(same) == [] and SS.order_text(same) == \
+    assert onsets(changes) == [] and overtakes("A", "B", changes) is None
+    assert order_text(changes) == "more efficient at 1-256 spp (no change)"
+    same = order_changes(b, b)
+    assert onsets(same) == [] and order_text(same) == \
         "not distinguishable at 1-256 spp (no change)"
 
 
@@ -244,10 +253,11 @@ def test_the_table_and_the_sentences_report_the_crossing():
     points = {8: {"independent": ladder(1.0, -1.0, 10.0, SPPS),
                   "orthogonal": ladder(0.1, -1.0, 10.0, SPPS),
                   "halton:owen": ladder(0.4, -1.5, 10.0, SPPS)}}
-    a = SS.analyse(points, PIXELS, kinds(independent=NATIVE, orthogonal=NATIVE,
-                                         **{"halton:owen": BUNDLED}))
-    c, = [c for c in a.comparisons if c.role == SS.BUNDLED]
-    cells = dict(zip(SS.COMPARISON_HEADER, c.cells()))
+    a = sampler_comparison_analysis.analyse(
+        points, PIXELS, kinds(independent=IS_NATIVE, orthogonal=IS_NATIVE,
+                              **{"halton:owen": IS_BUNDLED}))
+    c, = [c for c in a.comparisons if c.role == BUNDLED]
+    cells = dict(zip(COMPARISON_HEADER, c.cells()))
     assert cells["A / B"] == "halton:owen / orthogonal"
     assert cells["order changes at spp"] == "16, 64"
     assert cells["verdict"] == "halton:owen is more efficient"
@@ -271,19 +281,19 @@ def test_conclusions_are_short_and_come_from_the_table():
                   "halton:owen": ladder(0.7, -1.35, 11.0, SPPS),
                   "zsobol": ladder(0.6, -1.3, 12.0, SPPS),
                   "mine": ladder(1.0, -1.0, 9.0, SPPS)} for d in (2, 8)}
-    families = kinds(independent=NATIVE, stratified=NATIVE, multijitter=NATIVE,
-                     orthogonal=NATIVE, ldsampler=NATIVE,
-                     **{"halton:none": BUNDLED, "halton:permute_digits": BUNDLED,
-                        "halton:owen": BUNDLED, "zsobol": BUNDLED, "mine": BUNDLED})
-    a = SS.analyse(points, PIXELS, families)
+    families = kinds(independent=IS_NATIVE, stratified=IS_NATIVE, multijitter=IS_NATIVE,
+                     orthogonal=IS_NATIVE, ldsampler=IS_NATIVE,
+                     **{"halton:none": IS_BUNDLED, "halton:permute_digits": IS_BUNDLED,
+                        "halton:owen": IS_BUNDLED, "zsobol": IS_BUNDLED, "mine": IS_BUNDLED})
+    a = sampler_comparison_analysis.analyse(points, PIXELS, families)
     for d in (2, 8):
         assert 1 <= len(a.conclusions[d]) <= 3
         for sentence in a.conclusions[d]:
             assert len(sentence.split()) <= 80, sentence
         mine = [c for c in a.comparisons if c.depth == d]
-        assert len([c for c in mine if c.role == SS.BUNDLED]) == 3      # one per family
+        assert len([c for c in mine if c.role == BUNDLED]) == 3      # one per family
         for c in mine:                    # each verdict in the prose is the table's
-            if c.role in (SS.BEST, SS.BUNDLED):
+            if c.role in (BEST, BUNDLED):
                 assert c.verdict in " ".join(a.conclusions[d])
     best = a.best[2]
     top = max(a.rows, key=lambda r: (r.depth == 2, r.relative_efficiency.value))
@@ -305,13 +315,14 @@ def test_the_known_floor_is_subtracted():
     assert e.value == pytest.approx(0.1) and not e.bound
     assert (e.lo, e.hi) == pytest.approx((raw.lo - floor, raw.hi - floor))
     assert p.expected("relmse").value == pytest.approx(0.2)
-    row = next(r for r in SS.table({2: {"independent": ladder(1.0, -1.0, 10.0, floor=floor),
-                                        "x": ladder(0.1, -1.0, 10.0, floor=floor)}}, PIXELS)
-               if r.sampler == "x")
+    rows = sampler_comparison_analysis.table(
+        {2: {"independent": ladder(1.0, -1.0, 10.0, floor=floor),
+             "x": ladder(0.1, -1.0, 10.0, floor=floor)}}, PIXELS)
+    row = next(r for r in rows if r.sampler == "x")
     assert row.mse.value == pytest.approx(0.1 / 64) and row.relative_mse.value == \
         pytest.approx(0.1)
     # negative control: without the floor the raw mean is reported
-    assert SS.Point(1, p.seconds, p.mse, p.relmse).expected("mse").value == \
+    assert Point(1, p.seconds, p.mse, p.relmse).expected("mse").value == \
         pytest.approx(0.1 + floor)
 
 
@@ -319,24 +330,25 @@ def test_an_error_below_the_floor_is_a_bound_never_nan():
     """A sampler whose raw errors scatter around the floor itself (its own error cannot be
     told from the reference's noise): an upper bound, '< x', and no verdict against it."""
     floor = 0.01
-    near = SS.Point(64, (1.0, 1.0, 1.0), (0.0098, 0.0101, 0.0103), (0.0198, 0.02, 0.0204), 64,
+    near = Point(64, (1.0, 1.0, 1.0), (0.0098, 0.0101, 0.0103), (0.0198, 0.02, 0.0204), 64,
                     floor, 0.02)
     e = near.expected("mse")
     assert e.bound and math.isfinite(e.value) and e.value >= 0 and e.lo == 0
     assert e.value == pytest.approx(stats.mean_interval(near.mse).hi - floor)
     assert e.text().startswith("< ")
-    base = SS.Point(64, (1.0, 1.0, 1.0), (0.09, 0.1, 0.11), (0.19, 0.2, 0.21), 64, floor, 0.02)
+    base = Point(64, (1.0, 1.0, 1.0), (0.09, 0.1, 0.11), (0.19, 0.2, 0.21), 64, floor, 0.02)
     points = {2: {"independent": [base], "x": [near]}}
-    row = next(r for r in SS.table(points, PIXELS) if r.sampler == "x")
+    row = next(r for r in sampler_comparison_analysis.table(points, PIXELS) if r.sampler == "x")
     assert row.mse.bound and row.relmse.bound and row.relative_mse.bound
     assert math.isfinite(row.relative_mse.hi) and row.relative_mse.hi < 0.1
-    a = SS.analyse(points, PIXELS, kinds(independent=NATIVE, x=BUNDLED))
-    c, = [c for c in a.comparisons if c.role == SS.BUNDLED]
+    a = sampler_comparison_analysis.analyse(points, PIXELS,
+                                            kinds(independent=IS_NATIVE, x=IS_BUNDLED))
+    c, = [c for c in a.comparisons if c.role == BUNDLED]
     assert c.short_verdict() == "cannot be compared (below the reference's noise)"
     assert "cannot be compared" in c.verdict
     assert a.best[2].sampler == "independent"           # an unknown efficiency never wins
     # negative control: the same raw errors with a floor well below them are no bound
-    clear = SS.Point(64, near.seconds, near.mse, near.relmse, 64, 0.001, 0.002)
+    clear = Point(64, near.seconds, near.mse, near.relmse, 64, 0.001, 0.002)
     assert not clear.expected("mse").bound
     assert clear.expected("mse").value == pytest.approx(sum(near.mse) / 3 - 0.001)
 
@@ -349,9 +361,10 @@ def test_verdicts_use_relmse():
     points = {2: {"independent": ladder(1.0, -1.0, 10.0, rel=1.0),
                   "a": ladder(0.1, -1.0, 10.0, rel=5.0),
                   "b": ladder(0.2, -1.0, 10.0, rel=1.0)}}
-    assert SS.METRIC == "relmse"
-    an = SS.analyse(points, PIXELS, kinds(independent=NATIVE, b=NATIVE, a=BUNDLED))
-    c, = [c for c in an.comparisons if c.role == SS.BUNDLED]
+    assert METRIC == "relmse"
+    an = sampler_comparison_analysis.analyse(
+        points, PIXELS, kinds(independent=IS_NATIVE, b=IS_NATIVE, a=IS_BUNDLED))
+    c, = [c for c in an.comparisons if c.role == BUNDLED]
     assert (c.a, c.b) == ("a", "b") and c.ratio.value == pytest.approx(0.4)
     assert c.short_verdict() == "b is more efficient"
     rows = {r.sampler: r for r in an.rows}
@@ -359,7 +372,7 @@ def test_verdicts_use_relmse():
     assert rows["a"].relative_relmse.value == pytest.approx(0.5)
     assert rows["a"].relative_efficiency.value == pytest.approx(2.0)
     # negative control: by MSE the verdict would have gone the other way
-    mse = SS.ratio(points[2]["a"][-1], points[2]["b"][-1], "mse")
+    mse = ratio(points[2]["a"][-1], points[2]["b"][-1], "mse")
     assert mse.value == pytest.approx(2.0) and mse.excludes(1.0)
 
 
@@ -373,16 +386,16 @@ def screen(flip: float, share: float, mse: float = 0.01, us: float = 10.0, count
     """A screen-space ladder: mean FLIP ``flip`` x spp^-0.5, low-frequency share ``share``,
     MSE ``mse`` / spp, all scattered by ``spread``; ``us`` per sample."""
     err = ladder(mse, -1.0, us, counts, spread, rel)
-    return [SS.ScreenPoint(n, tuple(flip * n ** -0.5 * f for f in spread),
+    return [ScreenPoint(n, tuple(flip * n ** -0.5 * f for f in spread),
                            tuple(share * f for f in spread), e, requested=n)
             for n, e in zip(counts, err)]
 
 
-SCREEN_FAMILIES = kinds(independent=NATIVE, nat=NATIVE, bund=BUNDLED)
+SCREEN_FAMILIES = kinds(independent=IS_NATIVE, nat=IS_NATIVE, bund=IS_BUNDLED)
 
 
 def screen_analysis(points):
-    return SS.analyse_screen({2: points}, PIXELS, SCREEN_FAMILIES, 0.0487)
+    return analyse_screen({2: points}, PIXELS, SCREEN_FAMILIES, 0.0487)
 
 
 def test_lower_flip_reads_as_better_and_swapped_the_other_way():
@@ -390,8 +403,8 @@ def test_lower_flip_reads_as_better_and_swapped_the_other_way():
                               "bund": screen(0.07, 0.049)})
     c = next(c for c in better.comparisons if (c.a, c.b, c.requested) == ("bund", "nat", 4))
     assert c.flip.value == pytest.approx(0.7) and c.flip.hi < 1
-    assert SS.lower_sign(c.flip) == 1 and c.verdicts()[0] == "bund lower FLIP"
-    assert SS.lower_verdict("bund", "nat", c.flip, "mean FLIP").startswith(
+    assert lower_sign(c.flip) == 1 and c.verdicts()[0] == "bund lower FLIP"
+    assert lower_verdict("bund", "nat", c.flip, "mean FLIP").startswith(
         "bund's mean FLIP is lower than nat's: 0.7 (95% CI")
     assert "bund lower at 1-16 spp, ratio 0.7" in better.conclusions[2][0]
     # negative control: the same numbers swapped
@@ -399,7 +412,7 @@ def test_lower_flip_reads_as_better_and_swapped_the_other_way():
                              "bund": screen(0.1, 0.049)})
     c = next(c for c in worse.comparisons if (c.a, c.b, c.requested) == ("bund", "nat", 4))
     assert c.flip.value == pytest.approx(1 / 0.7) and c.verdicts()[0] == "nat lower FLIP"
-    assert SS.lower_verdict("bund", "nat", c.flip, "mean FLIP").startswith(
+    assert lower_verdict("bund", "nat", c.flip, "mean FLIP").startswith(
         "bund's mean FLIP is higher than nat's")
     assert "bund higher at 1-16 spp" in worse.conclusions[2][0]
 
@@ -412,7 +425,7 @@ def test_a_flip_tie_is_not_distinguishable():
             assert c.flip.value == pytest.approx(1.0) and c.verdicts()[0] == \
                 "not distinguishable"
     assert "bund not distinguishable at 1-16 spp" in tie.conclusions[2][0]
-    assert "are not distinguishable in mean FLIP (ratio 1" in SS.lower_verdict(
+    assert "are not distinguishable in mean FLIP (ratio 1" in lower_verdict(
         "bund", "nat", tie.comparisons[-1].flip, "mean FLIP")
     # 3% apart within a 20% scatter: a tie; 20% apart with it: a verdict
     wide = (0.8, 1.0, 1.2)
@@ -431,7 +444,7 @@ def test_a_bluer_error_is_found_where_it_is_below_every_native():
     """bund's share is 0.037 at 4 spp only (0.049 at 1 and 16), against independent's and
     nat's 0.049: bluer than every native sampler at 4 spp alone."""
     bund = screen(0.1, 0.049)
-    bund[1] = SS.ScreenPoint(4, bund[1].flip, tuple(0.037 * f for f in SPREAD), bund[1].error,
+    bund[1] = ScreenPoint(4, bund[1].flip, tuple(0.037 * f for f in SPREAD), bund[1].error,
                              requested=4)
     a = screen_analysis({"independent": screen(0.2, 0.049), "nat": screen(0.1, 0.049),
                          "bund": bund})
@@ -461,7 +474,7 @@ def test_flip_is_compared_only_at_equal_counts():
     c = next(c for c in a.comparisons if (c.a, c.b, c.requested) == ("bund", "nat", 16))
     assert c.spp == (16, 25) and not c.equal and c.flip.excludes(1.0)
     # MSE per sample and time per sample alike: equally efficient
-    assert c.verdicts() == (SS.UNEQUAL, "bund bluer", "not distinguishable")
+    assert c.verdicts() == (UNEQUAL, "bund bluer", "not distinguishable")
     assert c.cells()[2] == "16 / 25"
     assert "bund at 1, 4, 16 spp" in a.conclusions[2][1]
     # the sentence's native is the lowest FLIP among those that render 16 for 16
@@ -482,7 +495,7 @@ def test_the_screen_efficiency_uses_mse():
         "bund more efficient"
     assert "against the most efficient native sampler at 16 spp (nat): bund more " \
            "efficient at 1-16 spp" in a.conclusions[2][2]
-    relmse = SS.ratio(pts["bund"][-1].error, pts["nat"][-1].error, "relmse")   # control
+    relmse = ratio(pts["bund"][-1].error, pts["nat"][-1].error, "relmse")   # control
     assert relmse.value == pytest.approx(0.4) and relmse.excludes(1.0)
 
 
@@ -493,16 +506,16 @@ def test_screen_pairs_come_from_the_table_and_the_lowest_flip():
     pts = {"independent": screen(0.2, 0.049), "nat": screen(0.1, 0.049),
            "halton:none": screen(0.12, 0.049), "halton:owen": screen(0.09, 0.049),
            "zsobol:none": screen(0.07, 0.04), "zsobol:owen": screen(0.08, 0.037)}
-    families = kinds(independent=NATIVE, nat=NATIVE, **{
-        "halton:none": BUNDLED, "halton:owen": BUNDLED, "zsobol:none": BUNDLED,
-        "zsobol:owen": BUNDLED})
-    assert SS.screen_pairs(pts, families) == [
+    families = kinds(independent=IS_NATIVE, nat=IS_NATIVE, **{
+        "halton:none": IS_BUNDLED, "halton:owen": IS_BUNDLED, "zsobol:none": IS_BUNDLED,
+        "zsobol:owen": IS_BUNDLED})
+    assert screen_pairs(pts, families) == [
         ("halton:owen", "independent"), ("halton:owen", "nat"), ("zsobol:none", "independent"),
         ("zsobol:none", "nat"), ("halton:owen", "zsobol:none")]
-    swapped = kinds(independent=NATIVE, nat=BUNDLED, **{
-        "halton:none": NATIVE, "halton:owen": NATIVE, "zsobol:none": BUNDLED,
-        "zsobol:owen": BUNDLED})
-    assert SS.screen_pairs(pts, swapped) == [
+    swapped = kinds(independent=IS_NATIVE, nat=IS_BUNDLED, **{
+        "halton:none": IS_NATIVE, "halton:owen": IS_NATIVE, "zsobol:none": IS_BUNDLED,
+        "zsobol:owen": IS_BUNDLED})
+    assert screen_pairs(pts, swapped) == [
         ("nat", "independent"), ("nat", "halton:none"), ("nat", "halton:owen"),
         ("zsobol:none", "independent"), ("zsobol:none", "halton:none"),
         ("zsobol:none", "halton:owen"), ("nat", "zsobol:none")]
@@ -520,10 +533,10 @@ def test_screen_conclusions_are_short_and_from_the_table():
            "halton:owen": screen(0.12, 0.049, mse=0.03, counts=counts),
            "zsobol:owen": screen(0.07, 0.037, mse=0.02, counts=counts),
            "mine": screen(0.2, 0.049, mse=0.1, counts=counts)}
-    families = kinds(independent=NATIVE, stratified=NATIVE, multijitter=NATIVE,
-                     orthogonal=NATIVE, ldsampler=NATIVE, **{
-                         "halton:owen": BUNDLED, "zsobol:owen": BUNDLED, "mine": BUNDLED})
-    a = SS.analyse_screen({2: pts, 8: pts}, PIXELS, families, 0.0487)
+    families = kinds(independent=IS_NATIVE, stratified=IS_NATIVE, multijitter=IS_NATIVE,
+                     orthogonal=IS_NATIVE, ldsampler=IS_NATIVE, **{
+                         "halton:owen": IS_BUNDLED, "zsobol:owen": IS_BUNDLED, "mine": IS_BUNDLED})
+    a = analyse_screen({2: pts, 8: pts}, PIXELS, families, 0.0487)
     for d in (2, 8):
         assert 1 <= len(a.conclusions[d]) <= 3
         for sentence in a.conclusions[d]:
@@ -533,7 +546,7 @@ def test_screen_conclusions_are_short_and_from_the_table():
         assert "zsobol:owen at 1, 2, 4, 8, 16 spp" in a.conclusions[d][1]
     assert len(a.rows) == 2 * len(pts) * len(counts)
     assert len(a.comparisons) == 2 * (3 * 5 + 3) * len(counts)
-    cells = dict(zip(SS.SCREEN_HEADER, next(c for c in a.comparisons if (
+    cells = dict(zip(SCREEN_HEADER, next(c for c in a.comparisons if (
         c.a, c.b, c.requested) == ("zsobol:owen", "multijitter", 16)).cells()))
     assert cells["mean FLIP A / B"] == "0.7" and cells["FLIP verdict"] == \
         "zsobol:owen lower FLIP"
@@ -551,18 +564,19 @@ TINY_SCREEN = ["--resolution", "8x4", "--spp", "4", "--depths", "2", "--repeats"
 
 def tiny_study(out, *argv):
     from experiments.lib import cli
-    from experiments.lib.studies import samplers as SSt
+    from experiments.lib.studies import sampler_comparison
     from experiments.lib.study import Study
-    args = cli.parse_args(SSt.build_parser(), ["--out", str(out), *TINY_SCREEN, *argv])
-    return SSt, Study(args), SSt.settings_of(args)
+    args = cli.parse_args(sampler_comparison.build_parser(),
+                          ["--out", str(out), *TINY_SCREEN, *argv])
+    return Study(args), sampler_comparison.settings_of(args)
 
 
 def test_the_screen_pass_plans_exactly_the_jobs_it_needs(tmp_path):
-    SSt, st, cfg = tiny_study(tmp_path)
+    st, cfg = tiny_study(tmp_path)
     sc = cfg.screen
     assert (sc.resolution, sc.counts, sc.depths, sc.repeats, sc.reference_spp) == \
         ((8, 8), (1, 2), (2,), 2, 16)
-    plan = SSt.ScreenSpace().plan(st, cfg)
+    plan = ScreenSpace().plan(st, cfg)
     ladders = plan.ladders[2]
     assert {s: len(reps) for s, reps in ladders.items()} == {
         "independent": 2, "zsobol:owen": 2, "zsobol:none": 1}       # deterministic: one run
@@ -577,22 +591,23 @@ def test_the_screen_pass_plans_exactly_the_jobs_it_needs(tmp_path):
                 assert j.key.startswith("samplers/screen-8x8-depth2/")
     refs = plan.refs[2]
     # the reference store's chunks (their size set by the film) give at least the 16 asked
-    from experiments.lib import references as R
-    chunk = R.chunk_spp_for(8, 8, SSt.SCREEN_REFERENCE_SPP)
-    assert [j.spp for j in refs] == [chunk] * R.MIN_CHUNKS and chunk * R.MIN_CHUNKS >= 16
+    from experiments.lib import references
+    chunk = references.chunk_spp_for(8, 8, SCREEN_REFERENCE_SPP)
+    chunks = references.MIN_CHUNKS
+    assert [j.spp for j in refs] == [chunk] * chunks and chunk * chunks >= 16
     assert {j.method.name for j in refs} == {"path"}
     assert {(j.width, j.height) for j in refs} == {(8, 8)}
-    jobs = SSt.ScreenSpace().jobs(plan)
+    jobs = ScreenSpace().jobs(plan)
     assert jobs[:len(refs)] == refs and sorted(j.key for j in jobs[len(refs):]) == \
         sorted(j.key for j in ladder_jobs)
     # the efficiency pass's jobs do not depend on the screen options
-    _, st2, cfg2 = tiny_study(tmp_path, "--screen-counts", "4,16", "--screen-repeats", "5")
-    keys = [j.key for j in SSt.Efficiency().jobs(SSt.Efficiency().plan(st, cfg))]
-    assert keys == [j.key for j in SSt.Efficiency().jobs(SSt.Efficiency().plan(st2, cfg2))]
+    st2, cfg2 = tiny_study(tmp_path, "--screen-counts", "4,16", "--screen-repeats", "5")
+    keys = [j.key for j in Efficiency().jobs(Efficiency().plan(st, cfg))]
+    assert keys == [j.key for j in Efficiency().jobs(Efficiency().plan(st2, cfg2))]
     # negative controls: switched off, no pass; --max-depth replaces its depths too
-    _, st3, cfg3 = tiny_study(tmp_path, "--screen-space", "off")
-    assert SSt.ScreenSpace().plan(st3, cfg3) is None and SSt.ScreenSpace().jobs(None) == []
-    _, st4, cfg4 = tiny_study(tmp_path, "--max-depth", "3")
+    st3, cfg3 = tiny_study(tmp_path, "--screen-space", "off")
+    assert ScreenSpace().plan(st3, cfg3) is None and ScreenSpace().jobs(None) == []
+    st4, cfg4 = tiny_study(tmp_path, "--max-depth", "3")
     assert cfg4.screen.depths == (3,) and cfg4.depths == (3,)
 
 
@@ -610,8 +625,8 @@ def test_the_lab_plans_the_same_screen_jobs(tmp_path):
     """The lab's error images are the sampler study's renders (first repeat): the same
     keys, so it finds them in the store; with another seed it would not (control)."""
     from experiments.lib.studies import lab
-    SSt, st, cfg = tiny_study(tmp_path)
-    study = {j.key for j in SSt.ScreenSpace().jobs(SSt.ScreenSpace().plan(st, cfg))}
+    st, cfg = tiny_study(tmp_path)
+    study = {j.key for j in ScreenSpace().jobs(ScreenSpace().plan(st, cfg))}
     config = lab.Config(screen_resolution=(8, 8), screen_counts=(2,),
                         screen_samplers=("independent", "zsobol:owen"),
                         screen_reference_spp=16)
@@ -619,14 +634,14 @@ def test_the_lab_plans_the_same_screen_jobs(tmp_path):
     keys = {j.key for j in mine.refs} | {j.key for reps in mine.ladders.values()
                                          for j in reps[0]}
     assert len(keys) == 8 + 2 and keys <= study
-    _, other, _ = tiny_study(tmp_path, "--seed", "7")
+    other, _ = tiny_study(tmp_path, "--seed", "7")
     moved = lab.plan_screen(other, config, cfg.screen.reference)
     assert not {j.key for reps in moved.ladders.values() for j in reps[0]} & study
 
 
 def test_the_screen_pass_resumes_from_the_store(tmp_path):
-    SSt, st, cfg = tiny_study(tmp_path)
-    p = SSt.ScreenSpace()
+    st, cfg = tiny_study(tmp_path)
+    p = ScreenSpace()
     plan = p.plan(st, cfg)
     jobs = p.jobs(plan)
     assert st.run(jobs) == len({j.key for j in jobs})

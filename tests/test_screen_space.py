@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from experiments.lib import screen_space as SP
+from experiments.lib import screen_space
 
 N = 128
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
@@ -31,23 +31,23 @@ def filtered(rng, gain2, n=N, fields=1) -> np.ndarray:
     """White noise of unit variance whose power at frequency |f| is multiplied by
     ``gain2(|f|)`` (a filter symmetric in f, so the field stays real)."""
     white = rng.standard_normal((fields, n, n))
-    g = np.sqrt(gain2(SP.radius((n, n))))
+    g = np.sqrt(gain2(screen_space.radius((n, n))))
     return np.real(np.fft.ifft2(np.fft.fft2(white) * g))
 
 
 def low_gain(factor):
-    return lambda r: np.where(r < SP.LOW, factor, 1.0)
+    return lambda r: np.where(r < screen_space.LOW, factor, 1.0)
 
 
 def expected_share(factor, shape=(N, N)) -> float:
     """The share of a field whose power below the cutoff is ``factor`` times white's:
     (factor x low bins) / (factor x low bins + the other nonzero bins)."""
-    w = SP.white_share(shape)
+    w = screen_space.white_share(shape)
     return factor * w / (factor * w + 1 - w)
 
 
 def shares(fields, floor=0.0) -> np.ndarray:
-    return np.array([SP.low_share(SP.periodogram(f), floor) for f in fields])
+    return np.array([screen_space.low_share(screen_space.periodogram(f), floor) for f in fields])
 
 
 def interval(x, level=0.999):
@@ -66,17 +66,17 @@ def test_a_cosine_sits_in_its_ring(k):
     n = 64
     x = np.arange(n)
     field = np.tile(np.cos(2 * np.pi * k * x / n), (n, 1))
-    p = SP.periodogram(field)
+    p = screen_space.periodogram(field)
     assert p[0, k] == pytest.approx(n * n / 4) and p[0, n - k] == pytest.approx(n * n / 4)
     assert p.sum() == pytest.approx(n * n / 2)
-    freqs, power = SP.spectrum(p)
+    freqs, power = screen_space.spectrum(p)
     assert len(freqs) == n // 2 and freqs[0] == pytest.approx(1 / n)
-    ring = int(np.count_nonzero(np.rint(SP.radius((n, n)) * n) == k))
+    ring = int(np.count_nonzero(np.rint(screen_space.radius((n, n)) * n) == k))
     expected = np.zeros(n // 2)
     expected[k - 1] = 2 * (n * n / 4) / ring
     np.testing.assert_allclose(power, expected, atol=1e-9)
     # k / n = 0.0625 is below the cutoff (share 1), 0.1875 above it (share 0)
-    assert SP.low_share(p) == pytest.approx(1.0 if k / n < SP.LOW else 0.0, abs=1e-12)
+    assert screen_space.low_share(p) == pytest.approx(1.0 if k / n < screen_space.LOW else 0.0, abs=1e-12)
 
 
 def test_white_share_counts_the_disc():
@@ -85,8 +85,8 @@ def test_white_share_counts_the_disc():
     n = 128
     inside = sum(1 for a in range(-n // 2, n // 2) for b in range(-n // 2, n // 2)
                  if 0 < a * a + b * b < (n // 8) ** 2)
-    assert SP.white_share((n, n)) == pytest.approx(inside / (n * n - 1), rel=1e-12)
-    assert SP.white_share((n, n)) == pytest.approx(math.pi * SP.LOW ** 2, rel=0.02)
+    assert screen_space.white_share((n, n)) == pytest.approx(inside / (n * n - 1), rel=1e-12)
+    assert screen_space.white_share((n, n)) == pytest.approx(math.pi * screen_space.LOW ** 2, rel=0.02)
 
 
 def test_radial_average_is_the_mean_over_each_ring():
@@ -94,12 +94,12 @@ def test_radial_average_is_the_mean_over_each_ring():
     k = np.arange(-3, 4)
     r = np.sqrt(k[:, None] ** 2 + k[None, :] ** 2)
     values = np.arange(r.size, dtype=float).reshape(r.shape)
-    freqs, out = SP.radial_average(values, r, 1, 3)
+    freqs, out = screen_space.radial_average(values, r, 1, 3)
     assert list(freqs) == [1, 2, 3]
     for f in (1, 2, 3):
         assert out[f - 1] == pytest.approx(values[np.rint(r) == f].mean())
     # leading axes are kept: two stacked copies give the same averages twice
-    _, both = SP.radial_average(np.stack([values, 2 * values]), r, 1, 3)
+    _, both = screen_space.radial_average(np.stack([values, 2 * values]), r, 1, 3)
     np.testing.assert_allclose(both, [out, 2 * out])
 
 
@@ -109,8 +109,8 @@ def test_white_noise_gives_the_discs_share_and_a_quarter_less_low_power_is_told(
     rng = np.random.default_rng(1)
     white = shares(filtered(rng, low_gain(1.0), fields=24))
     lo, hi = interval(white)
-    assert lo < SP.white_share((N, N)) < hi
-    assert abs(white.mean() - math.pi * SP.LOW ** 2) < 0.004
+    assert lo < screen_space.white_share((N, N)) < hi
+    assert abs(white.mean() - math.pi * screen_space.LOW ** 2) < 0.004
     # negative controls the size of the blue-noise sampler's effect (0.037 against 0.049)
     blue = shares(filtered(rng, low_gain(0.75), fields=24))
     lo_b, hi_b = interval(blue)
@@ -131,15 +131,15 @@ def test_blurred_noise_is_red_and_high_passed_noise_is_blue():
 def test_a_constant_offset_changes_nothing():
     rng = np.random.default_rng(3)
     field = filtered(rng, low_gain(0.75))[0]
-    p = SP.periodogram(field)
-    np.testing.assert_allclose(SP.periodogram(field + 5.0), p, atol=1e-9)
-    assert SP.low_share(SP.periodogram(field + 5.0)) == pytest.approx(SP.low_share(p))
+    p = screen_space.periodogram(field)
+    np.testing.assert_allclose(screen_space.periodogram(field + 5.0), p, atol=1e-9)
+    assert screen_space.low_share(screen_space.periodogram(field + 5.0)) == pytest.approx(screen_space.low_share(p))
     # the same through error_field: a grey offset of every pixel is a constant luminance
     ref = rng.random((N, N, 3))
     image = ref + field[..., None]
-    np.testing.assert_allclose(SP.error_field(image + 0.3, ref), SP.error_field(image, ref),
+    np.testing.assert_allclose(screen_space.error_field(image + 0.3, ref), screen_space.error_field(image, ref),
                                atol=1e-12)
-    np.testing.assert_allclose(SP.error_field(image, ref), field - field.mean(), atol=1e-12)
+    np.testing.assert_allclose(screen_space.error_field(image, ref), field - field.mean(), atol=1e-12)
     # negative control: without the mean subtracted, the offset is all DC power
     raw = np.abs(np.fft.fft2(field + 5.0)) ** 2 / field.size
     assert raw[0, 0] > 1e3 * p.sum() / p.size
@@ -161,9 +161,9 @@ def test_the_floor_gives_back_the_renders_own_share():
     assert interval(left_in)[0] > hi
     assert interval(left_in)[0] < expected_share(0.75) < interval(left_in)[1]
     # the normalized spectrum is white noise's 1 at high frequencies, 0.5 below the cutoff
-    freqs, power = SP.spectrum(SP.normalized(np.mean([SP.periodogram(f) for f in noisy],
+    freqs, power = screen_space.spectrum(screen_space.normalized(np.mean([screen_space.periodogram(f) for f in noisy],
                                                      axis=0), 1.0))
-    scale = (0.5 * SP.white_share((N, N)) + 1 - SP.white_share((N, N)))
+    scale = (0.5 * screen_space.white_share((N, N)) + 1 - screen_space.white_share((N, N)))
     assert np.mean(power[freqs < 0.1]) * scale == pytest.approx(0.5, rel=0.1)
     assert np.mean(power[freqs > 0.2]) * scale == pytest.approx(1.0, rel=0.05)
 
@@ -177,14 +177,14 @@ def test_the_floor_is_the_variance_of_the_references_luminance():
     s2 = 0.04
     chunks = [truth + rng.normal(0, math.sqrt(s2 / k), truth.shape) for k in counts]
     expected = s2 * np.sum(LUMINANCE ** 2) / sum(counts)
-    assert SP.reference_floor(chunks, counts) == pytest.approx(expected, rel=0.03)
+    assert screen_space.reference_floor(chunks, counts) == pytest.approx(expected, rel=0.03)
     # negative control: the chunks weighted equally (their counts ignored) reads 9% high,
     # which the same tolerance rejects
     lum = np.stack([c @ LUMINANCE for c in chunks])
     unweighted = float(np.mean(lum.var(axis=0, ddof=1) / len(counts)))
     assert unweighted != pytest.approx(expected, rel=0.03)
     with pytest.raises(ValueError, match="no spread"):
-        SP.reference_floor(chunks[:1], counts[:1])
+        screen_space.reference_floor(chunks[:1], counts[:1])
 
 
 # ------------------------------------------------------------------ bad input
@@ -194,8 +194,8 @@ def test_bad_input_is_refused_with_a_clear_error():
     image = np.ones((8, 8, 3))
     image[2, 3, 1] = np.nan
     with pytest.raises(ValueError, match="1 non-finite pixel"):
-        SP.error_field(image, ref)
+        screen_space.error_field(image, ref)
     with pytest.raises(ValueError, match=r"\(8, 8, 3\) and \(8, 4, 3\)"):
-        SP.error_field(ref, np.zeros((8, 4, 3)))
+        screen_space.error_field(ref, np.zeros((8, 4, 3)))
     with pytest.raises(ValueError, match="no power above the floor"):
-        SP.low_share(SP.periodogram(np.zeros((8, 8))), 0.0)
+        screen_space.low_share(screen_space.periodogram(np.zeros((8, 8))), 0.0)

@@ -28,7 +28,6 @@ that the import graph has no cycle):
 * :mod:`.cli`            the argument parser shared by every script, ``load_extensions``
 * :mod:`.scene_probes`   measurements on a scene's objects without rendering (Phong mask, ...)
 * :mod:`.sweeps`         the stability sweeps (plan, analysis, prose), one module each
-* :mod:`.sampler_study`  the sampler study's table and conclusion
 * :mod:`.lab_warps`, :mod:`.lab_points`, :mod:`.lab_figures`  the sampling lab
 * :mod:`.studies`        the study registry (``StudySpec``, ``register_study``, the one
                          ``main``) and the built-in studies, one module each; the scripts

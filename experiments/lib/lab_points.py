@@ -40,9 +40,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import files
-from . import samplers as S
-from . import screen_space as SP
+from . import files, screen_space
+from .samplers import DEFAULT, label_dict, labels
 
 #: The calls of one sample, in order: ("2d", what) or ("1d", what).
 CAMERA = (("2d", "camera: film position"),)
@@ -58,7 +57,7 @@ VERSION = 4
 
 def samplers() -> list[str]:
     """Every registered sampler with each randomization (the sampler study's list)."""
-    return S.labels()
+    return labels()
 
 
 def dimensions(pattern=PATTERN) -> list[tuple[int, str, int]]:
@@ -98,7 +97,7 @@ def draw(name: str, spp: int, seed: int, width: int, height: int, pattern=PATTER
     of a width x height render of ``spp`` samples, driven as ``mi.render`` drives it."""
     import drjit as dr
     import mitsuba as mi
-    sampler = mi.load_dict(S.label_dict(name, spp, width, height))
+    sampler = mi.load_dict(label_dict(name, spp, width, height))
     sampler.set_sample_count(spp)
     count = sampler.sample_count()
     lanes = width * height * count
@@ -167,7 +166,7 @@ def radial_average(spectrum: np.ndarray, k_max: int) -> tuple[np.ndarray, np.nda
     :func:`.screen_space.radial_average` (the one definition)."""
     k = np.arange(-k_max, k_max + 1)
     r = np.sqrt(k[:, None] ** 2 + k[None, :] ** 2)
-    return SP.radial_average(spectrum, r, 1, k_max)
+    return screen_space.radial_average(spectrum, r, 1, k_max)
 
 
 def power_spectrum(points: np.ndarray, k_max: int) -> tuple[np.ndarray, np.ndarray, float]:
@@ -305,7 +304,7 @@ class Findings:
 
 
 def analyse(cd: dict, joint: dict, counts: dict, spp: int, kinds: dict,
-            baseline: str = S.DEFAULT) -> Findings:
+            baseline: str = DEFAULT) -> Findings:
     """The point sets' conclusion from ``cd[(label, pair)]`` (mean squared CD) and
     ``joint[(label, pair)]`` (:func:`joint_power`) at ``spp`` requested (``counts[label]``
     drawn); ``kinds[label]`` has the label's sampler ``name`` and whether it is ``native``

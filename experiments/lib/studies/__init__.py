@@ -23,8 +23,9 @@ from typing import Callable
 
 from ..scenes import Needs, SceneInfo, unmet
 
-#: The built-in studies, modules of this package (each registers itself when imported).
-BUILTIN = ("samplers", "convergence", "writeup", "lab", "stability", "suite")
+#: The built-in studies' modules in this package (each registers itself when imported,
+#: under its own name: ``sampler_comparison`` registers the study ``samplers``).
+BUILTIN = ("sampler_comparison", "convergence", "writeup", "lab", "stability", "suite")
 #: ``run_all``'s choices for every study.
 MODES = ("default", "quick", "off")
 

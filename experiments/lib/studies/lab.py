@@ -29,17 +29,14 @@ import time
 
 import numpy as np
 
-from experiments.lib import files
-from experiments.lib.studies import StudySpec, register_study
-from experiments.lib.studies import samplers as SSt
-from experiments.lib import cli, figures, report
-from experiments.lib import lab_figures as LF
-from experiments.lib import lab_points as LP
-from experiments.lib import lab_warps as LW
-from experiments.lib import sampler_study as SS
-from experiments.lib import screen_space as SP
-from experiments.lib.methods import parse_method, strategies as registered_strategies
+from experiments.lib import cli, figures, files, lab_figures, lab_points, lab_warps, report
+from experiments.lib import screen_space
+from experiments.lib.methods import Method, parse_method, strategies as registered_strategies
 from experiments.lib.study import Study
+from experiments.lib.studies import StudySpec, register_study
+from experiments.lib.studies import sampler_comparison, sampler_comparison_plan
+from experiments.lib.studies.sampler_comparison_analysis import families
+from experiments.lib.studies.sampler_comparison_screen import screen_floor
 
 NAME = "lab"
 ORDER = 35
@@ -50,10 +47,10 @@ QUICK_SAMPLES = 10_000
 @dataclasses.dataclass(frozen=True)
 class Config:
     """What one run of the lab computes."""
-    bsdfs: tuple = LW.BSDFS
-    incidences: tuple = LW.INCIDENCES
+    bsdfs: tuple = lab_warps.BSDFS
+    incidences: tuple = lab_warps.INCIDENCES
     samplers: tuple | None = None        # None: every label of the sampler table
-    counts: tuple = LP.COUNTS
+    counts: tuple = lab_points.COUNTS
     pixels: tuple = (8, 8)               # width, height of the point-set "render"
     strategies: tuple | None = None      # None: every registered strategy
     samples: int = SAMPLES               # directions per warp panel
@@ -63,23 +60,24 @@ class Config:
     screen_counts: tuple = (4, 16)
     screen_depth: int = 2
     screen_samplers: tuple | None = None     # None: the sampler study's default labels
-    screen_reference_spp: int = SSt.SCREEN_REFERENCE_SPP
+    screen_reference_spp: int = sampler_comparison_plan.SCREEN_REFERENCE_SPP
 
     def sampler_labels(self) -> list[str]:
-        return list(self.samplers or LP.samplers())
+        return list(self.samplers or lab_points.samplers())
 
     def strategy_names(self) -> list[str]:
         return list(self.strategies or registered_strategies())
 
     def screen_labels(self) -> list[str]:
-        return list(self.screen_samplers or SSt.default_screen_labels())
+        return list(self.screen_samplers
+                    or sampler_comparison_plan.default_screen_labels())
 
 
 FULL = Config()
 #: The screen-space part of --quick matches the sampler study's quick screen-space pass,
 #: so that run_all's quick run renders it once.
-QUICK = Config(bsdfs=(LW.BSDFS[1], LW.BSDFS[-1]), incidences=(60.0,), counts=(64,),
-               pixels=(4, 4), samples=QUICK_SAMPLES, screen_resolution=(16, 8),
+QUICK = Config(bsdfs=(lab_warps.BSDFS[1], lab_warps.BSDFS[-1]), incidences=(60.0,),
+               counts=(64,), pixels=(4, 4), samples=QUICK_SAMPLES, screen_resolution=(16, 8),
                screen_counts=(4,), screen_reference_spp=16)
 
 
@@ -92,21 +90,30 @@ def build_parser() -> cli.Parser:
     p.add_argument("--quick", action="store_true",
                    help="tiny run (for tests): two BSDFs at 60 degrees, every sampler at 64 "
                         "spp on 4x4 pixels, screen-space error at 16x8 and 4 spp")
-    p.add_argument("--screen-samplers", type=SSt.screen_samplers, default=None,
+    p.add_argument("--screen-samplers", type=sampler_comparison.screen_samplers,
+                   default=None,
                    help="samplers of the screen-space error images: 'default' (the sampler "
                         "study's default screen-space labels), 'all' or comma-separated "
                         "labels")
     return p
 
 
-def parse(argv=None):
-    args = cli.parse_args(build_parser(), argv)
+@dataclasses.dataclass(frozen=True)
+class Settings:
+    """What one run of the lab does (typed; the Namespace stays in :func:`run`)."""
+    config: Config                # what it computes
+    out: str                      # the results folder
+    reference: Method             # the screen-space reference's method
+    variant: str
+    quick: bool
+
+
+def settings_of(args) -> Settings:
     base = QUICK if args.quick else FULL
-    if args.samples is None:
-        args.samples = base.samples
-    args.config = dataclasses.replace(base, samples=args.samples, seed=args.seed,
-                                      screen_samplers=args.screen_samplers)
-    return args
+    samples = base.samples if args.samples is None else args.samples
+    config = dataclasses.replace(base, samples=samples, seed=args.seed,
+                                 screen_samplers=args.screen_samplers)
+    return Settings(config, args.out, args.reference_method, args.variant, args.quick)
 
 
 def slug(label: str) -> str:
@@ -117,21 +124,22 @@ def slug(label: str) -> str:
 
 @dataclasses.dataclass(frozen=True)
 class WarpsMeasured:
-    specs: list                  # LW.PanelSpec, in plan order
+    specs: list                  # lab_warps.PanelSpec, in plan order
     panels: dict                 # {spec key: panel}
     rows: list                   # one dict per panel (the warps table)
 
 
 def plan_warps(cfg: Config) -> list:
-    return LW.plan(cfg.strategy_names(), cfg.samples, cfg.seed, cfg.bsdfs, cfg.incidences)
+    return lab_warps.plan(cfg.strategy_names(), cfg.samples, cfg.seed, cfg.bsdfs,
+                          cfg.incidences)
 
 
 def measure_warps(specs: list, cache: str) -> WarpsMeasured:
-    panels = {spec.key(): LW.cached(spec, cache) for spec in specs}
+    panels = {spec.key(): lab_warps.cached(spec, cache) for spec in specs}
     rows = [{"bsdf": spec.bsdf_label, "incidence_deg": spec.incidence_deg,
              "strategy": spec.strategy, "samples": spec.samples, "seed": spec.seed,
-             "grid": LW.domain_for(spec).describe(),
-             **{k: panels[spec.key()][k] for k in LW.SCALARS}} for spec in specs]
+             "grid": lab_warps.domain_for(spec).describe(),
+             **{k: panels[spec.key()][k] for k in lab_warps.SCALARS}} for spec in specs]
     return WarpsMeasured(specs, panels, rows)
 
 
@@ -140,7 +148,7 @@ WARP_HEADER = ["bsdf", "incidence_deg", "strategy", "samples", "seed", "grid", "
                "max_z"]
 
 
-def report_warps(out: str, cfg: Config, m: WarpsMeasured, found: LW.Findings) -> list:
+def report_warps(out: str, cfg: Config, m: WarpsMeasured, found: lab_warps.Findings) -> list:
     out_dir = os.path.join(out, NAME)
     strategies = list(dict.fromkeys(s.strategy for s in m.specs))
     blocks = []
@@ -150,24 +158,24 @@ def report_warps(out: str, cfg: Config, m: WarpsMeasured, found: LW.Findings) ->
         tiles = [(f"{s.strategy:8s} {s.incidence_deg:4g}°  p={m.panels[s.key()]['p_value']:.2g}"
                   f"\nVar/E²={m.panels[s.key()]['rel_variance']:.3g}", m.panels[s.key()])
                  for s in mine]
-        LF.warp_mosaic(os.path.join(out_dir, stem + ".png"), f"{label}: vr_path strategies",
-                       tiles)
+        lab_figures.warp_mosaic(os.path.join(out_dir, stem + ".png"),
+                                f"{label}: vr_path strategies", tiles)
         blocks.append(report.image(
             f"{NAME}/{stem}.png",
-            f"{label}, {LW.domain_for(mine[0]).describe()} (x: azimuth, the whole sphere with "
-            f"the mirror direction's azimuth in the middle; y: cosine, the normal or the "
-            f"lobe axis at the top): per row one strategy at one incidence; left to right the "
-            f"first {mine[0].scatter} drawn directions, the histogram of {cfg.samples} "
+            f"{label}, {lab_warps.domain_for(mine[0]).describe()} (x: azimuth, the whole "
+            f"sphere with the mirror direction's azimuth in the middle; y: cosine, the normal "
+            f"or the lobe axis at the top): per row one strategy at one incidence; left to "
+            f"right the first {mine[0].scatter} drawn directions, the histogram of {cfg.samples} "
             f"directions, the strategy's density integrated over the same cells (both as "
-            f"(value/max)^{LF.GAMMA:g}), their difference as a z-score (blue: too few "
-            f"samples, red: too many; ±{LF.Z_RANGE:g} at full colour) and the integrand "
-            f"f·cos."))
+            f"(value/max)^{lab_figures.GAMMA:g}), their difference as a z-score (blue: too "
+            f"few samples, red: too many; ±{lab_figures.Z_RANGE:g} at full colour) and the "
+            f"integrand f·cos."))
     rows = m.rows
     configs = list(dict.fromkeys((r["bsdf"], r["incidence_deg"]) for r in rows))
     values = np.array([[next(r["rel_variance"] for r in rows if (r["bsdf"], r["incidence_deg"])
                              == c and r["strategy"] == s) for s in strategies] for c in configs])
-    LF.rel_variance_chart(os.path.join(out_dir, "rel_variance.png"),
-                          [f"{b} {i:g}°" for b, i in configs], strategies, values)
+    lab_figures.rel_variance_chart(os.path.join(out_dir, "rel_variance.png"),
+                                   [f"{b} {i:g}°" for b, i in configs], strategies, values)
     blocks.append(report.image(f"{NAME}/rel_variance.png",
                                "Var[w]/E[w]^2 of the weight w = f·cos/pdf per configuration "
                                "and strategy (0: w constant, the strategy matches f·cos)."))
@@ -186,10 +194,10 @@ def report_warps(out: str, cfg: Config, m: WarpsMeasured, found: LW.Findings) ->
         + [f"p_value {s}" for s in strategies] + [f"rel_variance {s}" for s in strategies],
         wide, "Chi-square p-value and Var[w]/E[w]^2 per configuration and strategy"))
     blocks += [report.write_table(
-        out, f"{NAME}/warps_conclusion", LW.HEADER, [r.cells() for r in found.rows],
+        out, f"{NAME}/warps_conclusion", lab_warps.HEADER, [r.cells() for r in found.rows],
         f"Warps, per strategy over {found.configurations} configurations: chi-square "
         f"rejections at 1% (Sidak over the panels: p < {found.alpha:.1e}), the lowest "
-        f"p-value, where Var[w]/E[w]^2 exceeds {LW.EXPLODES:g}, and in how many "
+        f"p-value, where Var[w]/E[w]^2 exceeds {lab_warps.EXPLODES:g}, and in how many "
         f"configurations the strategy's Var[w]/E[w]^2 is the lowest"),
         report.text("\n\n".join(found.sentences))]
     return blocks
@@ -200,7 +208,7 @@ def report_warps(out: str, cfg: Config, m: WarpsMeasured, found: LW.Findings) ->
 @dataclasses.dataclass(frozen=True)
 class PointsMeasured:
     names: list                  # sampler labels, in order
-    results: dict                # {(spp, label): LP.compute's dict}
+    results: dict                # {(spp, label): lab_points.compute's dict}
     cd: dict                     # {(spp, label, pair): mean squared CD over pixels}
     joint: dict                  # {(spp, label, pair): joint low-frequency power}
     counts: dict                 # {spp: {label: points drawn}}
@@ -208,30 +216,31 @@ class PointsMeasured:
 
 def plan_points(cfg: Config) -> list:
     width, height = cfg.pixels
-    return [LP.PointSpec(name, spp, seeds=(cfg.seed,), width=width, height=height)
+    return [lab_points.PointSpec(name, spp, seeds=(cfg.seed,), width=width, height=height)
             for spp in cfg.counts for name in cfg.sampler_labels()]
 
 
 def measure_points(specs: list, cache: str) -> PointsMeasured:
     results, cd, joint, counts = {}, {}, {}, {}
     for spec in specs:
-        res = results[(spec.spp, spec.sampler)] = LP.cached(spec, cache)
+        res = results[(spec.spp, spec.sampler)] = lab_points.cached(spec, cache)
         counts.setdefault(spec.spp, {})[spec.sampler] = int(res["count"])
-        for a, b in LP.PAIRS:
+        for a, b in lab_points.PAIRS:
             cd[(spec.spp, spec.sampler, (a, b))] = float(np.mean(res[f"cd_{a}_{b}"]))
             joint[(spec.spp, spec.sampler, (a, b))] = float(res[f"joint_{a}_{b}"])
     names = list(dict.fromkeys(s.sampler for s in specs))
     return PointsMeasured(names, results, cd, joint, counts)
 
 
-def analyse_points(m: PointsMeasured, spp: int) -> LP.Findings:
+def analyse_points(m: PointsMeasured, spp: int) -> lab_points.Findings:
     """The conclusion at ``spp`` requested (pure, from the measured numbers)."""
     at = {(n, p): v for (s, n, p), v in m.cd.items() if s == spp}
     joint = {(n, p): v for (s, n, p), v in m.joint.items() if s == spp}
-    return LP.analyse(at, joint, m.counts[spp], spp, SS.families(m.names))
+    return lab_points.analyse(at, joint, m.counts[spp], spp, families(m.names))
 
 
-def report_points(out: str, cfg: Config, m: PointsMeasured, found: LP.Findings) -> list:
+def report_points(out: str, cfg: Config, m: PointsMeasured,
+                  found: lab_points.Findings) -> list:
     out_dir = os.path.join(out, NAME)
     width, height = cfg.pixels
     names, rows, blocks = m.names, [], []
@@ -239,22 +248,25 @@ def report_points(out: str, cfg: Config, m: PointsMeasured, found: LP.Findings) 
         points, power, counts = {}, {}, m.counts[spp]
         for name in names:
             res = m.results[(spp, name)]
-            for a, b in LP.PAIRS:
+            for a, b in lab_points.PAIRS:
                 tag = f"{a}_{b}"
                 points[(name, (a, b))] = res[f"scatter_{tag}"]
                 power[(name, (a, b))] = (res["freqs"], res[f"power_{tag}"])
                 cd = res[f"cd_{tag}"]
-                rows.append([name, spp, counts[name], f"({a},{b})", LP.describe_pair(a, b),
+                expected = lab_points.random_expectation(counts[name])
+                rows.append([name, spp, counts[name], f"({a},{b})",
+                             lab_points.describe_pair(a, b),
                              float(f"{np.mean(cd):.6g}"), float(f"{np.std(cd):.3g}"),
-                             float(f"{np.mean(cd) / LP.random_expectation(counts[name]):.4g}"),
+                             float(f"{np.mean(cd) / expected:.4g}"),
                              float(f"{float(res[f'joint_{tag}']):.4g}"), len(cd)])
-        LF.point_grid(os.path.join(out_dir, f"points_{spp}.png"),
-                      f"One pixel's points at {spp} spp requested (vr_path bsdf+nee order)",
-                      names, list(LP.PAIRS), points, counts)
-        LF.spectra(os.path.join(out_dir, f"spectrum_{spp}.png"),
-                   f"Radially averaged power spectrum at {spp} spp, mean over "
-                   f"{min(width * height, max(8, LP.PointSpec('', 0).spectrum_points // spp))}"
-                   f" pixels", names, list(LP.PAIRS), power, counts)
+        lab_figures.point_grid(os.path.join(out_dir, f"points_{spp}.png"),
+                               f"One pixel's points at {spp} spp requested (vr_path bsdf+nee "
+                               f"order)", names, list(lab_points.PAIRS), points, counts)
+        spectrum_points = lab_points.PointSpec('', 0).spectrum_points
+        lab_figures.spectra(os.path.join(out_dir, f"spectrum_{spp}.png"),
+                            f"Radially averaged power spectrum at {spp} spp, mean over "
+                            f"{min(width * height, max(8, spectrum_points // spp))} pixels",
+                            names, list(lab_points.PAIRS), power, counts)
         blocks += [report.image(f"{NAME}/points_{spp}.png",
                                 f"The points pixel 0 receives at {spp} spp requested (count "
                                 f"drawn in brackets), per pair of dimensions."),
@@ -268,20 +280,22 @@ def report_points(out: str, cfg: Config, m: PointsMeasured, found: LP.Findings) 
         "Squared centered L2 discrepancy per sampler, count and pair (mean over pixels)",
         collapsed=True))
     spp = found.spp
-    header = ["sampler", "count"] + [f"({a},{b})" for a, b in LP.PAIRS]
-    wide = [[n, m.counts[spp][n]] + [f"{m.cd[(spp, n, p)]:.3g}" for p in LP.PAIRS]
+    header = ["sampler", "count"] + [f"({a},{b})" for a, b in lab_points.PAIRS]
+    wide = [[n, m.counts[spp][n]] + [f"{m.cd[(spp, n, p)]:.3g}" for p in lab_points.PAIRS]
             for n in names]
     wide.append(["(independent points, expected)", ""] + [
-        f"{LP.random_expectation(spp):.3g}" for _ in LP.PAIRS])
+        f"{lab_points.random_expectation(spp):.3g}" for _ in lab_points.PAIRS])
     blocks += [
         report.write_table(out, f"{NAME}/discrepancy_{spp}", header, wide,
                            f"discrepancy_cd (squared centered L2) at {spp} spp requested, "
                            f"mean over pixels; columns: dimension pairs"),
         report.write_table(
-            out, f"{NAME}/points_conclusion", LP.HEADER, [r.cells() for r in found.rows],
+            out, f"{NAME}/points_conclusion", lab_points.HEADER,
+            [r.cells() for r in found.rows],
             f"Point sets at {spp} spp requested: the pairs each sampler stratifies jointly "
-            f"(discrepancy below {LP.LOST} of independent points' and joint low-frequency "
-            f"power below {LP.JOINT}), only per coordinate, or not at all"),
+            f"(discrepancy below {lab_points.LOST} of independent points' and joint "
+            f"low-frequency power below {lab_points.JOINT}), only per coordinate, or not at "
+            f"all"),
         report.text("\n\n".join(found.sentences))]
     return blocks
 
@@ -309,16 +323,19 @@ class ScreenMeasured:
 
 def plan_screen(st: Study, cfg: Config, reference) -> ScreenPlan:
     """The sampler study's screen-space jobs at ``cfg``'s settings, first repeat only (the
-    same jobs: :func:`.studies.samplers.screen_ladders`)."""
+    same jobs: :func:`.sampler_comparison_plan.screen_ladders`)."""
     labels = cfg.screen_labels()
-    screen = SSt.ScreenSettings(tuple(cfg.screen_resolution), tuple(cfg.screen_counts),
-                                (cfg.screen_depth,), tuple(labels), 1,
-                                cfg.screen_reference_spp, reference)
-    study = SSt.Settings(parse_method(SSt.BASE), (cfg.screen_depth,), (), tuple(labels),
-                         st.depth, st.info.path, (st.width, st.height), screen)
-    return ScreenPlan(SSt.screen_reference_jobs(st, screen, study.at(cfg.screen_depth)),
-                      SSt.screen_ladders(st, study, screen, cfg.screen_depth, labels,
-                                         screen.counts, 1))
+    depth = cfg.screen_depth
+    screen = sampler_comparison_plan.ScreenSettings(
+        tuple(cfg.screen_resolution), tuple(cfg.screen_counts), (depth,), tuple(labels), 1,
+        cfg.screen_reference_spp, reference)
+    study = sampler_comparison_plan.Settings(
+        parse_method(sampler_comparison_plan.BASE), (depth,), (), tuple(labels), st.depth,
+        st.info.path, (st.width, st.height), screen)
+    return ScreenPlan(
+        sampler_comparison_plan.screen_reference_jobs(st, screen, study.at(depth)),
+        sampler_comparison_plan.screen_ladders(st, study, screen, depth, labels,
+                                               screen.counts, 1))
 
 
 def measure_screen(st: Study, cfg: Config, planned: ScreenPlan) -> ScreenMeasured:
@@ -327,18 +344,18 @@ def measure_screen(st: Study, cfg: Config, planned: ScreenPlan) -> ScreenMeasure
     found = sum(st.store.has(j.key) for j in jobs)
     st.run(jobs, f"{NAME}: screen-space renders")
     ref, _ = st.reference(planned.refs)
-    floor = SSt.screen_floor(st, planned.refs)
+    floor = screen_floor(st, planned.refs)
     fields, spectra, radial, shares, rendered = {}, {}, {}, {}, {}
     for label, reps in planned.ladders.items():
         for job, count in zip(reps[0], cfg.screen_counts):
             result = st.store.get(job.key)
-            field = SP.error_field(result.image.astype(float), ref)
-            power = SP.periodogram(field)
+            field = screen_space.error_field(result.image.astype(float), ref)
+            power = screen_space.periodogram(field)
             key = (label, count)
             fields[key] = field
-            spectra[key] = SP.normalized(power, floor)
-            radial[key] = SP.spectrum(spectra[key])
-            shares[key] = SP.low_share(power, floor)
+            spectra[key] = screen_space.normalized(power, floor)
+            radial[key] = screen_space.spectrum(spectra[key])
+            shares[key] = screen_space.low_share(power, floor)
             rendered[key] = result.spp
     return ScreenMeasured(list(planned.ladders), tuple(cfg.screen_counts), fields, spectra,
                           radial, shares, rendered, found, len(jobs))
@@ -359,27 +376,28 @@ def screen_source(m: ScreenMeasured) -> str:
 def report_screen(out: str, cfg: Config, m: ScreenMeasured) -> list:
     out_dir = os.path.join(out, NAME)
     width, height = cfg.screen_resolution
-    by_count = {c: LF.error_tiles([m.fields[(s, c)] for s in m.labels],
-                                  [m.spectra[(s, c)] for s in m.labels]) for c in m.counts}
+    by_count = {c: lab_figures.error_tiles([m.fields[(s, c)] for s in m.labels],
+                                           [m.spectra[(s, c)] for s in m.labels])
+                for c in m.counts}
     tiles = [[t for c in m.counts for t in by_count[c][r]] for r in range(len(m.labels))]
     columns = [f"{what}, {c} spp" for c in m.counts for what in ("error", "spectrum")]
-    LF.error_mosaic(os.path.join(out_dir, "screen_errors.png"),
-                    f"Error images and their power spectra, {width}x{height}, max_depth "
-                    f"{cfg.screen_depth}", m.labels, columns, tiles)
+    lab_figures.error_mosaic(os.path.join(out_dir, "screen_errors.png"),
+                             f"Error images and their power spectra, {width}x{height}, "
+                             f"max_depth {cfg.screen_depth}", m.labels, columns, tiles)
     figures.spectrum_panels(os.path.join(out_dir, "screen_spectra.png"),
                             {f"{c} spp requested": {s: m.radial[(s, c)] for s in m.labels}
-                             for c in m.counts}, SP.LOW,
+                             for c in m.counts}, screen_space.LOW,
                             "Radially averaged power spectra of the error images above")
     rows = [[s, c, m.rendered[(s, c)], f"{m.shares[(s, c)]:.4g}"] for s in m.labels
             for c in m.counts]
-    white = SP.white_share((height, width))
+    white = screen_space.white_share((height, width))
     return [
         report.image(f"{NAME}/screen_errors.png",
                      f"Per sampler: the error (render minus reference, luminance; red too "
                      f"bright, blue too dark, one scale per count) and its power spectrum "
                      f"(frequency 0 in the middle, the Nyquist frequency at the edges; log "
-                     f"of the power over white noise's, smoothed over {LF.SMOOTH}x"
-                     f"{LF.SMOOTH} bins; dark centre: blue noise) at "
+                     f"of the power over white noise's, smoothed over {lab_figures.SMOOTH}x"
+                     f"{lab_figures.SMOOTH} bins; dark centre: blue noise) at "
                      f"{' and '.join(map(str, m.counts))} spp; {screen_source(m)}."),
         report.image(f"{NAME}/screen_spectra.png",
                      f"The same spectra radially averaged (white noise: 1); the low-"
@@ -418,24 +436,25 @@ GUIDE = (
 
 def run(args) -> None:
     start = time.perf_counter()
-    cfg: Config = args.config
-    out_dir = os.path.join(args.out, NAME)
+    settings = settings_of(args)
+    cfg, out = settings.config, settings.out
+    out_dir = os.path.join(out, NAME)
     warps = measure_warps(plan_warps(cfg), os.path.join(out_dir, "cache", "warps"))
-    warp_found = LW.analyse(warps.rows)
+    warp_found = lab_warps.analyse(warps.rows)
     warp_seconds = time.perf_counter() - start
     points = measure_points(plan_points(cfg), os.path.join(out_dir, "cache", "points"))
     point_found = analyse_points(points, cfg.counts[0])
     point_seconds = time.perf_counter() - start - warp_seconds
     st = Study(args)
-    screen = measure_screen(st, cfg, plan_screen(st, cfg, args.reference_method))
+    screen = measure_screen(st, cfg, plan_screen(st, cfg, settings.reference))
     screen_seconds = time.perf_counter() - start - warp_seconds - point_seconds
-    blocks = ([report.text(GUIDE)] + report_warps(args.out, cfg, warps, warp_found)
-              + report_points(args.out, cfg, points, point_found)
-              + report_screen(args.out, cfg, screen))
-    settings = {"samples per warp panel": cfg.samples, "seed": cfg.seed,
-                "warp grid": f"{LW.PanelSpec.res} x {LW.PanelSpec.res} cells, "
-                             f"{LW.PanelSpec.ires} x {LW.PanelSpec.ires} trapezoid points "
-                             f"per cell",
+    blocks = ([report.text(GUIDE)] + report_warps(out, cfg, warps, warp_found)
+              + report_points(out, cfg, points, point_found)
+              + report_screen(out, cfg, screen))
+    described = {"samples per warp panel": cfg.samples, "seed": cfg.seed,
+                "warp grid": f"{lab_warps.PanelSpec.res} x {lab_warps.PanelSpec.res} cells, "
+                             f"{lab_warps.PanelSpec.ires} x {lab_warps.PanelSpec.ires} "
+                             f"trapezoid points per cell",
                 "BSDFs": "; ".join(label for label, _ in cfg.bsdfs),
                 "incidences (deg)": ", ".join(f"{i:g}" for i in cfg.incidences),
                 "point sets": f"{cfg.pixels[0]}x{cfg.pixels[1]} pixels, "
@@ -445,14 +464,14 @@ def run(args) -> None:
                                       f"{cfg.screen_depth}, "
                                       f"{', '.join(map(str, cfg.screen_counts))} spp, "
                                       f"reference {cfg.screen_reference_spp} spp of "
-                                      f"{args.reference_method}; {screen_source(screen)}",
-                "variant": args.variant, "quick": args.quick,
+                                      f"{settings.reference}; {screen_source(screen)}",
+                "variant": settings.variant, "quick": settings.quick,
                 "wall time (s)": f"warps {warp_seconds:.1f}, point sets {point_seconds:.1f}, "
                                  f"screen space {screen_seconds:.1f} (panels and point sets "
                                  f"cached under {NAME}/cache/ are not recomputed; renders "
                                  f"come from the job store)"}
-    report.write_section(args.out, NAME, "Sampling lab: strategies as warps, samplers as "
-                         "point sets", ORDER, settings, blocks, args.variant,
+    report.write_section(out, NAME, "Sampling lab: strategies as warps, samplers as "
+                         "point sets", ORDER, described, blocks, settings.variant,
                          time.perf_counter() - start)
     files.write_json(os.path.join(out_dir, "summary.json"), {
         "warps": warps.rows, "warp_conclusion": warp_found.sentences,
@@ -469,4 +488,4 @@ def run(args) -> None:
 
 STUDY = register_study(StudySpec(
     NAME, 'Sampling lab: strategies as warps, samplers as point sets', ORDER, build_parser, run,
-    parse=parse, quick=("--quick",)))
+    quick=("--quick",)))

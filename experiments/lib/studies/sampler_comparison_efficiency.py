@@ -1,0 +1,186 @@
+"""The sampler study's efficiency pass: every label over the ladder, at every depth.
+
+Plan (the references and every label's ladders, interleaved so that drifting machine load
+affects every sampler alike), measure (per-repeat render times and errors against each
+depth's reference), the pure analysis (:mod:`.sampler_comparison_analysis`) and the report:
+the error and efficiency charts, the viewer, the table of every label, the efficiency along
+the ladder and each depth's conclusion table and sentences.
+"""
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+
+from experiments.lib import figures, metrics, report, stats
+from experiments.lib.jobs import Job
+from experiments.lib.study import Study
+from experiments.lib.studies.sampler_comparison_analysis import (
+    BASELINE, COMPARISON_HEADER, METRIC, METRIC_NAMES, Analysis, Point, Row, analyse,
+    families)
+from experiments.lib.studies.sampler_comparison_plan import (
+    NAME, PassReport, Settings, ladder_job, method, rungs, timing)
+
+
+@dataclass(frozen=True)
+class LadderPlan:
+    refs: dict                    # {depth: reference jobs}
+    ladders: dict                 # {depth: {label: [repeat: [jobs of the ladder]]}}
+
+
+@dataclass(frozen=True)
+class Measured:
+    points: dict                  # {depth: {label: [Point per count]}}
+    floors: dict                  # {depth: the reference's metadata}
+    pixels: int
+    kinds: dict                   # {label: Family}
+
+
+def interval_header(name: str) -> list[str]:
+    return [name, f"{name}_lo", f"{name}_hi"]
+
+
+#: The error every efficiency (and so every verdict) uses, as the tables name it.
+EFFICIENCY = f"efficiency 1/({METRIC_NAMES[METRIC]} x time) / {BASELINE}"
+TABLE_HEADER = (["max_depth", "sampler", "spp rendered", "spp requested", "repeats"]
+                + interval_header("MSE") + interval_header("relMSE") + ["µs / sample"]
+                + interval_header(f"MSE / {BASELINE}") + interval_header(f"relMSE / {BASELINE}")
+                + interval_header(EFFICIENCY) + ["MSE slope"])
+
+
+def table_rows(rows: list[Row]) -> list[list]:
+    """Errors below the reference's own noise are bounds: their cells read '< x'."""
+    def cells(e):
+        return [f"< {stats.g(e.hi)}", "0", stats.g(e.hi)] if e.bound else e.cells()
+    return [[r.depth, r.sampler, r.spp, r.requested, r.repeats, *cells(r.mse),
+             *cells(r.relmse), f"{r.us_per_sample:.3f}", *cells(r.relative_mse),
+             *cells(r.relative_relmse), *r.relative_efficiency.cells(),
+             f"{r.slope:.2f}"] for r in rows]
+
+
+def curve_rows(curves: dict) -> list[list]:
+    return [[d, s, i, spp, *e.cells()]
+            for d, by_sampler in curves.items() for s, pts in by_sampler.items()
+            for i, (spp, e) in enumerate(pts)]
+
+
+class Efficiency:
+    """Errors and render times of every label over the ladder, at every depth."""
+    name = "efficiency"
+
+    def plan(self, st: Study, cfg: Settings) -> LadderPlan:
+        refs, ladders = {}, {}
+        for d in cfg.depths:
+            depth = cfg.at(d)
+            refs[d] = st.reference_jobs(depth=depth)
+            ladders[d] = {s: [[ladder_job(st, cfg, f"{NAME}/depth{d}", d, s, t, r,
+                                          (st.width, st.height), f"{NAME}/depth{d}")
+                               for t in cfg.targets]
+                              for r in range(st.repeats_of(method(cfg.base, s)))]
+                          for s in cfg.samplers}
+        return LadderPlan(refs, ladders)
+
+    def jobs(self, planned: LadderPlan) -> list[Job]:
+        """References first, then per depth and repeat every label at one spp before the
+        next spp (so that drifting machine load affects every sampler alike)."""
+        jobs = [j for r in planned.refs.values() for j in r]
+        for by_sampler in planned.ladders.values():
+            for r in range(max(len(reps) for reps in by_sampler.values())):
+                for i in range(len(next(iter(by_sampler.values()))[0])):
+                    jobs += [reps[r][i] for reps in by_sampler.values() if r < len(reps)]
+        return jobs
+
+    def measure(self, st: Study, cfg: Settings, planned: LadderPlan) -> Measured:
+        """Per-repeat times and errors against each depth's reference; a deterministic
+        label's one run stands for every repeat (:meth:`Study.per_repeat`)."""
+        points, floors = {}, {}
+        for d, by_sampler in planned.ladders.items():
+            ref, meta = st.reference(planned.refs[d])
+            floors[d] = meta
+            points[d] = {}
+            for s, reps in by_sampler.items():
+                pts = []
+                for target, results, images in rungs(st, reps):
+                    pts.append(Point(
+                        results[0].spp, st.per_repeat(timing(st, r) for r in results),
+                        st.per_repeat(metrics.mse(im, ref) for im in images),
+                        st.per_repeat(metrics.relmse(im, ref) for im in images), target.spp,
+                        meta["mse_floor"], meta["relmse_floor"]))
+                points[d][s] = pts
+        return Measured(points, floors, st.width * st.height, families(cfg.samplers))
+
+    def analyse(self, measured: Measured) -> Analysis:
+        return analyse(measured.points, measured.pixels, measured.kinds)
+
+    def report(self, st: Study, cfg: Settings, planned: LadderPlan, measured: Measured,
+               result: Analysis) -> PassReport:
+        out, blocks, metric = st.out, [], METRIC_NAMES[METRIC]
+        for d, by_sampler in measured.points.items():
+            bands = {s: ([p.spp for p in pts], [sum(p.seconds) / len(p.seconds) for p in pts],
+                         [p.expected(METRIC) for p in pts])
+                     for s, pts in by_sampler.items()}
+            figures.error_bands(os.path.join(out, NAME, f"error_depth{d}.png"), bands, metric)
+            blocks.append(report.image(
+                f"{NAME}/error_depth{d}.png", f"max_depth {d}: expected {metric} against "
+                f"spp and against render (CPU) time per sampler, with {stats.LEVEL:.0%} "
+                f"bands over the repeats (log-log, fitted slopes in the legend); "
+                f"reference: {st.describe_reference(measured.floors[d])}."))
+            if any(math.isfinite(e.value) for pts in result.curves[d].values() for _, e in pts):
+                figures.ratio_bands(os.path.join(out, NAME, f"efficiency_depth{d}.png"),
+                                    result.curves[d], EFFICIENCY,
+                                    f"max_depth {d}: efficiency relative to {BASELINE}")
+                blocks.append(report.image(
+                    f"{NAME}/efficiency_depth{d}.png", f"max_depth {d}: {EFFICIENCY} at "
+                    f"every count of the ladder, with {stats.LEVEL:.0%} bands: where the "
+                    f"curves cross, the order of the samplers changes with the sample "
+                    f"count."))
+            else:
+                blocks.append(report.text(
+                    f"max_depth {d}: no efficiency relative to {BASELINE} is known at "
+                    f"this budget (at every count an error is below the reference's own "
+                    f"noise, only a bound), so no chart of them is drawn; a better reference "
+                    f"(--reference-spp) or more repeats cure it."))
+            blocks.append(comparison_viewer(st, cfg, planned, d))
+        blocks += [
+            report.write_table(out, f"{NAME}/samplers", TABLE_HEADER, table_rows(result.rows),
+                               f"Samplers with {cfg.base} at the largest sample count "
+                               f"(expected values over {st.repeats} runs with the "
+                               f"reference's own expected error subtracted, '< x' where an "
+                               f"error is below the reference's noise; {stats.LEVEL:.0%} "
+                               f"intervals as _lo/_hi; the efficiency uses {metric})"),
+            report.write_table(out, f"{NAME}/efficiency_ladder",
+                               ["max_depth", "sampler", "ladder index", "spp rendered"]
+                               + interval_header(EFFICIENCY), curve_rows(result.curves),
+                               f"{EFFICIENCY} at every count of the ladder", collapsed=True)]
+        for d in measured.points:
+            mine = [c for c in result.comparisons if c.depth == d]
+            blocks += [report.write_table(
+                out, f"{NAME}/conclusion_depth{d}", COMPARISON_HEADER,
+                [c.cells() for c in mine],
+                f"Conclusion at max_depth {d}: efficiency 1/({metric} x time) of A over B at "
+                f"the largest count, its {stats.LEVEL:.0%} interval, "
+                f"the verdict (only where the interval excludes 1) and the counts where the "
+                f"order changes along the ladder"),
+                report.text("\n\n".join(result.conclusions[d]))]
+        summary = {
+            "rows": [r.record() for r in result.rows],
+            "conclusion": {d: s for d, s in result.conclusions.items()},
+            "comparisons": [c.record() for c in result.comparisons],
+            "best": {d: r.sampler for d, r in result.best.items()},
+            "best_at": {d: {"sampler": r.sampler, "spp": r.spp, "requested_spp": r.requested}
+                        for d, r in result.best.items()},
+            "curves": {d: {s: [dict(spp=spp, **e.fields("relative_efficiency"))
+                               for spp, e in pts] for s, pts in by.items()}
+                       for d, by in result.curves.items()}}
+        return PassReport(blocks, summary, self.jobs(planned))
+
+
+def comparison_viewer(st: Study, cfg: Settings, planned: LadderPlan, d: int) -> dict:
+    """Viewer block: every label's image at the largest count of the ladder, at max_depth d
+    (the first repeat)."""
+    ref, _ = st.reference(planned.refs[d])
+    images = [(s, st.store.get(reps[0][-1].key).image.astype(float))
+              for s, reps in planned.ladders[d].items()]
+    return report.viewer(st.out, f"Samplers at max_depth {d}, {cfg.targets[-1]} spp", images,
+                         ref, f"{cfg.base} with each sampler at max_depth {d} after the "
+                         f"largest sample count (first repeat), against the reference.")

@@ -1,0 +1,222 @@
+"""The sampler study's screen-space pass: FLIP, the error's power spectrum and MSE efficiency.
+
+On a larger image (:class:`.sampler_comparison_plan.ScreenSettings`), at every count of a
+short ladder: plan (the pass's reference and ladders, grouped so that a process keeps their
+methods warm), measure (per repeat: mean FLIP, the error's periodogram and its low-frequency
+share with the reference's floor subtracted, MSE, relMSE and render time), the pure analysis
+(:mod:`.sampler_comparison_screen_analysis`) and the report: the FLIP and spectrum charts,
+each depth's conclusion table and sentences, the table of every label and count.
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from experiments.lib import execute, figures, metrics, report, screen_space, stats
+from experiments.lib.jobs import Job
+from experiments.lib.study import Study
+from experiments.lib.studies.sampler_comparison_analysis import Point, families
+from experiments.lib.studies.sampler_comparison_efficiency import interval_header
+from experiments.lib.studies.sampler_comparison_plan import (
+    NAME, PassReport, Settings, default_screen_labels, rungs, screen_ladders,
+    screen_reference_jobs, timing)
+from experiments.lib.studies.sampler_comparison_screen_analysis import (
+    SCREEN_HEADER, ScreenAnalysis, ScreenPoint, ScreenRow, analyse_screen)
+
+
+@dataclass(frozen=True)
+class ScreenPlan:
+    refs: dict                    # {depth: reference jobs at the pass's resolution}
+    ladders: dict                 # {depth: {label: [repeat: [job per count]]}}
+
+
+@dataclass(frozen=True)
+class ScreenMeasured:
+    points: dict                  # {depth: {label: [ScreenPoint per count]}}
+    floors: dict                  # {depth: the reference's metadata, spectrum floor included}
+    pixels: int
+    kinds: dict                   # {label: Family}
+    white: float                  # the low-frequency share of white noise on the grid
+
+
+def screen_floor(st: Study, refs: list[Job]) -> float:
+    """The white power the reference's own noise adds to an error spectrum
+    (:func:`.screen_space.reference_floor` of its chunks)."""
+    chunks = st.results(refs)
+    return screen_space.reference_floor([r.image for r in chunks], [r.spp for r in chunks])
+
+
+def _replicate(values, n: int) -> tuple:
+    """A deterministic label's one value stands for every repeat."""
+    values = tuple(values)
+    return values * n if len(values) == 1 else values
+
+
+class ScreenSpace:
+    """FLIP, the error's power spectrum and MSE efficiency on a larger image
+    (:class:`ScreenSettings`), at every count of a short ladder."""
+    name = "screen"
+
+    def plan(self, st: Study, cfg: Settings) -> ScreenPlan | None:
+        sc = cfg.screen
+        if sc is None:
+            return None
+        return ScreenPlan({d: screen_reference_jobs(st, sc, cfg.at(d)) for d in sc.depths},
+                          {d: screen_ladders(st, cfg, sc, d, sc.samplers, sc.counts,
+                                             sc.repeats) for d in sc.depths})
+
+    def jobs(self, planned: ScreenPlan | None) -> list[Job]:
+        """References first; then per depth, in groups of labels no larger than the methods
+        a process keeps warm (:data:`.execute.VIEW_CACHE`), per repeat every label of
+        the group at one count before the next count."""
+        if planned is None:
+            return []
+        jobs = [j for r in planned.refs.values() for j in r]
+        for by_sampler in planned.ladders.values():
+            labels = list(by_sampler)
+            for g in range(0, len(labels), execute.VIEW_CACHE):
+                group = {s: by_sampler[s] for s in labels[g:g + execute.VIEW_CACHE]}
+                for r in range(max(len(reps) for reps in group.values())):
+                    for i in range(len(next(iter(group.values()))[0])):
+                        jobs += [reps[r][i] for reps in group.values() if r < len(reps)]
+        return jobs
+
+    def measure(self, st: Study, cfg: Settings, planned: ScreenPlan) -> ScreenMeasured:
+        """Per repeat: FLIP, the error's periodogram (its low-frequency share, the
+        reference's floor subtracted), MSE, relMSE and render time; spectra averaged over
+        the repeats."""
+        sc = cfg.screen
+        points, floors = {}, {}
+        for d, by_sampler in planned.ladders.items():
+            ref, meta = st.reference(planned.refs[d])
+            floor = screen_floor(st, planned.refs[d])
+            floors[d] = dict(meta, spectrum_floor=floor)
+            points[d] = {}
+            for s, reps in by_sampler.items():
+                pts = []
+                for target, results, images in rungs(st, reps):
+                    powers = [screen_space.periodogram(screen_space.error_field(im, ref))
+                              for im in images]
+                    freqs, power = screen_space.spectrum(
+                        screen_space.normalized(np.mean(powers, axis=0), floor))
+                    error = Point(
+                        results[0].spp, _replicate((timing(st, r) for r in results), sc.repeats),
+                        _replicate((metrics.mse(im, ref) for im in images), sc.repeats),
+                        _replicate((metrics.relmse(im, ref) for im in images), sc.repeats),
+                        target.spp, meta["mse_floor"], meta["relmse_floor"])
+                    pts.append(ScreenPoint(
+                        results[0].spp,
+                        _replicate((metrics.flip_mean(im, ref) for im in images), sc.repeats),
+                        _replicate((screen_space.low_share(p, floor) for p in powers), sc.repeats),
+                        error, tuple(float(f) for f in freqs), tuple(float(v) for v in power),
+                        target.spp))
+                points[d][s] = pts
+        width, height = sc.resolution
+        return ScreenMeasured(points, floors, width * height, families(sc.samplers),
+                              screen_space.white_share((height, width)))
+
+    def analyse(self, measured: ScreenMeasured) -> ScreenAnalysis:
+        return analyse_screen(measured.points, measured.pixels, measured.kinds,
+                                 measured.white)
+
+    def report(self, st: Study, cfg: Settings, planned: ScreenPlan, measured: ScreenMeasured,
+               result: ScreenAnalysis) -> PassReport:
+        sc, out = cfg.screen, st.out
+        width, height = sc.resolution
+        blocks = [report.text(screen_introduction(cfg, measured))]
+        for d, by_sampler in measured.points.items():
+            curves = {s: [(p.spp, p.mean_flip()) for p in pts] for s, pts in by_sampler.items()}
+            figures.estimate_lines(os.path.join(out, NAME, f"screen_flip_depth{d}.png"),
+                                   curves, "samples per pixel (rendered)", "mean FLIP",
+                                   f"max_depth {d}, {width}x{height}: mean FLIP against the "
+                                   f"reference")
+            shown = spectrum_counts(sc.counts)
+            panels = {f"{n} spp requested": {s: (pts[sc.counts.index(n)].frequencies,
+                                                 pts[sc.counts.index(n)].power)
+                                             for s, pts in by_sampler.items()} for n in shown}
+            figures.spectrum_panels(os.path.join(out, NAME, f"screen_spectra_depth{d}.png"),
+                                    panels, screen_space.LOW, f"max_depth {d}: radially "
+                                    f"averaged power spectrum of the luminance error, mean "
+                                    f"over the repeats")
+            blocks += [
+                report.image(f"{NAME}/screen_flip_depth{d}.png",
+                             f"max_depth {d}: mean FLIP against spp per sampler at "
+                             f"{width}x{height}, with {stats.LEVEL:.0%} bands over the "
+                             f"repeats (lower is better); reference: "
+                             f"{st.describe_reference(measured.floors[d])}."),
+                report.image(f"{NAME}/screen_spectra_depth{d}.png",
+                             f"max_depth {d}: power spectrum of the error (render minus "
+                             f"reference, luminance, mean subtracted; the reference's white "
+                             f"noise subtracted), relative to its mean (white noise: 1), at "
+                             f"{' and '.join(map(str, shown))} spp. Dashed: "
+                             f"{screen_space.LOW} cycles per pixel, below which the "
+                             f"low-frequency share is taken."),
+                report.write_table(out, f"{NAME}/screen_conclusion_depth{d}",
+                                   SCREEN_HEADER,
+                                   [c.cells() for c in result.comparisons if c.depth == d],
+                                   f"Screen-space conclusion at max_depth {d}: each bundled "
+                                   f"sampler's best (lowest FLIP) against every native "
+                                   f"sampler and the other bundled ones, at every count; "
+                                   f"ratios A / B with {stats.LEVEL:.0%} intervals; a verdict "
+                                   f"only where the interval excludes 1, in FLIP only "
+                                   f"between equal counts rendered"),
+                report.text("\n\n".join(result.conclusions[d]))]
+        header = (["max_depth", "sampler", "spp rendered", "spp requested", "repeats"]
+                  + interval_header("mean FLIP") + interval_header("low-frequency share")
+                  + interval_header("MSE") + ["µs / sample"])
+        blocks += [
+            report.write_table(out, f"{NAME}/screen_space", header, screen_table_rows(
+                result.rows), f"Every sampler and count of the screen-space pass at "
+                f"{width}x{height} (means over the repeats, {stats.LEVEL:.0%} intervals; "
+                f"low-frequency share of white noise on this grid: {result.white:.4f})"),
+            report.write_table(out, f"{NAME}/screen_spectra",
+                               ["max_depth", "sampler", "spp rendered", "frequency (cycles "
+                                "per pixel)", "power / mean"],
+                               [[d, s, p.spp, f"{f:.5g}", f"{v:.4g}"]
+                                for d, by in measured.points.items() for s, pts in by.items()
+                                for p in pts for f, v in zip(p.frequencies, p.power)],
+                               "Radially averaged error spectra (white noise: 1)",
+                               collapsed=True)]
+        summary = {"screen": {
+            "resolution": f"{width}x{height}", "counts": list(sc.counts),
+            "depths": list(sc.depths), "samplers": list(sc.samplers),
+            "repeats": sc.repeats, "reference_spp": sc.reference_spp,
+            "white_share": result.white, "low_frequency_cutoff": screen_space.LOW,
+            "spectrum_floor": {d: f["spectrum_floor"] for d, f in measured.floors.items()},
+            "rows": [r.record() for r in result.rows],
+            "comparisons": [c.record() for c in result.comparisons],
+            "conclusion": result.conclusions}}
+        return PassReport(blocks, summary, self.jobs(planned)[sum(
+            len(r) for r in planned.refs.values()):])
+
+
+def spectrum_counts(counts) -> list[int]:
+    """The counts whose spectra are drawn: 4 and 16 where rendered, else the last two."""
+    shown = [n for n in (4, 16) if n in counts]
+    return shown or list(counts[-2:])
+
+
+def screen_table_rows(rows: list[ScreenRow]) -> list[list]:
+    def cells(e):
+        return [f"< {stats.g(e.hi)}", "0", stats.g(e.hi)] if e.bound else e.cells()
+    return [[r.depth, r.sampler, r.spp, r.requested, r.repeats, *r.flip.cells(),
+             *r.share.cells(), *cells(r.mse), f"{r.us_per_sample:.3f}"] for r in rows]
+
+
+def screen_introduction(cfg: Settings, m: ScreenMeasured) -> str:
+    """Two paragraphs of at most 80 words: what the pass renders, what it measures."""
+    sc = cfg.screen
+    width, height = sc.resolution
+    subset = (" (the default subset: the baseline, the native samplers with the lowest FLIP "
+              "in the zsobol calibration, each other sampler's last randomization; FLIP "
+              "at this size is costly)" if sc.samplers == tuple(default_screen_labels())
+              else "")
+    return (f"Screen-space pass: {', '.join(sc.samplers)}{subset} at {width}x{height}, "
+            f"max_depth {', '.join(map(str, sc.depths))}, {', '.join(map(str, sc.counts))} "
+            f"spp, {sc.repeats} repeats, against {sc.reference_spp} spp of {sc.reference}."
+            f"\n\nPer count: mean FLIP, the low-frequency share of the error's power (below "
+            f"{screen_space.LOW} cycles per pixel; white noise {m.white:.3f}) with the "
+            f"reference's own white noise subtracted, and MSE efficiency. FLIP is not "
+            f"corrected for the reference's noise, which pulls every FLIP ratio towards 1.")
