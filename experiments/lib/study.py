@@ -13,7 +13,7 @@ import os
 
 import numpy as np
 
-from . import plan as P
+from . import plan
 from .execute import execute
 from .jobs import Accumulator, Job, accumulate as accumulate_results, derive_seed
 from .methods import Depth, Method
@@ -81,14 +81,14 @@ class Study:
             depth: Depth | None = None, **options) -> Job:
         """One job at this study's resolution, seed derived from the base seed and prefix."""
         width, height = options.pop("resolution", (self.width, self.height))
-        return P.make_job(prefix, info or self.info, method, width, height, spp,
+        return plan.make_job(prefix, info or self.info, method, width, height, spp,
                           derive_seed(self.seed, prefix), depth or self.depth, self.variant,
                           **options)
 
     def ladder(self, prefix: str, method: Method, targets, info: SceneInfo | None = None,
                depth: Depth | None = None, **options) -> list[Job]:
         width, height = options.pop("resolution", (self.width, self.height))
-        return P.ladder(prefix, info or self.info, method, width, height, targets, self.seed,
+        return plan.ladder(prefix, info or self.info, method, width, height, targets, self.seed,
                         depth or self.depth, self.variant, **options)
 
     def reference_jobs(self, info: SceneInfo | None = None, depth: Depth | None = None,

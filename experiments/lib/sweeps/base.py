@@ -26,9 +26,8 @@ from typing import Protocol
 
 import numpy as np
 
-from .. import jobs as J
 from .. import clock, metrics, report, stats
-from .. import plan as P
+from ..jobs import Job
 from ..methods import Depth, parse_method
 from ..scenes import Needs, SceneInfo
 from ..study import Study, repeat_prefix
@@ -64,10 +63,10 @@ class SweepPoint:
     x: float
     info: SceneInfo | None
     ref_jobs: list
-    jobs: dict[str, list[list[J.Job]]]
+    jobs: dict[str, list[list[Job]]]
     extra: dict = field(default_factory=dict)     # e.g. the light's radiance, the depth
 
-    def all_jobs(self) -> list[J.Job]:
+    def all_jobs(self) -> list[Job]:
         return [j for runs in self.jobs.values() for run in runs for j in run]
 
 
@@ -256,7 +255,7 @@ class Context:
                     for r in range(self.repeats)] for m in methods}
         return SweepPoint(x, info, self.st.reference_jobs(info), jobs, dict(extra or {}))
 
-    def read_run(self, jobs: list[J.Job], method: str, ref, mask=None,
+    def read_run(self, jobs: list[Job], method: str, ref, mask=None,
                  floor=None) -> tuple[Run, np.ndarray]:
         """The numbers of one run (its jobs accumulated) and its image; counts outliers.
         ``floor``: the reference's own relMSE per pixel and channel (``Study.reference``'s

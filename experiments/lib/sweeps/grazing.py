@@ -12,9 +12,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .. import jobs as J
+from .. import jobs
 from .. import metrics, report, stats
-from .. import plan as P
 from ..methods import strategies
 from ..scenes import Needs
 from ..scene_probes import direction_sampling_table, first_hit_sampling, phong_bsdf
@@ -121,7 +120,7 @@ class GrazingSweep:
             params.update()
             for s in self.strategies():
                 # repeat 0 keeps the single run's seed; repeat r draws an independent set
-                seeds = [seed] + [J.derive_seed(seed, NAME, self.name, r)
+                seeds = [seed] + [jobs.derive_seed(seed, NAME, self.name, r)
                                   for r in range(1, ctx.repeats)]
                 out[(s, p.x)] = direction_sampling_table(
                     bsdf, [math.cos(math.radians(t)) for t in cfg.angles], s,
