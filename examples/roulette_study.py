@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from experiments.lib import cli, clock, metrics, report, stats
 from experiments.lib.methods import Depth
 from experiments.lib.studies import StudySpec, register_study
+from experiments.lib.studies.settings import StudySettings, common_fields
 from experiments.lib.study import Study, repeat_prefix
 
 NAME = "roulette"
@@ -97,7 +98,7 @@ HEADER = ["rr_depth", "relMSE", "relMSE_lo", "relMSE_hi", "seconds", "efficiency
 
 def run(args) -> None:
     start = time.perf_counter()
-    st = Study(args)
+    st = Study(StudySettings(**common_fields(args)))     # typed settings, not the Namespace
     method = args.method_objs[0]
     ref_jobs, jobs = plan(st, method, args.rr_depths, args.spp)
     st.run(ref_jobs + [j for reps in jobs.values() for j in reps], f"{NAME}: renders")

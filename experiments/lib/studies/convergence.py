@@ -105,9 +105,12 @@ def settings_from(args) -> ConvergenceSettings:
     """The settings of a parsed command line: --methods, with the best combination added
     to the default methods (see --best-sampler)."""
     best = (None if "methods" in args.explicit else
-            best_combination(getattr(args, "best_sampler", "none"), args.out,
-                             args.depth.max_depth))
+            best_combination(args.best_sampler, args.out, args.depth.max_depth))
     fields = common_fields(args)
+    # issue 29: its references' chunks stay sized by this run's --reference-spp, as before
+    # typed settings (by the study's default, as the other studies do, changes the chunks of
+    # a run given --reference-spp: a decision apart from this refactoring)
+    fields["reference_spp_default"] = None
     methods = list(fields["methods"])
     if best is not None and best.method.name not in {m.name for m in methods}:
         methods.append(best.method)

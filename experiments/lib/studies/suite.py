@@ -139,16 +139,16 @@ def build_parser() -> cli.Parser:
     return p
 
 
-def _best_sampler(args, files_list) -> tuple[str | None, str]:
-    """(bsdf+nee+SAMPLER or None, where it was chosen)."""
-    choice = getattr(args, "best_sampler", "none")
+def _best_sampler(choice: str, out: str, files_list) -> tuple[str | None, str]:
+    """(bsdf+nee+SAMPLER or None, where it was chosen) for ``--best-sampler`` ``choice``,
+    read from the sampler study's summary in ``out`` (auto)."""
     if choice == "none":
         return None, "no best sampler (--best-sampler none)"
     if choice != "auto":
         m = "bsdf+nee" if choice == samplers.DEFAULT else f"bsdf+nee+{choice}"
         cli.one_method(m)
         return m, f"{m} as given (--best-sampler)"
-    summary = files.read_json(os.path.join(args.out, "samplers", "summary.json"), {}) or {}
+    summary = files.read_json(os.path.join(out, "samplers", "summary.json"), {}) or {}
     best = summary.get("best") or {}
     if not best:
         return None, ("no best sampler: the sampler study has not run (run_all runs it "
@@ -201,7 +201,7 @@ def parse(argv=None):
     methods = list(args.methods)
     args.best_note = "methods as given (--methods)"
     if "methods" not in args.explicit and not args.quick:
-        best, args.best_note = _best_sampler(args, files_list)
+        best, args.best_note = _best_sampler(args.best_sampler, args.out, files_list)
         if best is not None and best not in methods:
             methods.insert(methods.index("path") if "path" in methods else len(methods), best)
     args.methods = methods
@@ -231,15 +231,16 @@ def settings(args) -> suite_plan.Settings:
     ref_spp = args.reference_spp
     return suite_plan.Settings(
         out=args.out, variant=args.variant, seed=args.seed, repeats=args.repeats,
-        executor=getattr(args, "executor", None), info=args.info, depth=args.depth,
+        executor=args.executor, info=args.info, depth=args.depth,
         scenes=tuple(args.scene_files), methods=tuple(args.method_objs),
         baseline=args.baseline, spp=args.spp, time_budget=args.time_budget,
         forced_resolution=tuple(args.resolution) if "resolution" in args.explicit else None,
         max_size=args.max_size, max_depth=args.max_depth, rr_depth=args.rr_depth,
         reference_spp=ref_spp, reference_max_spp=max(ref_spp, args.reference_max_spp or
                                                      REFERENCE_GROWTH * ref_spp),
-        reference_typical_spp=REFERENCE_GROWTH * (getattr(args, "reference_spp_default", None)
-                                                  or ref_spp),
+        reference_typical_spp=REFERENCE_GROWTH * (args.reference_spp_default or ref_spp),
+        reference_spp_default=args.reference_spp_default,
+        reference_cache=args.reference_cache,
         reference_method=args.reference_method,
         reference_root=args.reference_cache or os.path.join(args.out, references.REFERENCES_DIR),
         user_references=dict(args.user_references), flip=args.flip, best_note=args.best_note)

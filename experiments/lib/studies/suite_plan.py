@@ -61,6 +61,8 @@ class Settings:
     reference_chunk: int | None = None   # None: references.chunk_spp_for the film
     reference_typical_spp: int | None = None     # the default cap (chunk_spp_for)
     resolution: tuple = (1, 1)          # Study's film: unused (every job names its own)
+    reference_cache: str | None = None  # Study's reference store (--reference-cache)
+    reference_spp_default: int | None = None     # the parser's default --reference-spp
 
 
 # ------------------------------------------------------------------ the plan

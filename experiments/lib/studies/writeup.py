@@ -71,7 +71,12 @@ class WriteupSettings(StudySettings):
 
 
 def settings_from(args) -> WriteupSettings:
-    return WriteupSettings(**common_fields(args), short_spp=args.short_spp,
+    fields = common_fields(args)
+    # issue 29: its references' chunks stay sized by this run's --reference-spp, as before
+    # typed settings (by the study's default, as the other studies do, changes the chunks of
+    # a run given --reference-spp: a decision apart from this refactoring)
+    fields["reference_spp_default"] = None
+    return WriteupSettings(**fields, short_spp=args.short_spp,
                            halton_spp=args.halton_spp, full=bool(args.full),
                            full_resolution=tuple(args.full_resolution),
                            full_spp=args.full_spp)

@@ -105,11 +105,11 @@ class GrazingSweep:
 
     def plan(self, ctx: Context) -> list[SweepPoint]:
         """One point per exponent, nothing to render (the samples are drawn in measure)."""
-        return [SweepPoint(n, ctx.args.info, [], {}) for n in ctx.cfg.grazing_exponents]
+        return [SweepPoint(n, ctx.settings.info, [], {}) for n in ctx.cfg.grazing_exponents]
 
     def measure(self, ctx: Context, points: list[SweepPoint]) -> GrazingData:
         import mitsuba as mi
-        cfg, seed = ctx.cfg, ctx.args.seed
+        cfg, seed = ctx.cfg, ctx.settings.seed
         scene = ctx.probe()
         bsdf, shape = phong_bsdf(scene)
         params = mi.traverse(bsdf)

@@ -126,8 +126,9 @@ class HaltonSweep:
                                       parse_method(m),
                                       targets, depth=depth, timing_group=f"{NAME}/halton")
                         for r in range(ctx.repeats)] for m in self.methods(ctx)}
-            points.append(SweepPoint(d, ctx.args.info, ctx.st.reference_jobs(ctx.args.info, depth),
-                                     jobs, {"depth": d}))
+            info = ctx.settings.info
+            points.append(SweepPoint(d, info, ctx.st.reference_jobs(info, depth), jobs,
+                                     {"depth": d}))
         return points
 
     def measure(self, ctx: Context, points: list[SweepPoint]) -> HaltonData:
