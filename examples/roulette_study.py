@@ -1,10 +1,9 @@
 """A study of one's own, in one file: where should Russian roulette start? (``roulette``)
 
-One method (default ``bsdf+nee``) at several ``rr_depth`` values, R renders of the same
-count each: expected relMSE (the reference's floor subtracted), cost (the one clock) and
-efficiency over ``rr_depth`` 5 (Mitsuba's default) with 95% intervals and verdicts: the
-engine plans, renders, times and measures, this file declares and tabulates. Run it with
-``python -m experiments.run_all --plugin examples/roulette_study.py``. See docs/extending.md.
+One method (default ``bsdf+nee``) at several ``rr_depth`` values, R renders each: relMSE
+(the reference's floor subtracted), cost (the one clock), efficiency over ``rr_depth`` 5
+(Mitsuba's default) with 95% intervals and verdicts. The engine plans, renders, times and
+measures; this file declares and tabulates. See docs/extending.md.
 """
 import os
 import time
@@ -13,6 +12,7 @@ from dataclasses import replace
 from experiments.lib import cli, report, stats
 from experiments.lib.engine import Budget, Cell, Declaration, Engine, SceneSetup, Sweep
 from experiments.lib.studies import StudySpec, register_study
+from experiments.lib.studies.settings import StudySettings, common_fields
 from experiments.lib.study import Study
 
 NAME, TITLE, BASELINE = "roulette", "Russian roulette: where to start it", 5
@@ -53,7 +53,7 @@ def table(measured, method: str) -> list[list]:
 
 def run(args) -> None:
     start, method = time.perf_counter(), args.method_objs[0].name
-    rows = table(Engine(Study(args)).run(declare(args)), method)
+    rows = table(Engine(Study(StudySettings(**common_fields(args)))).run(declare(args)), method)
     caption = f"{method}, efficiency relative to rr_depth {BASELINE}"
     report.write_section(args.out, NAME, TITLE, 60, {
         "method": method, "spp": args.spp, "repeats": args.repeats,

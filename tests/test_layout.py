@@ -9,6 +9,8 @@
   base modules (``clock``, ``files``) import nothing else from lib, and ``jobs`` only
   the clock.
 * No class in ``experiments/`` is longer than :data:`MAX_CLASS_LINES` lines.
+* Nothing in ``experiments/lib`` but ``cli.py`` reads the argparse Namespace (issue 29):
+  each study makes its typed settings from it in one place and hands those down.
 
 Each check has a negative control on synthetic input, so a checker that
 finds nothing because it looks at nothing fails.
@@ -215,3 +217,50 @@ def test_no_class_in_experiments_is_too_long():
                 too_long += [(os.path.relpath(path, ROOT), c, n) for c, n in long_classes(source)]
     assert checked >= 5                      # the walk found the classes
     assert not too_long, f"classes longer than {MAX_CLASS_LINES} lines: {too_long}"
+
+
+# ------------------------------------------------------------------ typed settings (issue 29)
+
+#: The modules of experiments/lib that still hand the argparse Namespace down.
+# issue 29: the sampler study and the lab move to typed settings next
+NAMESPACE_ALLOWED = {"studies.samplers", "studies.lab"}
+
+
+def namespace_uses(source: str) -> list[tuple[str, int]]:
+    """Where a module reads the command line below its entry point: ``getattr(args, ...)``,
+    ``argparse.Namespace``, or a :class:`Study` made from ``args``."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.args:
+            first = node.args[0]
+            if (node.func.id in ("getattr", "Study") and isinstance(first, ast.Name)
+                    and first.id == "args"):
+                found.append((f"{node.func.id}(args", node.lineno))
+        if (isinstance(node, ast.Attribute) and node.attr == "Namespace"
+                and isinstance(node.value, ast.Name) and node.value.id == "argparse"):
+            found.append(("argparse.Namespace", node.lineno))
+    return found
+
+
+def test_namespace_checker_sees_every_use():
+    source = ('import argparse\n"""getattr(args, \'x\') in prose is not a use."""\n'
+              "def run(args: argparse.Namespace):\n    n = getattr(args, 'repeats', 1)\n"
+              "    st = Study(args)\n    ok = getattr(settings, 'x', None), Study(settings)\n")
+    assert sorted(namespace_uses(source), key=lambda u: u[1]) == [
+        ("argparse.Namespace", 3), ("getattr(args", 4), ("Study(args", 5)]
+    assert namespace_uses("def f(settings):\n    return settings.out\n") == []
+
+
+def test_no_namespace_below_the_command_line():
+    """Nothing in experiments/lib but cli.py reads the Namespace: each study converts it to
+    its typed settings in one place (its ``settings_from``) and hands those down."""
+    modules = lib_modules()
+    found = []
+    for module, path in modules.items():
+        if module == "cli" or module in NAMESPACE_ALLOWED:
+            continue
+        with open(path, encoding="utf-8") as f:
+            found += [(module, what, line) for what, line in namespace_uses(f.read())]
+    assert len(modules) > 30 and "study" in modules and "studies.settings" in modules
+    assert not found, f"the Namespace below the command line: {found}"
+    assert NAMESPACE_ALLOWED <= set(modules), NAMESPACE_ALLOWED - set(modules)

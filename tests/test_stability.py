@@ -166,7 +166,7 @@ def test_first_where_and_ratio():
 
 def test_every_sweep_plans_points_of_one_shape_with_independent_repeats(tmp_path):
     args = stability.parse(["--quick", "--repeats", "3", "--out", str(tmp_path / "r")])
-    ctx = SW.Context(args, args.config)
+    ctx = SW.Context(stability.settings_from(args))
     plans, skipped = stability.plan(ctx, SW.SWEEPS)
     assert set(plans) == set(SW.SWEEPS) and not skipped
     for name, points in plans.items():
@@ -181,7 +181,7 @@ def test_every_sweep_plans_points_of_one_shape_with_independent_repeats(tmp_path
     assert p.jobs["bsdf"][0][0].key.startswith("stability/exponent/1/bsdf-")
     assert p.jobs["bsdf"][1][0].key.startswith("stability/exponent/1/bsdf/r1-")
     single = stability.parse(["--quick", "--repeats", "1", "--out", str(tmp_path / "r")])
-    one = stability.plan(SW.Context(single, single.config), ["exponent"])[0]["exponent"]
+    one = stability.plan(SW.Context(stability.settings_from(single)), ["exponent"])[0]["exponent"]
     (job,), = one[0].jobs["bsdf"]
     assert job.spp == single.spp == 4                   # one repeat: the whole --spp
     assert job.seed == p.jobs["bsdf"][0][0].seed        # the same seed as repeat 0

@@ -249,10 +249,10 @@ def test_an_error_below_the_references_noise_is_a_bound_not_nan():
     assert r.bounds() == ["bsdf+nee"] and r.ranking.order[0] == "bsdf+nee"
     # the reference is then too noisy for the comparison, and the suite asks for more
     assert not r.reference_adequate
-    assert S.P.needed_spp(numbers({"path": [2.0] * 3, "bsdf+nee": below}, floor=floor),
+    assert S.suite_plan.needed_spp(numbers({"path": [2.0] * 3, "bsdf+nee": below}, floor=floor),
                           256, 8192) == 8192                        # all it may: the cap
     # a floor half the smallest measured error: 19 times the samples bring it to 5%
-    assert S.P.needed_spp(numbers({"path": [2.0] * 3, "bsdf+nee": [1.0] * 3}, floor=0.5),
+    assert S.suite_plan.needed_spp(numbers({"path": [2.0] * 3, "bsdf+nee": [1.0] * 3}, floor=0.5),
                           256, 10 ** 6) == 256 * 32
     # negative control: errors well above the floor are intervals, with no bound
     r = A.analyse_scene(numbers({"path": [2.0, 2.1, 1.9], "bsdf+nee": [1.0, 1.05, 0.95]},
@@ -279,11 +279,11 @@ def test_relmse_rejected_against_a_hand_computed_case():
 
 def test_equal_time_count_is_the_budgets_power_of_two():
     cfg = S.settings(S.parse(["--quick", "--spp", "16", "--time-budget", "0.1"]))
-    assert S.P.equal_time_spp(cfg, [0.1 / 45]) == 32         # 45 spp: nearest power 32
-    assert S.P.equal_time_spp(cfg, [0.1 / 46, 0.1 / 100]) == 64   # the repeats' mean
-    assert S.P.equal_time_spp(cfg, [0.1 / 17]) == 16
-    assert S.P.equal_time_spp(cfg, [10.0]) == 1
-    assert S.P.equal_time_spp(cfg, [1e-9]) == S.P.MAX_EQUAL_TIME_SPP
+    assert S.suite_plan.equal_time_spp(cfg, [0.1 / 45]) == 32         # 45 spp: nearest power 32
+    assert S.suite_plan.equal_time_spp(cfg, [0.1 / 46, 0.1 / 100]) == 64   # the repeats' mean
+    assert S.suite_plan.equal_time_spp(cfg, [0.1 / 17]) == 16
+    assert S.suite_plan.equal_time_spp(cfg, [10.0]) == 1
+    assert S.suite_plan.equal_time_spp(cfg, [1e-9]) == S.suite_plan.MAX_EQUAL_TIME_SPP
 
 
 def test_crop_boxes_follow_the_data():

@@ -10,7 +10,8 @@ excludes none. Repeats are synthetic too: value x (1 + small noise), so the
 import pytest
 
 from experiments.lib import stats
-from experiments.lib.sweeps import REGISTRY, SWEEPS, exponent, grazing, halton, light
+from experiments.lib.sweeps import (REGISTRY, SWEEPS, exponent, grazing, halton_randomization,
+                                    light)
 from experiments.lib.sweeps.base import BREAK_FACTOR, Run, exceeds, mean_interval, onset
 
 NOISE = (0.97, 1.0, 1.03)          # three repeats, +-3%
@@ -196,12 +197,12 @@ def halton_data(none_errors):
                   "uniform+halton:owen": ladder(owen)}}
     corr = {2: {"uniform": [0.0] * 3, "uniform+halton:none": [0.8] * 3,
                 "uniform+halton:owen": [0.01] * 3}}
-    return halton.HaltonData("uniform", curves, corr)
+    return halton_randomization.HaltonData("uniform", curves, corr)
 
 
 def test_halton_none_is_worse_than_independent_from_n_spp():
     # plain Halton: better at first, stuck at 0.05 from 16 spp on (independent 1/16 = 0.0625)
-    res = halton.analyse(halton_data([0.5, 0.25, 0.12, 0.07, 0.05, 0.05, 0.05]))
+    res = halton_randomization.analyse(halton_data([0.5, 0.25, 0.12, 0.07, 0.05, 0.05, 0.05]))
     assert res.worse_from[2] == 32                      # 0.05 > 1/32 first at 32 spp
     text = res.sentences[0]
     assert "'none' is worse than independent sampling from 32 spp" in text
@@ -213,12 +214,12 @@ def test_halton_none_is_worse_than_independent_from_n_spp():
 
 
 def test_halton_none_worse_only_at_low_spp_is_not_called_an_onset():
-    res = halton.analyse(halton_data([2.0, 1.0, 0.01, 0.005, 0.002, 0.001, 0.0005]))
+    res = halton_randomization.analyse(halton_data([2.0, 1.0, 0.01, 0.005, 0.002, 0.001, 0.0005]))
     assert res.worse_at[2] == [1, 2]
     assert "worse than independent sampling at 1, 2 spp only" in res.sentences[0]
 
 
 def test_halton_none_never_worse_negative_control():
-    res = halton.analyse(halton_data([0.5 / n for n in SPP]))
+    res = halton_randomization.analyse(halton_data([0.5 / n for n in SPP]))
     assert res.worse_from[2] is None
     assert "worse than independent sampling nowhere in the sweep" in res.sentences[0]

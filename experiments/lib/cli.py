@@ -18,9 +18,10 @@ import scenes
 from integrators.choices import JIT_VARIANT_PREFIXES
 
 from . import extensions
-from . import methods as M
-from . import plan as P
-from . import scenes as SC
+from . import plan
+from .methods import DEFAULT_METHODS, Method, grammar, parse_method
+from .scenes import (BUILTIN_SCENES, builtin_scene, effective_depth, load_scene,
+                     read_scene)
 
 #: The bundled scene (package data of :mod:`scenes`, found in a checkout and an install alike).
 DEFAULT_SCENE = scenes.path("cbox.xml")
@@ -94,7 +95,7 @@ def method_list(text: str) -> list[str]:
         raise argparse.ArgumentTypeError("--methods needs at least one method")
     for name in names:
         try:
-            M.parse_method(name)
+            parse_method(name)
         except ValueError as e:
             raise argparse.ArgumentTypeError(str(e)) from None
     return list(dict.fromkeys(names))
@@ -102,13 +103,13 @@ def method_list(text: str) -> list[str]:
 
 def common_parser(prog: str, description: str, spp: int | None = None,
                   time_budget: float | None = None, default_resolution: str = "256x128",
-                  methods=M.DEFAULT_METHODS, repeats: int = 3) -> Parser:
+                  methods=DEFAULT_METHODS, repeats: int = 3) -> Parser:
     """The options every script takes; ``spp``/``time_budget`` add those options (defaults)."""
     p = Parser(prog=prog, description=description,
                formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     p.add_argument("--scene", default=DEFAULT_SCENE,
                    help="Mitsuba scene XML (its integrator and sampler are replaced per method), "
-                        f"or a built-in scene: {', '.join(SC.BUILTIN_SCENES)} (Mitsuba's "
+                        f"or a built-in scene: {', '.join(BUILTIN_SCENES)} (Mitsuba's "
                         "mi.cornell_box())")
     p.add_argument("--resolution", type=resolution, default=default_resolution,
                    metavar="WxH", help="film resolution")
@@ -116,7 +117,7 @@ def common_parser(prog: str, description: str, spp: int | None = None,
         p.add_argument("--spp", type=positive_int, default=spp,
                        help="samples per pixel of the longest render")
     p.add_argument("--methods", type=method_list, default=",".join(methods),
-                   help="comma-separated methods: " + M.grammar()
+                   help="comma-separated methods: " + grammar()
                         + " (uniform+halton is the writeup's plain Halton)")
     p.add_argument("--max-depth", type=max_depth, default=None,
                    help="longest path (-1: unbounded); default: the scene's integrator's, "
@@ -184,10 +185,10 @@ def max_depth(text: str) -> int:
     return _int_at_least(text, -1)
 
 
-def one_method(text: str) -> M.Method:
+def one_method(text: str) -> Method:
     """An argparse type: the parsed :class:`~.methods.Method` (its ``str`` is its name)."""
     try:
-        return M.parse_method(text)
+        return parse_method(text)
     except ValueError as e:
         raise argparse.ArgumentTypeError(str(e)) from None
 
@@ -247,10 +248,10 @@ def parse_args(parser: Parser, argv=None) -> argparse.Namespace:
     args.explicit = explicit_options(parser, argv)
     # the size of a reference's chunks follows the study's default, not this run's count
     args.reference_spp_default = parser.get_default("reference_spp")
-    builtin = args.scene in SC.BUILTIN_SCENES
+    builtin = args.scene in BUILTIN_SCENES
     if not builtin and not os.path.isfile(args.scene):
         parser.error(f"scene file '{args.scene}' does not exist (or use a built-in scene: "
-                     f"{', '.join(SC.BUILTIN_SCENES)})")
+                     f"{', '.join(BUILTIN_SCENES)})")
     problem = _check_out(args.out)
     if problem:
         parser.error(problem)
@@ -258,21 +259,21 @@ def parse_args(parser: Parser, argv=None) -> argparse.Namespace:
     mi.set_log_level(mi.LogLevel.Error)   # not the samplers' "rounding to N" per render
     args.executor = open_executor(parser, args)     # before anything is written
     if builtin:
-        args.scene = SC.builtin_scene(args.scene, os.path.join(args.out, "cache", "scenes"))
+        args.scene = builtin_scene(args.scene, os.path.join(args.out, "cache", "scenes"))
     try:
-        args.info = SC.read_scene(args.scene)
+        args.info = read_scene(args.scene)
     except (ValueError, OSError) as e:
         parser.error(str(e))
-    args.depth = SC.effective_depth(args.info, args.max_depth, args.rr_depth)
-    args.method_objs = [M.parse_method(n) for n in args.methods]   # checked by method_list
+    args.depth = effective_depth(args.info, args.max_depth, args.rr_depth)
+    args.method_objs = [parse_method(n) for n in args.methods]   # checked by method_list
     for method in args.method_objs:
         try:
-            P.check_terminates(method, args.depth)
+            plan.check_terminates(method, args.depth)
         except ValueError as e:
             parser.error(str(e))
     width, height = args.resolution
     try:   # the scene must load as every method would load it
-        SC.load_scene(args.scene, width, height, args.method_objs[0], args.depth)
+        load_scene(args.scene, width, height, args.method_objs[0], args.depth)
     except Exception as e:  # noqa: BLE001
         parser.error(f"scene '{args.scene}' does not load: {str(e).strip().splitlines()[-1]}")
     return args

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 from integrators import strategies as _strategies
 
-from . import samplers as S
+from . import samplers
 
 #: Mitsuba's C++ path tracer as a method (NEE + MIS): ``path[+SAMPLER]``.
 PATH = "path"
@@ -45,10 +45,10 @@ def strategies() -> tuple[str, ...]:
     """The registered ``vr_path`` strategies (built-in ones first); ValueError if one is
     named like a word of the grammar or like a sampler."""
     names = tuple(_strategies.names())
-    clash = [n for n in names if n in RESERVED or n in S.names()]
+    clash = [n for n in names if n in RESERVED or n in samplers.names()]
     if clash:
         raise ValueError(f"strategy name '{clash[0]}' clashes with the method grammar "
-                         f"({', '.join(RESERVED)} and the samplers {', '.join(S.names())} "
+                         f"({', '.join(RESERVED)} and the samplers {', '.join(samplers.names())} "
                          f"are taken): register it under another name")
     return names
 
@@ -71,7 +71,7 @@ class Method:
     name: str
     strategy: str | None            # None for Mitsuba's path
     nee: bool = False
-    sampler: str = S.DEFAULT
+    sampler: str = samplers.DEFAULT
     randomization: str | None = None   # None: the sampler's default
 
     def __str__(self) -> str:
@@ -82,8 +82,8 @@ class Method:
         return PATH if self.strategy is None else "vr_path"
 
     @property
-    def sampler_spec(self) -> S.SamplerSpec:
-        return S.get(self.sampler)
+    def sampler_spec(self) -> samplers.SamplerSpec:
+        return samplers.get(self.sampler)
 
     @property
     def sampler_label(self) -> str:
@@ -116,10 +116,10 @@ class Method:
 
 def grammar() -> str:
     """The valid parts, for error messages and --help."""
-    rand = [f"{n}: {'|'.join(S.get(n).randomizations)}" for n in S.names()
-            if S.get(n).randomizations]
+    rand = [f"{n}: {'|'.join(samplers.get(n).randomizations)}" for n in samplers.names()
+            if samplers.get(n).randomizations]
     return (f"STRATEGY[+nee][+SAMPLER[:RANDOMIZATION]] or path[+SAMPLER[:RANDOMIZATION]]; "
-            f"STRATEGY {'|'.join(strategies())}, SAMPLER {'|'.join(S.names())}, "
+            f"STRATEGY {'|'.join(strategies())}, SAMPLER {'|'.join(samplers.names())}, "
             f"RANDOMIZATION ({'; '.join(rand) or 'none'})")
 
 
@@ -139,16 +139,16 @@ def parse_method(name: str) -> Method:
         if head == PATH:
             raise bad("path always uses next-event estimation, '+nee' is not needed")
         nee, rest = True, rest[1:]
-    sampler, randomization = S.DEFAULT, None
+    sampler, randomization = samplers.DEFAULT, None
     if rest:
         if len(rest) > 1:
             raise bad(f"too many parts after '{parts[0]}'")
         sampler, colon, randomization = rest[0].partition(":")
         randomization = randomization if colon else None
-        if sampler not in S.names():
-            raise bad(f"sampler '{sampler}' is not one of {', '.join(S.names())}")
+        if sampler not in samplers.names():
+            raise bad(f"sampler '{sampler}' is not one of {', '.join(samplers.names())}")
         try:
-            S.get(sampler).check_randomization(randomization)
+            samplers.get(sampler).check_randomization(randomization)
         except ValueError as e:
             raise bad(str(e)) from None
     return Method(name, None if head == PATH else head, nee, sampler, randomization)
@@ -157,4 +157,4 @@ def parse_method(name: str) -> Method:
 def method_name(base: Method, sampler_label: str) -> str:
     """``base`` (a method without a sampler) driven by ``sampler_label`` (the default
     sampler adds nothing to the name)."""
-    return base.name if sampler_label == S.DEFAULT else f"{base.name}+{sampler_label}"
+    return base.name if sampler_label == samplers.DEFAULT else f"{base.name}+{sampler_label}"

@@ -21,8 +21,8 @@ from __future__ import annotations
 import copy
 import hashlib
 import os
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass
+from xml.etree import ElementTree
 
 import mitsuba as mi
 
@@ -247,7 +247,8 @@ def _xml_value(value) -> str:
 def scene_defaults(path: str) -> dict[str, str]:
     """The ``<default name=... value=...>`` parameters of a scene file (they are top-level
     elements of the file ``mi.load_file`` is given, so its own XML holds them all)."""
-    return {d.get("name"): d.get("value") for d in ET.parse(path).getroot().iter("default")}
+    root = ElementTree.parse(path).getroot()
+    return {d.get("name"): d.get("value") for d in root.iter("default")}
 
 
 def scene_variant(info: SceneInfo, directory: str, name: str,
@@ -257,7 +258,7 @@ def scene_variant(info: SceneInfo, directory: str, name: str,
     KeyError if the scene does not declare one of the parameters. Relative
     paths inside the scene keep resolving against the original file's folder.
     """
-    root = copy.deepcopy(ET.parse(info.path).getroot())
+    root = copy.deepcopy(ElementTree.parse(info.path).getroot())
     found = set()
     for d in root.iter("default"):
         if d.get("name") in overrides:
@@ -267,7 +268,7 @@ def scene_variant(info: SceneInfo, directory: str, name: str,
     if missing:
         raise KeyError(", ".join(sorted(missing)))
     path = os.path.join(directory, name + ".xml")
-    text = ET.tostring(root, encoding="unicode")
+    text = ElementTree.tostring(root, encoding="unicode")
     if read_text(path) != text:
         write_text(path, text)
     _add_scene_dir(info.path)
@@ -313,18 +314,19 @@ def _tag(value) -> str:
             else "float" if isinstance(value, float) else "string")
 
 
-def _dict_to_xml(parent: ET.Element, name: str | None, value) -> None:
+def _dict_to_xml(parent: ElementTree.Element, name: str | None, value) -> None:
     """One entry of a Mitsuba scene dict as XML (the subset ``mi.cornell_box()`` uses)."""
     attrs = {"name": name} if name else {}
     if isinstance(value, dict):
         kind = value["type"]
         if kind == "ref":
-            ET.SubElement(parent, "ref", id=value["id"], **attrs)
+            ElementTree.SubElement(parent, "ref", id=value["id"], **attrs)
         elif kind == "rgb":
-            ET.SubElement(parent, "rgb", value=", ".join(map(str, value["value"])), **attrs)
+            ElementTree.SubElement(parent, "rgb", value=", ".join(map(str, value["value"])),
+                                   **attrs)
         else:
             category = mi.PluginManager.instance().plugin_type(kind).name
-            node = ET.SubElement(parent, _CATEGORIES.get(category, category.lower()),
+            node = ElementTree.SubElement(parent, _CATEGORIES.get(category, category.lower()),
                                  type=kind)
             if name and parent.tag == "scene":
                 node.set("id", name)
@@ -332,15 +334,15 @@ def _dict_to_xml(parent: ET.Element, name: str | None, value) -> None:
                 if key != "type":
                     _dict_to_xml(node, key, item)
     elif isinstance(value, (mi.ScalarTransform4f, mi.Transform4f)):
-        node = ET.SubElement(parent, "transform", **attrs)
+        node = ElementTree.SubElement(parent, "transform", **attrs)
         matrix = mi.ScalarTransform4f(value).matrix
-        ET.SubElement(node, "matrix", value=" ".join(
+        ElementTree.SubElement(node, "matrix", value=" ".join(
             repr(float(matrix[i][j])) for i in range(4) for j in range(4)))
     elif isinstance(value, (list, tuple)) and len(value) == 3:
-        ET.SubElement(parent, "vector", x=str(value[0]), y=str(value[1]), z=str(value[2]),
+        ElementTree.SubElement(parent, "vector", x=str(value[0]), y=str(value[1]), z=str(value[2]),
                       **attrs)
     else:
-        ET.SubElement(parent, _tag(value), value=_xml_value(value), **attrs)
+        ElementTree.SubElement(parent, _tag(value), value=_xml_value(value), **attrs)
 
 
 def builtin_scene(name: str, directory: str) -> str:
@@ -348,16 +350,16 @@ def builtin_scene(name: str, directory: str) -> str:
     if name not in BUILTIN_SCENES:
         raise ValueError(f"unknown built-in scene '{name}': choose {', '.join(BUILTIN_SCENES)}")
     scene = getattr(mi, name)()
-    root = ET.Element("scene", version="3.0.0")
+    root = ElementTree.Element("scene", version="3.0.0")
     # referenced BSDFs first, then everything else (Mitsuba resolves ids in order)
     items = sorted((k, v) for k, v in scene.items() if k != "type")
     items.sort(key=lambda kv: 0 if isinstance(kv[1], dict) and
                mi.PluginManager.instance().plugin_type(kv[1]["type"]).name == "BSDF" else 1)
     for key, value in items:
         _dict_to_xml(root, key, value)
-    ET.indent(root)
+    ElementTree.indent(root)
     path = os.path.join(directory, f"{name}.xml")
-    text = ET.tostring(root, encoding="unicode") + "\n"
+    text = ElementTree.tostring(root, encoding="unicode") + "\n"
     if read_text(path) != text:
         write_text(path, text)
     return path

@@ -1,6 +1,8 @@
 """What every experiment script shares: the job store, the executor, the reference image.
 
-A :class:`Study` is built from the parsed arguments. Scripts plan jobs
+A :class:`Study` is built from a study's typed settings (a
+:class:`~.studies.settings.StudySettings`, or any value with the fields it reads, such as
+the suite's settings), never from the command line. Scripts plan jobs
 (:mod:`.plan`), hand them to :meth:`Study.run` (which executes what the store
 lacks, :func:`.execute.execute`), then read the results back from the store
 (:meth:`Study.accumulate`: the cumulative images of a ladder).
@@ -13,7 +15,7 @@ import os
 
 import numpy as np
 
-from . import plan as P
+from . import plan
 from .execute import execute
 from .jobs import Accumulator, Job, accumulate as accumulate_results, derive_seed
 from .methods import Depth, Method
@@ -29,20 +31,26 @@ def repeat_prefix(prefix: str, repeat: int) -> str:
 
 
 class Study:
-    def __init__(self, args, executor=None):
-        self.args = args
-        self.out = args.out
-        self.variant = args.variant
-        self.info: SceneInfo = args.info
-        self.depth: Depth = args.depth
-        self.seed = args.seed
-        self.width, self.height = args.resolution
-        self.store = JobStore(os.path.join(args.out, STORE_DIR))
+    """The stores, the executor and the job factory of one study run, made from its typed
+    settings: a :class:`~.studies.settings.StudySettings` or any value with its fields
+    ``out``, ``variant``, ``info``, ``depth``, ``seed``, ``resolution``, ``repeats``,
+    ``reference_cache``, ``reference_spp``, ``reference_spp_default``,
+    ``reference_method`` and ``executor``."""
+
+    def __init__(self, settings, executor=None):
+        self.settings = settings
+        self.out = settings.out
+        self.variant = settings.variant
+        self.info: SceneInfo = settings.info
+        self.depth: Depth = settings.depth
+        self.seed = settings.seed
+        self.width, self.height = settings.resolution
+        self.store = JobStore(os.path.join(settings.out, STORE_DIR))
         #: The reference store every study and run shares (``--reference-cache``).
-        self.references = ReferenceStore(getattr(args, "reference_cache", None)
-                                         or os.path.join(args.out, REFERENCES_DIR))
-        self.executor = executor if executor is not None else getattr(args, "executor", None)
-        self.repeats: int = getattr(args, "repeats", 1)
+        self.references = ReferenceStore(settings.reference_cache
+                                         or os.path.join(settings.out, REFERENCES_DIR))
+        self.executor = executor if executor is not None else settings.executor
+        self.repeats: int = settings.repeats
         self._reference_of: dict[str, RefSpec] = {}       # chunk key -> its reference
 
     def run(self, jobs: list, label: str = "render jobs") -> int:
@@ -81,14 +89,14 @@ class Study:
             depth: Depth | None = None, **options) -> Job:
         """One job at this study's resolution, seed derived from the base seed and prefix."""
         width, height = options.pop("resolution", (self.width, self.height))
-        return P.make_job(prefix, info or self.info, method, width, height, spp,
+        return plan.make_job(prefix, info or self.info, method, width, height, spp,
                           derive_seed(self.seed, prefix), depth or self.depth, self.variant,
                           **options)
 
     def ladder(self, prefix: str, method: Method, targets, info: SceneInfo | None = None,
                depth: Depth | None = None, **options) -> list[Job]:
         width, height = options.pop("resolution", (self.width, self.height))
-        return P.ladder(prefix, info or self.info, method, width, height, targets, self.seed,
+        return plan.ladder(prefix, info or self.info, method, width, height, targets, self.seed,
                         depth or self.depth, self.variant, **options)
 
     def reference_jobs(self, info: SceneInfo | None = None, depth: Depth | None = None,
@@ -102,10 +110,10 @@ class Study:
         of :func:`.references.chunk_spp_for` the film and ``typical_spp`` (default: the
         study's own default ``--reference-spp``, whatever this run asks for)."""
         width, height = resolution or (self.width, self.height)
-        spp = spp or self.args.reference_spp
-        typical = typical_spp or getattr(self.args, "reference_spp_default", None) or spp
+        spp = spp or self.settings.reference_spp
+        typical = typical_spp or self.settings.reference_spp_default or spp
         spec = RefSpec(info or self.info, width, height, depth or self.depth,
-                       method or self.args.reference_method, self.variant,
+                       method or self.settings.reference_method, self.variant,
                        chunk_spp_for(width, height, typical))
         jobs = self.references.plan(spec, spp)
         self._reference_of.update((j.key, spec) for j in jobs)

@@ -24,16 +24,16 @@ import time
 from dataclasses import dataclass
 
 from experiments.lib import cli, clock, files, metrics
-from experiments.lib import jobs as J
-from experiments.lib import plan as P
+from experiments.lib.jobs import Job
+from experiments.lib.plan import doubling_targets
 from experiments.lib.methods import Method
 from experiments.lib.studies import StudySpec, register_study
-from experiments.lib.studies import convergence_analysis as A
-from experiments.lib.studies import convergence_report as R
+from experiments.lib.studies import convergence_analysis
+from experiments.lib.studies import convergence_report
 from experiments.lib.studies.settings import StudySettings, common_fields
 from experiments.lib.study import Study, repeat_prefix
 
-NAME = A.NAME
+NAME = convergence_analysis.NAME
 ORDER = 20
 TITLE = "Convergence, error against time, efficiency"
 
@@ -87,7 +87,7 @@ def best_combination(choice: str, out: str, max_depth: int | None) -> Best | Non
         best = summary.get("best") or {}
         if not best:
             return None
-        wanted = max_depth if max_depth is not None else A.DEFAULT_DEPTH
+        wanted = max_depth if max_depth is not None else convergence_analysis.DEFAULT_DEPTH
         key = min(best, key=lambda d: (abs(int(d) - wanted), int(d)))
         choice, depth = best[key], int(key)
         at = (summary.get("best_at") or {}).get(key) or {}
@@ -105,9 +105,12 @@ def settings_from(args) -> ConvergenceSettings:
     """The settings of a parsed command line: --methods, with the best combination added
     to the default methods (see --best-sampler)."""
     best = (None if "methods" in args.explicit else
-            best_combination(getattr(args, "best_sampler", "none"), args.out,
-                             args.depth.max_depth))
+            best_combination(args.best_sampler, args.out, args.depth.max_depth))
     fields = common_fields(args)
+    # issue 29: its references' chunks stay sized by this run's --reference-spp, as before
+    # typed settings (by the study's default, as the other studies do, changes the chunks of
+    # a run given --reference-spp: a decision apart from this refactoring)
+    fields["reference_spp_default"] = None
     methods = list(fields["methods"])
     if best is not None and best.method.name not in {m.name for m in methods}:
         methods.append(best.method)
@@ -126,13 +129,13 @@ class Plan:
     reference: list
     ladders: dict                     # method name -> [ladder (list of Job) per repeat]
 
-    def jobs(self) -> list[J.Job]:
+    def jobs(self) -> list[Job]:
         return self.reference + [j for reps in self.ladders.values() for jobs in reps
                                  for j in jobs]
 
 
 def plan(st: Study, settings: ConvergenceSettings) -> Plan:
-    targets = P.doubling_targets(settings.spp)
+    targets = doubling_targets(settings.spp)
     ladders = {m.name: [st.ladder(repeat_prefix(f"{NAME}/{m.name}", r), m, targets,
                                   timing_group=NAME)
                         for r in range(st.repeats_of(m))] for m in settings.methods}
@@ -145,8 +148,9 @@ def plan_equal_time(st: Study, settings: ConvergenceSettings, plan: Plan) -> dic
     jobs = {}
     for name, reps in plan.ladders.items():
         results = [st.store.get(j.key) for ladder in reps for j in ladder]
-        spp = A.equal_time_spp([clock.cost(r) for r in results], [r.spp for r in results],
-                               settings.time_budget)
+        spp = convergence_analysis.equal_time_spp([clock.cost(r) for r in results],
+                                                  [r.spp for r in results],
+                                                  settings.time_budget)
         method = reps[0][0].method
         jobs[name] = [st.job(repeat_prefix(f"equal_time/{name}", r), method, spp,
                              timing_group=NAME) for r in range(st.repeats_of(method))]
@@ -155,7 +159,7 @@ def plan_equal_time(st: Study, settings: ConvergenceSettings, plan: Plan) -> dic
 
 # ------------------------------------------------------------------ measure
 
-def measure(st: Study, plan: Plan, equal_jobs: dict) -> A.Measured:
+def measure(st: Study, plan: Plan, equal_jobs: dict) -> convergence_analysis.Measured:
     """Errors (against the reference, its own expected error not subtracted), seconds and
     spp per method, count and repeat; the first repeat's images for the report."""
     ref, meta = st.reference(plan.reference)
@@ -165,7 +169,7 @@ def measure(st: Study, plan: Plan, equal_jobs: dict) -> A.Measured:
         ladders[name], images[name] = [], []
         for accs in zip(*runs):
             first = accs[0]
-            ladders[name].append(A.Rung(
+            ladders[name].append(convergence_analysis.Rung(
                 first.spp, len(accs), st.per_repeat(a.cost for a in accs),
                 st.per_repeat(metrics.mse(a.mean, ref) for a in accs),
                 st.per_repeat(metrics.relmse(a.mean, ref) for a in accs),
@@ -174,21 +178,21 @@ def measure(st: Study, plan: Plan, equal_jobs: dict) -> A.Measured:
     for name, reps in equal_jobs.items():
         results = [st.store.get(j.key) for j in reps]
         shown = results[0].image.astype(float)
-        equal[name] = A.Rung(
+        equal[name] = convergence_analysis.Rung(
             results[0].spp, len(results), st.per_repeat(clock.cost(r) for r in results),
             st.per_repeat(metrics.mse(r.image.astype(float), ref) for r in results),
             st.per_repeat(metrics.relmse(r.image.astype(float), ref) for r in results),
             metrics.flip_mean(shown, ref))
         equal_images[name] = shown
-    floor = A.Floor(meta["mse_floor"], meta["relmse_floor"])
-    return A.Measured(ladders, equal, floor, st.repeats, plan.targets,
-                      A.Images(ref, images, equal_images),
+    floor = convergence_analysis.Floor(meta["mse_floor"], meta["relmse_floor"])
+    return convergence_analysis.Measured(ladders, equal, floor, st.repeats, plan.targets,
+                      convergence_analysis.Images(ref, images, equal_images),
                       {k: v for k, v in meta.items() if k != "relmse_floor_map"})
 
 
 # ------------------------------------------------------------------ run
 
-def run_settings(settings: ConvergenceSettings) -> A.Result:
+def run_settings(settings: ConvergenceSettings) -> convergence_analysis.Result:
     """The whole study from typed settings; returns the analysis."""
     start = time.perf_counter()
     st = Study(settings)
@@ -197,11 +201,12 @@ def run_settings(settings: ConvergenceSettings) -> A.Result:
     equal_jobs = plan_equal_time(st, settings, the_plan)
     st.run([j for reps in equal_jobs.values() for j in reps], f"{NAME}: equal time")
     measured = measure(st, the_plan, equal_jobs)
-    result = A.analyse(measured, settings)
+    result = convergence_analysis.analyse(measured, settings)
     timed = st.timed_on([j for reps in the_plan.ladders.values() for jobs in reps
                          for j in jobs] + [j for reps in equal_jobs.values() for j in reps])
-    R.report(R.Context(settings, st, measured, the_plan.targets, timed, TITLE, ORDER, start),
-             result)
+    convergence_report.report(convergence_report.Context(settings, st, measured, the_plan.targets,
+                                                         timed, TITLE, ORDER, start),
+                              result)
     return result
 
 

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import metrics, stats
-from . import conclusion as C
+from .conclusion import MAX_SENTENCES, Comparison, order_changes, untold
 
 NAME = "convergence"
 #: The depth the sampler study's winner is looked up at when the scene leaves max_depth to
@@ -170,7 +170,7 @@ def efficiency_ratio(a: Rung, b: Rung, floor: Floor) -> stats.Estimate:
     own; it cannot be told (NaN, :func:`.conclusion.untold`) when either is a bound."""
     ea, eb = (stats.excess_interval(r.relmse, floor.relmse) for r in (a, b))
     if ea.bound or eb.bound:
-        return C.untold(min(len(a.relmse), len(b.relmse)))
+        return untold(min(len(a.relmse), len(b.relmse)))
     return stats.efficiency_ratio(_excess(a.relmse, floor.relmse), a.seconds,
                                   _excess(b.relmse, floor.relmse), b.seconds)
 
@@ -227,7 +227,7 @@ def _along(measured: Measured, a: str, b: str) -> tuple:
     """The counts where the order of ``a`` and ``b`` changes along their ladders."""
     ratios = [efficiency_ratio(x, y, measured.floor)
               for x, y in zip(measured.ladders[a], measured.ladders[b])]
-    return C.order_changes(measured.counts(), ratios)
+    return order_changes(measured.counts(), ratios)
 
 
 def conclusion(measured: Measured, settings, base: str, ranking: list,
@@ -241,7 +241,7 @@ def conclusion(measured: Measured, settings, base: str, ranking: list,
     equal = {r.method: r.equal_relative for r in rows}
 
     def ladder_row(a, b, context):
-        return C.Comparison(a, b, f"efficiency A/B after {settings.spp} spp",
+        return Comparison(a, b, f"efficiency A/B after {settings.spp} spp",
                             efficiency_ratio(final[a], final[b], measured.floor),
                             context=context, changes=_along(measured, a, b))
     leader = ranking[0] if ranking else base
@@ -262,12 +262,12 @@ def conclusion(measured: Measured, settings, base: str, ranking: list,
     told = [m for m in equal if math.isfinite(equal[m].value)]
     best_eq = max(told, key=lambda m: equal[m].value) if told else base
     if best_eq != base:
-        at_equal = C.Comparison(best_eq, base, f"efficiency A/B at equal time "
+        at_equal = Comparison(best_eq, base, f"efficiency A/B at equal time "
                                 f"({settings.time_budget:g} s)", equal[best_eq],
                                 context=f"At equal time ({settings.time_budget:g} s)")
     table = [c for c in (lead, next_best, combo, at_equal) if c is not None]
     said = [c for c in (lead, combo or next_best, at_equal) if c is not None]
-    return table, [c.sentence() for c in said][:C.MAX_SENTENCES]
+    return table, [c.sentence() for c in said][:MAX_SENTENCES]
 
 
 def best_note(settings) -> str:

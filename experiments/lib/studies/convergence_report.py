@@ -12,9 +12,10 @@ from dataclasses import dataclass
 
 from .. import files, figures, metrics, stats
 from .. import report as rep
-from .. import jobs as J
-from . import conclusion as C
-from . import convergence_analysis as A
+from .. import jobs
+from .conclusion import BOUNDS, HEADER as CONCLUSION_HEADER, ratio_cells
+from .conclusion import rows as conclusion_rows
+from . import convergence_analysis
 from .convergence_analysis import NAME, Result
 
 
@@ -32,7 +33,6 @@ class Context:
     start: float                  # time.perf_counter() when the study began
 
 
-BOUNDS = C.BOUNDS
 ERRORS_HEADER = ["method", "spp", "repeats", "seconds", "MSE", "MSE_lo", "MSE_hi", "relMSE",
                  "relMSE_lo", "relMSE_hi", "FLIP (first repeat)", "image", BOUNDS]
 SLOPES_HEADER = ["method", "MSE vs spp", "MSE vs time", "relMSE vs spp", "relMSE vs time"]
@@ -157,20 +157,21 @@ def equal_time(ctx: Context, result: Result) -> list[dict]:
 def efficiency(ctx: Context, result: Result) -> list[dict]:
     s, st = ctx.settings, ctx.st
     rows = [[r.method, r.spp, r.repeats, round(r.seconds, 3), *r.mse.cells(),
-             *r.relmse.cells(), *C.ratio_cells(r.relative), r.equal_spp,
-             *r.equal_mse.cells(), *r.equal_relmse.cells(), *C.ratio_cells(r.equal_relative),
+             *r.relmse.cells(), *ratio_cells(r.relative), r.equal_spp,
+             *r.equal_mse.cells(), *r.equal_relmse.cells(), *ratio_cells(r.equal_relative),
              ", ".join(r.bounds())]
             for r in result.efficiency]
     return [
         rep.write_table(
             st.out, f"{NAME}/efficiency", EFFICIENCY_HEADER, rows,
-            f"Veach efficiency 1/({A.METRIC} x time) after {s.spp} spp and at equal time, "
-            f"relative to {result.base}: expected values over {st.repeats} repeats with "
+            f"Veach efficiency 1/({convergence_analysis.METRIC} x time) after {s.spp} spp and "
+            f"at equal time, relative to {result.base}: expected values over {st.repeats} "
+            f"repeats with "
             f"{stats.LEVEL:.0%} intervals ({stats.METHOD}); n/a where an error is below "
             f"the reference's own noise"),
-        rep.text(A.WHY_METRIC + "\n\nTimings are warm render times on this machine and vary "
-                 "with its load (other processes sharing the cores slow every method); the "
-                 "errors do not."),
+        rep.text(convergence_analysis.WHY_METRIC + "\n\nTimings are warm render times on this "
+                 "machine and vary with its load (other processes sharing the cores slow every "
+                 "method); the errors do not."),
     ]
 
 
@@ -178,8 +179,8 @@ def conclusion(ctx: Context, result: Result) -> list[dict]:
     """The conclusion: a short table and at most three sentences made from its rows."""
     if not result.conclusion:
         return []
-    return [rep.write_table(ctx.st.out, f"{NAME}/conclusion", C.HEADER,
-                            C.rows(result.conclusion),
+    return [rep.write_table(ctx.st.out, f"{NAME}/conclusion", CONCLUSION_HEADER,
+                            conclusion_rows(result.conclusion),
                             f"Conclusion: each comparison by its ratio (above 1: A is better) "
                             f"with its {stats.LEVEL:.0%} interval, and the counts of the "
                             f"ladder where the interval-decided order changes"),
@@ -193,7 +194,7 @@ def settings_table(ctx: Context) -> dict:
             "variant": s.variant, "seed": s.seed, "time budget (s)": s.time_budget,
             "path settings": s.depth.describe(),
             "reference": st.describe_reference(ctx.measured.reference),
-            "max lanes per pass": J.MAX_LANES,
+            "max lanes per pass": jobs.MAX_LANES,
             "intervals": f"{stats.LEVEL:.0%}, {stats.METHOD}",
             "render times measured on": ctx.timed_on}
 
@@ -207,7 +208,7 @@ def report(ctx: Context, result: Result) -> None:
                          s.variant, time.perf_counter() - ctx.start)
     files.write_json(os.path.join(s.out, NAME, "summary.json"),
                      {"efficiency": [r.record() for r in result.efficiency],
-                      "efficiency_metric": A.METRIC,
-                      "conclusion": [dict(zip(C.HEADER, row))
-                                     for row in C.rows(result.conclusion)],
+                      "efficiency_metric": convergence_analysis.METRIC,
+                      "conclusion": [dict(zip(CONCLUSION_HEADER, row))
+                                     for row in conclusion_rows(result.conclusion)],
                       "sentences": result.sentences, "best_combination": result.best_note})

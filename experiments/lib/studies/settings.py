@@ -10,7 +10,7 @@ own options and builds it with :func:`common_fields` plus those. Its field names
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from ..methods import Depth, Method
 from ..scenes import SceneInfo
@@ -30,13 +30,19 @@ class StudySettings:
     reference_spp: int
     reference_method: Method
     executor: object                  # a Dask executor, or None (the local loop)
+    #: the reference store (``--reference-cache``); None: ``<out>/references``
+    reference_cache: str | None = field(default=None, kw_only=True)
+    #: the study's default --reference-spp, which sizes a reference's chunks whatever this
+    #: run asks for (:func:`~..references.chunk_spp_for`); None: this run's reference_spp
+    reference_spp_default: int | None = field(default=None, kw_only=True)
 
 
 def common_fields(args) -> dict:
     """The :class:`StudySettings` fields of a parsed Namespace (``cli.parse_args``)."""
     return {"out": args.out, "scene": args.scene, "info": args.info,
             "resolution": tuple(args.resolution), "depth": args.depth,
-            "methods": tuple(args.method_objs), "repeats": int(getattr(args, "repeats", 1)),
+            "methods": tuple(args.method_objs), "repeats": int(args.repeats),
             "variant": args.variant, "seed": args.seed, "reference_spp": args.reference_spp,
-            "reference_method": args.reference_method,
-            "executor": getattr(args, "executor", None)}
+            "reference_method": args.reference_method, "executor": args.executor,
+            "reference_cache": args.reference_cache,
+            "reference_spp_default": args.reference_spp_default}

@@ -20,9 +20,11 @@ import time
 
 from experiments.lib import files
 from experiments.lib.studies import StudySpec, check_scene, register_study
+from experiments.lib.studies.settings import common_fields
 from experiments.lib import cli, report, stats
 from experiments.lib.metrics import FIREFLY_MADS
 from experiments.lib.sweeps import BREAK_FACTOR, NAME, NORMAL, QUICK, REGISTRY, Context, Skip
+from experiments.lib.sweeps.base import StabilitySettings
 
 ORDER = 40
 QUICK_DEFAULTS = {"resolution": (32, 16), "spp": 4, "reference_spp": 16}
@@ -61,8 +63,14 @@ def parse(argv=None):
         for key, value in QUICK_DEFAULTS.items():
             if key not in args.explicit:
                 setattr(args, key, value)
-    args.config = QUICK if args.quick else NORMAL
     return args
+
+
+def settings_from(args) -> StabilitySettings:
+    """The typed settings of a parsed command line (:func:`parse`); the library below
+    never sees the Namespace."""
+    return StabilitySettings(**common_fields(args), spp=args.spp, sweeps=tuple(args.sweeps),
+                             quick=bool(args.quick), config=QUICK if args.quick else NORMAL)
 
 
 def plan(ctx: Context, names) -> tuple[dict, dict]:
@@ -70,7 +78,7 @@ def plan(ctx: Context, names) -> tuple[dict, dict]:
     plans, skipped = {}, {}
     for name in names:
         sweep = REGISTRY[name]
-        reason = check_scene(NAME, ctx.args.info, sweep.needs, f"sweep '{name}'")
+        reason = check_scene(NAME, ctx.settings.info, sweep.needs, f"sweep '{name}'")
         if reason is not None:
             skipped[name] = reason
             continue
@@ -88,24 +96,31 @@ def _json_safe(rows: list[dict]) -> list[dict]:
 
 
 def run(args) -> None:
+    run_settings(settings_from(args))
+
+
+def run_settings(settings: StabilitySettings) -> None:
+    """Plan, render, measure, analyse and report every sweep of ``settings``."""
     start = time.perf_counter()
-    ctx = Context(args, args.config)
-    plans, skipped = plan(ctx, args.sweeps)
+    ctx = Context(settings)
+    plans, skipped = plan(ctx, settings.sweeps)
     points = [p for pts in plans.values() for p in pts]
     jobs = [j for p in points for j in p.ref_jobs] + [j for p in points for j in p.all_jobs()]
     ctx.st.run(jobs, f"{NAME}: sweeps")
     blocks = [report.text(
-        f"Where each sampling method breaks down, on {os.path.basename(args.scene)} at "
-        f"{ctx.width}x{ctx.height} ({args.depth.describe()}). Each sweep point is the scene "
-        f"with one parameter changed (the scene files are in {NAME}/scenes/); errors are relMSE "
-        f"against a {args.reference_spp}-spp reference ({args.reference_method}) of the same "
-        f"point, the reference's own expected relMSE (from the spread of its passes) "
-        f"subtracted, means over {ctx.repeats} independent repeats with {stats.LEVEL:.0%} intervals "
+        f"Where each sampling method breaks down, on {os.path.basename(settings.scene)} at "
+        f"{ctx.width}x{ctx.height} ({settings.depth.describe()}). Each sweep point is the "
+        f"scene with one parameter changed (the scene files are in {NAME}/scenes/); errors are "
+        f"relMSE "
+        f"against a {settings.reference_spp}-spp reference ({settings.reference_method}) of "
+        f"the same point, the reference's own expected relMSE (from the spread of its passes) "
+        f"subtracted, means over {ctx.repeats} independent repeats with {stats.LEVEL:.0%} "
+        f"intervals "
         f"({stats.METHOD}). Times are warm render times on this (shared) machine. Breakdown "
         f"points and verdicts below are computed from the measurements; a difference is "
         f"claimed only where its interval excludes no difference.")]
     notes, rows = [], []
-    for name in args.sweeps:
+    for name in settings.sweeps:
         if name in skipped:
             blocks.append(report.text(f"Sweep '{name}' skipped: {skipped[name]}."))
             continue
@@ -114,25 +129,27 @@ def run(args) -> None:
         blocks += part.blocks
         notes += part.notes
         rows += part.rows
-    outliers = ctx.outliers.report(args.out)
+    outliers = ctx.outliers.report(settings.out)
     blocks += outliers.blocks
     notes += outliers.notes
     blocks.append(report.text("Closing note, per sweep: " + " ".join(notes)))
-    settings = {"scene": args.scene, "resolution": f"{ctx.width}x{ctx.height}", "spp": args.spp,
-                "repeats": ctx.repeats, "spp per repeat": ctx.spp,
-                "halton spp per repeat": ctx.halton_spp, "sweeps": ", ".join(args.sweeps), "quick": args.quick,
-                "strategies (light, halton sweeps)": ", ".join(ctx.strategies),
-                "path settings": args.depth.describe(),
-                "halton sweep max_depth": ", ".join(map(str, ctx.halton_depths)),
-                "variant": args.variant, "seed": args.seed,
-                "reference": f"{args.reference_spp} spp, {args.reference_method}",
-                "intervals": f"{stats.LEVEL:.0%}, {stats.METHOD}",
-                "breakdown factor": BREAK_FACTOR, "firefly threshold (MADs)": FIREFLY_MADS,
-                "render times measured on": ctx.st.timed_on(jobs)}
-    report.write_section(args.out, NAME, "Stability: where each method breaks down", ORDER,
-                         settings, blocks, args.variant, time.perf_counter() - start)
+    table = {"scene": settings.scene, "resolution": f"{ctx.width}x{ctx.height}",
+             "spp": settings.spp,
+             "repeats": ctx.repeats, "spp per repeat": ctx.spp,
+             "halton spp per repeat": ctx.halton_spp, "sweeps": ", ".join(settings.sweeps),
+             "quick": settings.quick,
+             "strategies (light, halton sweeps)": ", ".join(ctx.strategies),
+             "path settings": settings.depth.describe(),
+             "halton sweep max_depth": ", ".join(map(str, ctx.halton_depths)),
+             "variant": settings.variant, "seed": settings.seed,
+             "reference": f"{settings.reference_spp} spp, {settings.reference_method}",
+             "intervals": f"{stats.LEVEL:.0%}, {stats.METHOD}",
+             "breakdown factor": BREAK_FACTOR, "firefly threshold (MADs)": FIREFLY_MADS,
+             "render times measured on": ctx.st.timed_on(jobs)}
+    report.write_section(settings.out, NAME, "Stability: where each method breaks down", ORDER,
+                         table, blocks, settings.variant, time.perf_counter() - start)
     # machine-readable results (breakdown sentences, rows with intervals, outliers)
-    files.write_json(os.path.join(args.out, NAME, "summary.json"),
+    files.write_json(os.path.join(settings.out, NAME, "summary.json"),
                      {"notes": notes, "repeats": ctx.repeats, "rows": _json_safe(rows),
                       "outliers": ctx.outliers.rows})
 

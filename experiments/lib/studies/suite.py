@@ -34,17 +34,17 @@ import numpy as np
 import scenes as bundled
 from experiments.lib import cli, files
 from experiments.lib.execute import VIEW_CACHE
-from experiments.lib import references as R
-from experiments.lib import samplers as S
-from experiments.lib import scenes as SC
+from experiments.lib import references
+from experiments.lib import samplers
+from experiments.lib import scenes
 from experiments.lib.methods import parse_method, strategies
 from experiments.lib.studies import StudySpec, register_study
-from experiments.lib.studies import suite_analysis as A
-from experiments.lib.studies import suite_plan as P
-from experiments.lib.studies import suite_report as W
+from experiments.lib.studies import suite_analysis
+from experiments.lib.studies import suite_plan
+from experiments.lib.studies import suite_report
 from experiments.lib.study import Study
 
-NAME, ORDER, TITLE = P.NAME, P.ORDER, P.TITLE
+NAME, ORDER, TITLE = suite_plan.NAME, suite_plan.ORDER, suite_plan.TITLE
 #: Long side of the film when --resolution is not given (the scene's film scaled down to it).
 MAX_SIZE = 48
 #: The reference's automatic extension stops at this many times --reference-spp.
@@ -139,21 +139,21 @@ def build_parser() -> cli.Parser:
     return p
 
 
-def _best_sampler(args, files_list) -> tuple[str | None, str]:
-    """(bsdf+nee+SAMPLER or None, where it was chosen)."""
-    choice = getattr(args, "best_sampler", "none")
+def _best_sampler(choice: str, out: str, files_list) -> tuple[str | None, str]:
+    """(bsdf+nee+SAMPLER or None, where it was chosen) for ``--best-sampler`` ``choice``,
+    read from the sampler study's summary in ``out`` (auto)."""
     if choice == "none":
         return None, "no best sampler (--best-sampler none)"
     if choice != "auto":
-        m = "bsdf+nee" if choice == S.DEFAULT else f"bsdf+nee+{choice}"
+        m = "bsdf+nee" if choice == samplers.DEFAULT else f"bsdf+nee+{choice}"
         cli.one_method(m)
         return m, f"{m} as given (--best-sampler)"
-    summary = files.read_json(os.path.join(args.out, "samplers", "summary.json"), {}) or {}
+    summary = files.read_json(os.path.join(out, "samplers", "summary.json"), {}) or {}
     best = summary.get("best") or {}
     if not best:
         return None, ("no best sampler: the sampler study has not run (run_all runs it "
                       "first)")
-    depths = [SC.read_scene(f).depth.max_depth for f in files_list if _reads(f)]
+    depths = [scenes.read_scene(f).depth.max_depth for f in files_list if _reads(f)]
     depths = [d if d is not None and d >= 0 else 8 for d in depths] or [8]
     target = float(np.median(depths))
     d = min(best, key=lambda k: (abs(int(k) - target), int(k)))
@@ -161,7 +161,7 @@ def _best_sampler(args, files_list) -> tuple[str | None, str]:
             and "relative_efficiency" in r and not _deterministic(r.get("sampler", ""))]
     sampler = (max(rows, key=lambda r: r["relative_efficiency"])["sampler"] if rows
                else best[d])
-    m = "bsdf+nee" if sampler == S.DEFAULT else f"bsdf+nee+{sampler}"
+    m = "bsdf+nee" if sampler == samplers.DEFAULT else f"bsdf+nee+{sampler}"
     try:
         cli.one_method(m)
     except cli.argparse.ArgumentTypeError:
@@ -173,7 +173,7 @@ def _best_sampler(args, files_list) -> tuple[str | None, str]:
 
 def _reads(path: str) -> bool:
     try:
-        SC.read_scene(path)
+        scenes.read_scene(path)
         return True
     except (ValueError, OSError):
         return False
@@ -181,7 +181,7 @@ def _reads(path: str) -> bool:
 
 def _deterministic(label: str) -> bool:
     try:
-        spec, rand = S.split_label(label)
+        spec, rand = samplers.split_label(label)
         return spec.is_deterministic(rand)
     except (ValueError, KeyError):
         return True
@@ -201,7 +201,7 @@ def parse(argv=None):
     methods = list(args.methods)
     args.best_note = "methods as given (--methods)"
     if "methods" not in args.explicit and not args.quick:
-        best, args.best_note = _best_sampler(args, files_list)
+        best, args.best_note = _best_sampler(args.best_sampler, args.out, files_list)
         if best is not None and best not in methods:
             methods.insert(methods.index("path") if "path" in methods else len(methods), best)
     args.methods = methods
@@ -219,29 +219,30 @@ def parse(argv=None):
     args.user_references = {}
     if args.references:
         try:
-            args.user_references = R.user_references(args.references)
+            args.user_references = references.user_references(args.references)
         except ValueError as e:
             build_parser().error(str(e))
     args.scene_files = files_list
     return args
 
 
-def settings(args) -> P.Settings:
+def settings(args) -> suite_plan.Settings:
     """The typed settings of a parsed command line (:func:`parse`)."""
     ref_spp = args.reference_spp
-    return P.Settings(
+    return suite_plan.Settings(
         out=args.out, variant=args.variant, seed=args.seed, repeats=args.repeats,
-        executor=getattr(args, "executor", None), info=args.info, depth=args.depth,
+        executor=args.executor, info=args.info, depth=args.depth,
         scenes=tuple(args.scene_files), methods=tuple(args.method_objs),
         baseline=args.baseline, spp=args.spp, time_budget=args.time_budget,
         forced_resolution=tuple(args.resolution) if "resolution" in args.explicit else None,
         max_size=args.max_size, max_depth=args.max_depth, rr_depth=args.rr_depth,
         reference_spp=ref_spp, reference_max_spp=max(ref_spp, args.reference_max_spp or
                                                      REFERENCE_GROWTH * ref_spp),
-        reference_typical_spp=REFERENCE_GROWTH * (getattr(args, "reference_spp_default", None)
-                                                  or ref_spp),
+        reference_typical_spp=REFERENCE_GROWTH * (args.reference_spp_default or ref_spp),
+        reference_spp_default=args.reference_spp_default,
+        reference_cache=args.reference_cache,
         reference_method=args.reference_method,
-        reference_root=args.reference_cache or os.path.join(args.out, R.REFERENCES_DIR),
+        reference_root=args.reference_cache or os.path.join(args.out, references.REFERENCES_DIR),
         user_references=dict(args.user_references), flip=args.flip, best_note=args.best_note)
 
 
@@ -265,7 +266,7 @@ class Clock:
             self.add(part, time.perf_counter() - wall, time.process_time() - cpu)
 
 
-def comparable(cfg: P.Settings, sp) -> str:
+def comparable(cfg: suite_plan.Settings, sp) -> str:
     """Why a rendered scene cannot be compared ('' when it can)."""
     if sp.error:
         return sp.error
@@ -279,7 +280,8 @@ def comparable(cfg: P.Settings, sp) -> str:
     return ""
 
 
-def adequate(cfg: P.Settings, st: Study, refs: R.ReferenceStore, unit, clock: Clock) -> None:
+def adequate(cfg: suite_plan.Settings, st: Study, refs: references.ReferenceStore, unit,
+             clock: Clock) -> None:
     """A first measurement of each scene of ``unit``; a reference too noisy for the
     comparison is extended (once, to what its floor's 1/spp law says is needed, up to the
     cap). A scene that cannot be compared gets its reason as its error."""
@@ -291,16 +293,17 @@ def adequate(cfg: P.Settings, st: Study, refs: R.ReferenceStore, unit, clock: Cl
             continue
         if sp.ref is None:                      # the user's EXR: nothing to extend
             continue
-        ref = P.reference_of(refs, sp, None)    # every chunk cached
-        spp[sp.name] = P.needed_spp(P.measure_scene(cfg, st, sp, ref, flip=False), ref.spp,
-                                    cfg.reference_max_spp)
+        ref = suite_plan.reference_of(refs, sp, None)    # every chunk cached
+        measured = suite_plan.measure_scene(cfg, st, sp, ref, flip=False)
+        spp[sp.name] = suite_plan.needed_spp(measured, ref.spp, cfg.reference_max_spp)
         if spp[sp.name] > ref.spp:
             grow.append(sp)
     if grow:
-        clock.time("references", P.render_references, refs, cfg, grow, spp)
+        clock.time("references", suite_plan.render_references, refs, cfg, grow, spp)
 
 
-def render(cfg: P.Settings, st: Study, refs: R.ReferenceStore, plans, clock: Clock) -> None:
+def render(cfg: suite_plan.Settings, st: Study, refs: references.ReferenceStore, plans,
+           clock: Clock) -> None:
     """Per scene: its reference, phase 1 and phase 2 of every cell, then its reference's
     extension where it is too noisy. A scene's cells go in groups of at most the scenes a
     process keeps loaded (a scene loaded again compiles again), the baseline and the timed
@@ -309,33 +312,33 @@ def render(cfg: P.Settings, st: Study, refs: R.ReferenceStore, plans, clock: Clo
     scene's step at once (they fan out)."""
     live = [sp for sp in plans if not sp.error]
     units = [live] if cfg.executor is not None else [[sp] for sp in live]
-    first = (cfg.baseline.name,) + A.TIMED_PAIR
+    first = (cfg.baseline.name,) + suite_analysis.TIMED_PAIR
     for unit in units:
-        clock.time("references", P.render_references, refs, cfg, unit,
+        clock.time("references", suite_plan.render_references, refs, cfg, unit,
                    {sp.name: cfg.reference_spp for sp in unit})
         unit = [sp for sp in unit if not sp.error]
         groups = []
         for sp in unit:
-            P.plan_cells(st, cfg, sp)
-            groups += P.timing_groups(sp, first, VIEW_CACHE)
+            suite_plan.plan_cells(st, cfg, sp)
+            groups += suite_plan.timing_groups(sp, first, VIEW_CACHE)
         for batch in ([groups] if cfg.executor is not None else [[g] for g in groups]):
-            clock.time("renders", P.run_cells, st, batch, lambda c: c.equal_spp,
+            clock.time("renders", suite_plan.run_cells, st, batch, lambda c: c.equal_spp,
                        f"{NAME}: equal spp")
             for sp, name, cell in (c for g in batch for c in g):
                 if name not in sp.failed:
-                    P.plan_equal_time(st, cfg, sp, name, cell)
-            clock.time("renders", P.run_cells, st, batch, lambda c: c.equal_time,
+                    suite_plan.plan_equal_time(st, cfg, sp, name, cell)
+            clock.time("renders", suite_plan.run_cells, st, batch, lambda c: c.equal_time,
                        f"{NAME}: equal time")
         adequate(cfg, st, refs, unit, clock)
 
 
-def run_suite(cfg: P.Settings) -> dict:
+def run_suite(cfg: suite_plan.Settings) -> dict:
     """Plan, render, measure, analyse and report the suite; returns summary.json's data."""
     start = time.perf_counter()
     clock = Clock()
     st = Study(cfg)
-    refs = R.ReferenceStore(cfg.reference_root)
-    plans = P.plan_scenes(cfg)
+    refs = references.ReferenceStore(cfg.reference_root)
+    plans = suite_plan.plan_scenes(cfg)
     render(cfg, st, refs, plans, clock)
     wall, cpu = time.perf_counter(), time.process_time()
     numbers, results, viewers, ref_images = {}, {}, {}, {}
@@ -343,11 +346,11 @@ def run_suite(cfg: P.Settings) -> dict:
     for sp in plans:          # the final numbers with FLIP, each scene's viewer at once
         if sp.error:          # (its FLIPs are still in metrics' cache)
             continue
-        ref_images[sp.name] = ref = P.reference_of(refs, sp, None)
-        numbers[sp.name] = P.measure_scene(cfg, st, sp, ref, flip=True)
-        results[sp.name] = A.analyse_scene(numbers[sp.name])
-        viewers[sp.name] = W.viewer_block(cfg, st, sp, results[sp.name], ref)
-    return W.write(cfg, st, plans, numbers, ref_images, results, viewers, failed, clock,
+        ref_images[sp.name] = ref = suite_plan.reference_of(refs, sp, None)
+        numbers[sp.name] = suite_plan.measure_scene(cfg, st, sp, ref, flip=True)
+        results[sp.name] = suite_analysis.analyse_scene(numbers[sp.name])
+        viewers[sp.name] = suite_report.viewer_block(cfg, st, sp, results[sp.name], ref)
+    return suite_report.write(cfg, st, plans, numbers, ref_images, results, viewers, failed, clock,
                    (wall, cpu), start)
 
 

@@ -18,12 +18,12 @@ import numpy as np
 
 import scenes as bundled
 from .. import clock, files, metrics
-from .. import references as R
-from .. import scenes as SC
+from .. import references
+from .. import scenes
 from ..jobs import Job
 from ..methods import Depth, Method
 from ..study import Study, repeat_prefix
-from . import suite_analysis as A
+from . import suite_analysis
 
 NAME = "suite"
 ORDER = 50
@@ -40,7 +40,7 @@ class Settings:
     seed: int
     repeats: int
     executor: object
-    info: SC.SceneInfo                  # not used: Study wants one
+    info: scenes.SceneInfo                  # not used: Study wants one
     depth: Depth
     scenes: tuple                       # scene files
     methods: tuple                      # Method values
@@ -61,6 +61,8 @@ class Settings:
     reference_chunk: int | None = None   # None: references.chunk_spp_for the film
     reference_typical_spp: int | None = None     # the default cap (chunk_spp_for)
     resolution: tuple = (1, 1)          # Study's film: unused (every job names its own)
+    reference_cache: str | None = None  # Study's reference store (--reference-cache)
+    reference_spp_default: int | None = None     # the parser's default --reference-spp
 
 
 # ------------------------------------------------------------------ the plan
@@ -70,14 +72,14 @@ class ScenePlan:
     """One scene of the suite: read (or why not), its header, film, depth and reference."""
     name: str
     path: str
-    info: SC.SceneInfo | None = None
+    info: scenes.SceneInfo | None = None
     error: str = ""
     header: object = None
     header_note: str = ""
     width: int = 0
     height: int = 0
     depth: Depth = Depth()
-    ref: R.RefSpec | None = None
+    ref: references.RefSpec | None = None
     user_ref: str | None = None
     cells: dict = field(default_factory=dict)     # {method name: CellJobs}
     failed: dict = field(default_factory=dict)    # {method name: error}
@@ -93,7 +95,7 @@ class CellJobs:
         return self.equal_spp + self.equal_time
 
 
-def film(cfg: Settings, info: SC.SceneInfo, user_exr: str | None) -> tuple[int, int]:
+def film(cfg: Settings, info: scenes.SceneInfo, user_exr: str | None) -> tuple[int, int]:
     """The film a scene is rendered at (see the module help)."""
     if cfg.forced_resolution is not None:
         return cfg.forced_resolution
@@ -123,7 +125,7 @@ def plan_scenes(cfg: Settings) -> list[ScenePlan]:
         sp = ScenePlan(name, path)
         plans.append(sp)
         try:
-            sp.info = SC.read_scene(path)
+            sp.info = scenes.read_scene(path)
             sp.header = bundled.header(path)
         except ValueError as e:
             if sp.info is None:
@@ -146,11 +148,12 @@ def plan_scenes(cfg: Settings) -> list[ScenePlan]:
                             f"--resolution {cfg.forced_resolution[0]}x"
                             f"{cfg.forced_resolution[1]}")
                 continue
-        sp.depth = SC.effective_depth(sp.info, cfg.max_depth, cfg.rr_depth)
+        sp.depth = scenes.effective_depth(sp.info, cfg.max_depth, cfg.rr_depth)
         if sp.user_ref is None:
-            sp.ref = R.RefSpec(sp.info, sp.width, sp.height, sp.depth, cfg.reference_method,
-                               cfg.variant, cfg.reference_chunk or R.chunk_spp_for(
-                                   sp.width, sp.height, cfg.reference_typical_spp))
+            chunk = cfg.reference_chunk or references.chunk_spp_for(
+                sp.width, sp.height, cfg.reference_typical_spp)
+            sp.ref = references.RefSpec(sp.info, sp.width, sp.height, sp.depth,
+                                        cfg.reference_method, cfg.variant, chunk)
     return plans
 
 
@@ -245,7 +248,7 @@ def run_cells(st: Study, groups: list[list[tuple]], jobs_of, label: str) -> None
             sp.failed[name] = one_line(e)
 
 
-def render_references(refs: R.ReferenceStore, cfg: Settings, plans: list[ScenePlan],
+def render_references(refs: references.ReferenceStore, cfg: Settings, plans: list[ScenePlan],
                       spp: dict) -> int:
     """Render (or extend) the references of ``plans`` to ``spp[name]``; a scene whose
     reference fails gets the error. Returns the chunks rendered."""
@@ -264,18 +267,19 @@ def render_references(refs: R.ReferenceStore, cfg: Settings, plans: list[ScenePl
     return done
 
 
-def reference_of(refs: R.ReferenceStore, sp: ScenePlan, spp: int | None) -> R.Reference:
+def reference_of(refs: references.ReferenceStore, sp: ScenePlan,
+                 spp: int | None) -> references.Reference:
     """The scene's reference: the user's EXR, or the store's (``spp``: enough chunks for
     it; None: every chunk cached)."""
     if sp.user_ref is not None:
-        return R.Reference.from_exr(sp.user_ref)
+        return references.Reference.from_exr(sp.user_ref)
     return refs.read(sp.ref, spp)
 
 
 # ------------------------------------------------------------------ measuring
 
-def _runs(cfg: Settings, st: Study, jobs: list[Job], ref: R.Reference, b: list[float],
-          flip: str) -> tuple[A.Runs, float]:
+def _runs(cfg: Settings, st: Study, jobs: list[Job], ref: references.Reference, b: list[float],
+          flip: str) -> tuple[suite_analysis.Runs, float]:
     """The numbers of one budget's repeats (deterministic: one run stands for all), and
     the reference's own expected relMSE over the pixels the rejected relMSE kept."""
     fmap = ref.floor_map()
@@ -297,13 +301,13 @@ def _runs(cfg: Settings, st: Study, jobs: list[Job], ref: R.Reference, b: list[f
     elif flip == "first":
         flips = [metrics.flip_mean(results[0].image.astype(np.float64), ref.image)]
     k = cfg.repeats if len(results) == 1 else 1
-    return A.Runs(results[0].spp, tuple(rel) * k, tuple(rej) * k, tuple(mse) * k,
+    return suite_analysis.Runs(results[0].spp, tuple(rel) * k, tuple(rej) * k, tuple(mse) * k,
                   tuple(secs) * k, tuple(flips), tuple(means) * k,
                   tuple(mvars) * k), float(np.mean(rej_floor))
 
 
-def measure_scene(cfg: Settings, st: Study, sp: ScenePlan, ref: R.Reference,
-                  flip: bool) -> A.SceneNumbers:
+def measure_scene(cfg: Settings, st: Study, sp: ScenePlan, ref: references.Reference,
+                  flip: bool) -> suite_analysis.SceneNumbers:
     """The numbers of one scene (FLIP only when ``flip``: it costs the most)."""
     cells, rej_floors = {}, []
     for name, cell in sp.cells.items():
@@ -317,29 +321,30 @@ def measure_scene(cfg: Settings, st: Study, sp: ScenePlan, ref: R.Reference,
                     cfg.flip == "all" else "none")
             runs[budget], fl = _runs(cfg, st, jobs, ref, b, mode)
             rej_floors.append(fl)
-        cells[name] = A.Cell(name, runs, tuple(x / px * 1e9 for x in b) * (
+        cells[name] = suite_analysis.Cell(name, runs, tuple(x / px * 1e9 for x in b) * (
             cfg.repeats if len(b) == 1 else 1), a, cell.method.deterministic)
-    floor = A.Floor(ref.relmse_floor or 0.0, float(np.mean(rej_floors)) if rej_floors else 0.0,
-                    ref.mse_floor or 0.0, ref.floor_known)
+    floor = suite_analysis.Floor(ref.relmse_floor or 0.0,
+                                 float(np.mean(rej_floors)) if rej_floors else 0.0,
+                                 ref.mse_floor or 0.0, ref.floor_known)
     header = sp.header
     exact, failed = None, dict(sp.failed)
     if header is not None and header.exact is not None and cfg.max_depth is None \
             and cfg.rr_depth is None:
         exact = header.exact
-    return A.SceneNumbers(sp.name, cells, floor, cfg.baseline.name,
+    return suite_analysis.SceneNumbers(sp.name, cells, floor, cfg.baseline.name,
                           header.favours if header else (), header.over if header else (),
                           header.hypothesis if header else "", exact, failed)
 
 
-def needed_spp(numbers: A.SceneNumbers, spp: int, cap: int) -> int:
+def needed_spp(numbers: suite_analysis.SceneNumbers, spp: int, cap: int) -> int:
     """Reference spp for a reference whose own relMSE exceeds FLOOR_SHARE of the smallest
     measured: enough to bring it to half that (so that the spread of the new measurement
     keeps it under), at most ``cap`` (a power of two times ``spp``); ``spp`` where it is
     under already. The measured error is the method's plus the floor f, and f falls as
     1/spp: a share s = f / (e + f) becomes F after k = s (1 - F) / ((1 - s) F) times the
     samples."""
-    share, target = A.floor_share(numbers), A.FLOOR_SHARE / 2
-    if not numbers.floor.known or share <= A.FLOOR_SHARE:
+    share, target = suite_analysis.floor_share(numbers), suite_analysis.FLOOR_SHARE / 2
+    if not numbers.floor.known or share <= suite_analysis.FLOOR_SHARE:
         return spp
     if share >= 1:
         return cap

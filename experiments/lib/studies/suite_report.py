@@ -10,7 +10,7 @@ import numpy as np
 
 from .. import figures, files, metrics, report, stats
 from ..execute import VIEW_CACHE
-from . import suite_analysis as A
+from . import suite_analysis
 from .suite_plan import NAME, ORDER, TITLE
 
 g = stats.g
@@ -72,16 +72,16 @@ def cell_rows(results: dict) -> tuple[list[list], list[dict]]:
     rows, records = [], []
     for name, r in results.items():
         for m, c in r.cells.items():
-            for b in A.BUDGETS:
+            for b in suite_analysis.BUDGETS:
                 e, rel = c.errors[b], c.relative[b]
-                rows.append([name, m, A.BUDGET_NAMES[b], c.spp[b], e["relmse"].n,
+                rows.append([name, m, suite_analysis.BUDGET_NAMES[b], c.spp[b], e["relmse"].n,
                              *_cells(e["relmse"]), *_cells(e["relmse_rejected"]),
                              *_cells(e["mse"]), *_cells(e["flip"]), *c.ns_per_sample.cells(),
                              g(c.overhead * 1e3), *rel.est.cells(), rel.side])
                 records.append({"scene": name, "method": m, "budget": b, "spp": c.spp[b],
-                                **{k: v for key in A.METRICS for k, v in
+                                **{k: v for key in suite_analysis.METRICS for k, v in
                                    e[key].fields(key).items()},
-                                **{f"{k}_bound": e[k].bound for k in A.METRICS},
+                                **{f"{k}_bound": e[k].bound for k in suite_analysis.METRICS},
                                 **c.ns_per_sample.fields("ns_per_sample"),
                                 "per_call_seconds": c.overhead, **rel.fields("efficiency")})
     return rows, records
@@ -89,7 +89,8 @@ def cell_rows(results: dict) -> tuple[list[list], list[dict]]:
 
 # ------------------------------------------------------------------ per scene
 
-def scene_row(r: A.SceneResult, header, numbers: A.SceneNumbers, ref) -> list:
+def scene_row(r: suite_analysis.SceneResult, header, numbers: suite_analysis.SceneNumbers,
+              ref) -> list:
     best = r.ranking.winner or ", ".join(r.ranking.ties) + " (cannot be told apart)"
     ratio = r.time_ratio.text() if r.time_ratio is not None else "-"
     reference = (f"{ref.spp} spp, own relMSE {g(numbers.floor.relmse)} = "
@@ -119,10 +120,10 @@ def error_maps(st, sp, methods, ref) -> list[np.ndarray]:
                      for j in sp.cells[m].equal_time], axis=0) for m in methods]
 
 
-def crop_block(cfg, st, sp, r: A.SceneResult, ref) -> dict:
+def crop_block(cfg, st, sp, r: suite_analysis.SceneResult, ref) -> dict:
     methods = list(r.cells)
     maps = error_maps(st, sp, methods, ref.image)
-    boxes = A.crop_boxes(maps, max(4, min(sp.width, sp.height) // 3))
+    boxes = suite_analysis.crop_boxes(maps, max(4, min(sp.width, sp.height) // 3))
     crops = []
     for (m, image), emap in zip(images_of(st, sp, methods), maps):
         first = metrics.relmse_map(image, ref.image)
@@ -141,7 +142,7 @@ def crop_block(cfg, st, sp, r: A.SceneResult, ref) -> dict:
         f"equal-time efficiency over {r.baseline} ('x'); PDF: {NAME}/crops/{sp.name}.pdf")
 
 
-def viewer_block(cfg, st, sp, r: A.SceneResult, ref) -> dict:
+def viewer_block(cfg, st, sp, r: suite_analysis.SceneResult, ref) -> dict:
     images = images_of(st, sp, list(r.cells))
     notes = [f"{r.cells[m].spp['equal_time']} spp · relMSE "
              f"{r.cells[m].errors['equal_time']['relmse'].text()} · x"
@@ -172,13 +173,15 @@ def intro(cfg, plans, numbers) -> str:
         f"launching kernels, listed as 'per call') over their samples, per repeat summed "
         f"over both budgets; the time budget is in the same seconds. A scene's methods are "
         f"timed in groups of at most {VIEW_CACHE} (the methods a process keeps warm), the "
-        f"baseline and {A.TIMED_PAIR[0]} leading the last, their renders taking turns; the "
+        f"baseline and {suite_analysis.TIMED_PAIR[0]} leading the last, their renders taking "
+        f"turns; the "
         f"intervals count the spread of the repeats, not a drift of the machine's load "
         f"between groups. "
         f"Errors are expected values over the repeats "
         f"against a reference per scene ({cfg.reference_method}, at least "
         f"{cfg.reference_spp} spp, extended up to {cfg.reference_max_spp} spp where its own "
-        f"relMSE exceeds {A.FLOOR_SHARE:.0%} of the smallest error measured against it), "
+        f"relMSE exceeds {suite_analysis.FLOOR_SHARE:.0%} of the smallest error measured "
+        f"against it), "
         f"cached in {cfg.reference_root} and shared by every run, its own expected error "
         f"(the spread of its chunks) subtracted: an error that cannot be told from it is "
         f"reported as an upper bound. relMSE rejected: without the top "
@@ -207,7 +210,7 @@ def write(cfg, st, plans, numbers, refs, results, viewers, failed, clock, since,
     by_name = {sp.name: sp for sp in plans}
     methods = [m.name for m in cfg.methods]
     blocks.append(report.text(intro(cfg, plans, numbers)))
-    found = A.findings(list(results.values()), failed)
+    found = suite_analysis.findings(list(results.values()), failed)
     blocks.append(report.text("Findings (also at the top of the report): " + " ".join(found)))
     if results:
         values, texts, marks, rows = matrix(results, methods)
@@ -226,8 +229,9 @@ def write(cfg, st, plans, numbers, refs, results, viewers, failed, clock, since,
                                f"[{stats.LEVEL:.0%} interval]")]
         blocks.append(report.write_table(
             out, f"{NAME}/scenes", ["scene", "isolates", "best at equal time", "hypothesis",
-                                    "why", f"{A.TIMED_PAIR[0]} / {A.TIMED_PAIR[1]} time per "
-                                    f"sample", "reference"],
+                                    "why", f"{suite_analysis.TIMED_PAIR[0]} / "
+                                    f"{suite_analysis.TIMED_PAIR[1]} time per sample",
+                                    "reference"],
             [scene_row(r, by_name[n].header, numbers[n], refs[n]) for n, r in results.items()],
             "Per scene: the winner (or the methods that cannot be told apart), the "
             "hypothesis of its header, vr_path's time per sample over path's, the reference"))
@@ -238,7 +242,8 @@ def write(cfg, st, plans, numbers, refs, results, viewers, failed, clock, since,
                                       "exact inside"], biases,
                 "Bias check: the image mean of every render of each method (weighted by spp) "
                 "with its interval from the pixels' spread, at a level that makes the "
-                f"scene's check {A.BIAS_LEVEL:.0%} family-wise (Sidak over its methods)"))
+                f"scene's check {suite_analysis.BIAS_LEVEL:.0%} family-wise (Sidak over its "
+                f"methods)"))
         rows, records = cell_rows(results)
         blocks.append(report.write_table(out, f"{NAME}/cells", CELL_HEADER, rows,
                                          "Every cell at both budgets, with intervals",

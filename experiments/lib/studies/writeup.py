@@ -21,14 +21,14 @@ import time
 from dataclasses import dataclass
 
 from experiments.lib import cli, metrics
-from experiments.lib import jobs as J
+from experiments.lib.jobs import Job
 from experiments.lib.studies import StudySpec, register_study
-from experiments.lib.studies import writeup_analysis as A
-from experiments.lib.studies import writeup_report as R
+from experiments.lib.studies import writeup_analysis
+from experiments.lib.studies import writeup_report
 from experiments.lib.studies.settings import StudySettings, common_fields
 from experiments.lib.study import Study, repeat_prefix
 
-NAME = A.NAME
+NAME = writeup_analysis.NAME
 ORDER = 30
 TITLE = "The writeup's figures, with numbers"
 #: (method, compared against, which spp setting) of the short figures.
@@ -71,7 +71,12 @@ class WriteupSettings(StudySettings):
 
 
 def settings_from(args) -> WriteupSettings:
-    return WriteupSettings(**common_fields(args), short_spp=args.short_spp,
+    fields = common_fields(args)
+    # issue 29: its references' chunks stay sized by this run's --reference-spp, as before
+    # typed settings (by the study's default, as the other studies do, changes the chunks of
+    # a run given --reference-spp: a decision apart from this refactoring)
+    fields["reference_spp_default"] = None
+    return WriteupSettings(**fields, short_spp=args.short_spp,
                            halton_spp=args.halton_spp, full=bool(args.full),
                            full_resolution=tuple(args.full_resolution),
                            full_spp=args.full_spp)
@@ -90,16 +95,16 @@ class Plan:
     full_ladders: dict = None   # method name -> ladder (one run)
     full_spp: int = 0
 
-    def short_jobs(self) -> list[J.Job]:
+    def short_jobs(self) -> list[Job]:
         return [j for reps in self.ladders.values() for jobs in reps for j in jobs]
 
-    def full_jobs(self) -> list[J.Job]:
+    def full_jobs(self) -> list[Job]:
         return list(self.full_reference) + [j for jobs in (self.full_ladders or {}).values()
                                             for j in jobs]
 
 
 def _ladder(st: Study, experiment: str, method, targets, resolution, pass_spp: int,
-            repeat: int = 0) -> list[J.Job]:
+            repeat: int = 0) -> list[Job]:
     """The ladder of ``method`` to ``targets`` (a deterministic method also to 1/4 and 1/2
     of the last, for its convergence check); ``repeat``: an independent randomization."""
     targets = set(targets)
@@ -158,7 +163,7 @@ def measure_short(st: Study, plan: Plan) -> tuple:
         for n in (a, b):
             image = renders[n][spp].mean
             shown[(n, spp)] = image
-            sides.append(A.Side(n, st.per_repeat(metrics.mse(r[spp].mean, ref)
+            sides.append(writeup_analysis.Side(n, st.per_repeat(metrics.mse(r[spp].mean, ref)
                                                  for r in repeats[n]),
                                 metrics.rmse(image, ref), plan.methods[n].deterministic))
         if sides[0].deterministic:
@@ -169,7 +174,7 @@ def measure_short(st: Study, plan: Plan) -> tuple:
             acc_a, acc_b = renders[a][spp], renders[b][spp]
             check = metrics.bias_check(acc_a.mean, acc_a.variance_of_mean(), acc_b.mean,
                                        acc_b.variance_of_mean())
-        pairs.append(A.PairMeasured(sides[0], sides[1], spp, check))
+        pairs.append(writeup_analysis.PairMeasured(sides[0], sides[1], spp, check))
     return pairs, ref, ref_var, shown
 
 
@@ -191,7 +196,7 @@ def measure_full(st: Study, plan: Plan) -> tuple:
             check = metrics.bias_check(acc_a.mean, acc_a.variance_of_mean(), acc_b.mean,
                                        acc_b.variance_of_mean())
         shown[(a, b)] = (acc_a.mean, acc_b.mean, var)
-        out.append(A.FullMeasured(a, b, plan.full_spp, acc_a.passes, acc_a.cost,
+        out.append(writeup_analysis.FullMeasured(a, b, plan.full_spp, acc_a.passes, acc_a.cost,
                                   acc_b.cost, deterministic, check))
     return out, ref.mean, shown
 
@@ -204,18 +209,18 @@ class Images:
     full: dict = None           # (a, b) -> (image A, image B, var A + var B or None)
 
 
-def measure(st: Study, plan: Plan) -> A.Measured:
+def measure(st: Study, plan: Plan) -> writeup_analysis.Measured:
     pairs, ref, ref_var, shown = measure_short(st, plan)
     full, full_ref, full_shown = measure_full(st, plan) if plan.full_pairs else ([], None, {})
     _, meta = st.reference(plan.reference)
-    return A.Measured(pairs, full, float(ref_var.mean()), st.repeats,
+    return writeup_analysis.Measured(pairs, full, float(ref_var.mean()), st.repeats,
                       Images(ref, shown, full_ref, full_shown),
                       {k: v for k, v in meta.items() if k != "relmse_floor_map"})
 
 
 # ------------------------------------------------------------------ run
 
-def run_settings(settings: WriteupSettings) -> A.Result:
+def run_settings(settings: WriteupSettings) -> writeup_analysis.Result:
     """The whole study from typed settings; returns the analysis."""
     start = time.perf_counter()
     st = Study(settings)
@@ -226,8 +231,9 @@ def run_settings(settings: WriteupSettings) -> A.Result:
     if the_plan.full_pairs:
         st.run(the_plan.full_jobs(), f"{NAME}: --full")
     measured = measure(st, the_plan)
-    result = A.analyse(measured, settings)
-    R.report(R.Context(settings, st, measured, TITLE, ORDER, start), result)
+    result = writeup_analysis.analyse(measured, settings)
+    writeup_report.report(writeup_report.Context(settings, st, measured, TITLE, ORDER, start),
+                          result)
     return result
 
 

@@ -17,7 +17,7 @@ import math
 from dataclasses import dataclass, field
 
 from .. import stats
-from . import conclusion as C
+from .conclusion import MAX_SENTENCES, Comparison, untold
 
 NAME = "writeup"
 
@@ -80,7 +80,7 @@ class PairResult:
     rmse_b: float
     variance_ratio: stats.Estimate    # MSE_B / MSE_A
     rmse_ratio: stats.Estimate        # RMSE_B / RMSE_A (> 1: A has less error)
-    comparison: C.Comparison          # the conclusion's row (ratio RMSE_B / RMSE_A)
+    comparison: Comparison          # the conclusion's row (ratio RMSE_B / RMSE_A)
     shown_ratio: float          # RMSE_B / RMSE_A of the images shown (one run)
     rmse_shown_a: float
     rmse_shown_b: float
@@ -131,13 +131,13 @@ def compare(p: PairMeasured, floor: float) -> PairResult:
     excess = {side.method: tuple(v - floor for v in side.mse) for side in (p.a, p.b)}
     expected = {side.method: stats.excess_interval(side.mse, floor) for side in (p.a, p.b)}
     if expected[a].bound or expected[b].bound:
-        var_ratio = C.untold(min(len(p.a.mse), len(p.b.mse)))
+        var_ratio = untold(min(len(p.a.mse), len(p.b.mse)))
     else:
         var_ratio = stats.ratio_interval([excess[b]], [excess[a]])
     rmse_ratio = stats.Estimate(*(_sqrt(x) for x in (var_ratio.value, var_ratio.lo,
                                                      var_ratio.hi)), var_ratio.n)
     rmse = {n: math.sqrt(max(e.value, 0)) for n, e in expected.items()}
-    row = C.Comparison(a, b, f"RMSE B/A at {p.spp} spp", rmse_ratio, "accurate",
+    row = Comparison(a, b, f"RMSE B/A at {p.spp} spp", rmse_ratio, "accurate",
                        context=f"After {p.spp} spp")
     return PairResult(a, b, p.spp, expected[a], expected[b], rmse[a], rmse[b], var_ratio,
                       rmse_ratio, row, p.b.rmse_shown / p.a.rmse_shown,
@@ -162,5 +162,5 @@ def analyse(measured: Measured, settings=None) -> Result:
                     + [f.passes, f"{f.seconds_a:.1f}", f"{f.seconds_b:.1f}"])
         passing[(f.a, f.b)] = f.check["pass_fraction"]
     table = [p.comparison for p in pairs]
-    return Result(pairs, table, [c.sentence() for c in table][:C.MAX_SENTENCES], bias, det,
+    return Result(pairs, table, [c.sentence() for c in table][:MAX_SENTENCES], bias, det,
                   full, full_det, passing)

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 from .. import figures, stats
 from .. import report as rep
-from . import conclusion as C
+from . import conclusion
 from .writeup_analysis import NAME, Result
 
 
@@ -22,7 +22,7 @@ class Context:
     start: float                  # time.perf_counter() when the study began
 
 
-BOUNDS = C.BOUNDS
+BOUNDS = conclusion.BOUNDS
 RMSE_HEADER = ["pair A vs B", "spp", "repeats", "RMSE B", "RMSE A", "RMSE ratio B/A",
                "RMSE ratio B/A_lo", "RMSE ratio B/A_hi", "variance ratio B/A",
                "variance ratio B/A_lo", "variance ratio B/A_hi", BOUNDS]
@@ -54,7 +54,8 @@ def short_figures(ctx: Context, result: Result) -> list[dict]:
     for p in result.pairs:
         rows.append([f"{p.a} vs {p.b}", p.spp, st.repeats, f"{p.rmse_b:.4f}",
                      f"{p.rmse_a:.4f}",
-                     *C.ratio_cells(p.rmse_ratio), *C.ratio_cells(p.variance_ratio),
+                     *conclusion.ratio_cells(p.rmse_ratio),
+                     *conclusion.ratio_cells(p.variance_ratio),
                      ", ".join(p.bounds())])
         img_a, img_b = images.shown[(p.a, p.spp)], images.shown[(p.b, p.spp)]
         stem = _stem(p.a, p.b, f"{p.spp}spp")
@@ -75,7 +76,7 @@ def short_figures(ctx: Context, result: Result) -> list[dict]:
         f"(ratio > 1: A has less error; {stats.LEVEL:.0%} intervals, {stats.METHOD}; plain "
         f"Halton is deterministic: one run, no spread of its own). The images below are the "
         f"first run."), rep.write_table(
-        s.out, f"{NAME}/conclusion", C.HEADER, C.rows(result.conclusion),
+        s.out, f"{NAME}/conclusion", conclusion.HEADER, conclusion.rows(result.conclusion),
         f"Conclusion: each pair by its RMSE ratio B/A at equal spp (above 1: A has less "
         f"error) with its {stats.LEVEL:.0%} interval"), rep.text(" ".join(result.sentences))]
     if result.bias_rows:

@@ -10,7 +10,7 @@ offers exactly these as ``--sweeps``.
 * :mod:`.exponent`: the Phong exponent of the glossy object, every ``vr_path`` strategy;
 * :mod:`.light`: the light's size at constant power, with and without NEE;
 * :mod:`.grazing`: grazing incidence on the scene's Phong material (no rendering);
-* :mod:`.halton`: Halton without and with randomization at low and high depth.
+* :mod:`.halton_randomization`: Halton without and with randomization at low and high depth.
 
 Sweep points are scene variants (:func:`~..methods.scene_variant`) written to
 ``<out>/stability/scenes``. Outliers (largest pixel, fireflies, NaN/Inf) are
@@ -18,13 +18,13 @@ counted over every render (:class:`.base.Outliers`).
 """
 from __future__ import annotations
 
-from . import exponent, grazing, halton, light
+from . import exponent, grazing, halton_randomization, light
 from .base import (BREAK_FACTOR, NAME, NORMAL, QUICK, Config, Context, Outliers, Skip, Sweep,
                    SweepPoint, SweepReport)
 
 #: Every stability sweep by name, in report order.
 REGISTRY: dict[str, Sweep] = {s.name: s for s in (exponent.SWEEP, light.SWEEP, grazing.SWEEP,
-                                                  halton.SWEEP)}
+                                                  halton_randomization.SWEEP)}
 SWEEPS = tuple(REGISTRY)
 
 __all__ = ["BREAK_FACTOR", "NAME", "NORMAL", "QUICK", "REGISTRY", "SWEEPS", "Config", "Context",

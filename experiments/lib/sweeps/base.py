@@ -26,11 +26,11 @@ from typing import Protocol
 
 import numpy as np
 
-from .. import jobs as J
 from .. import clock, metrics, report, stats
-from .. import plan as P
+from ..jobs import Job
 from ..methods import Depth, parse_method
 from ..scenes import Needs, SceneInfo
+from ..studies.settings import StudySettings
 from ..study import Study, repeat_prefix
 
 NAME = "stability"
@@ -54,6 +54,16 @@ NORMAL = Config((1, 10, 100, 1000, 10000), (2, 0.2, 0.05, 0.02),
 QUICK = Config((1, 10000), (2, 0.02), (0, 60, 89), (10, 1000), 2 ** 12, 2)
 
 
+@dataclass(frozen=True)
+class StabilitySettings(StudySettings):
+    """The stability study's typed settings (made from the command line in one place,
+    :func:`experiments.lib.studies.stability.settings_from`)."""
+    spp: int                  # the budget per point and method, split over the repeats
+    sweeps: tuple             # names of the sweeps to run, in order
+    quick: bool
+    config: Config            # the sweep points (NORMAL, or QUICK with --quick)
+
+
 # ------------------------------------------------------------------ the plan
 
 @dataclass(frozen=True)
@@ -64,10 +74,10 @@ class SweepPoint:
     x: float
     info: SceneInfo | None
     ref_jobs: list
-    jobs: dict[str, list[list[J.Job]]]
+    jobs: dict[str, list[list[Job]]]
     extra: dict = field(default_factory=dict)     # e.g. the light's radiance, the depth
 
-    def all_jobs(self) -> list[J.Job]:
+    def all_jobs(self) -> list[Job]:
         return [j for runs in self.jobs.values() for run in runs for j in run]
 
 
@@ -208,27 +218,27 @@ def worst(runs: list[Run]) -> tuple:
 # ------------------------------------------------------------------ the context
 
 class Context:
-    """What the sweeps of one run share: the arguments, the :class:`~.study.Study` (store,
+    """What the sweeps of one run share: the settings, the :class:`~.study.Study` (store,
     executor), the strategies of --methods, the Halton depths, the repeats, the outliers."""
 
-    def __init__(self, args, config: Config):
-        self.args = args
-        self.cfg = config
-        self.st = Study(args)
-        self.out = args.out
-        self.width, self.height = args.resolution
-        self.repeats = max(1, int(getattr(args, "repeats", 1) or 1))
+    def __init__(self, settings: StabilitySettings):
+        self.settings = settings
+        self.cfg = settings.config
+        self.st = Study(settings)
+        self.out = settings.out
+        self.width, self.height = settings.resolution
+        self.repeats = max(1, int(settings.repeats or 1))
         #: samples per pixel of each repeat: --spp (and the Halton ladder's top) is the budget
         #: per point and method, split over the repeats (the same total cost for any R)
-        self.spp = per_repeat(args.spp, self.repeats)
-        self.halton_spp = per_repeat(config.halton_spp, self.repeats)
-        self.grazing_samples = per_repeat(config.grazing_samples, self.repeats)
+        self.spp = per_repeat(settings.spp, self.repeats)
+        self.halton_spp = per_repeat(self.cfg.halton_spp, self.repeats)
+        self.grazing_samples = per_repeat(self.cfg.grazing_samples, self.repeats)
         self.outliers = Outliers()
         #: strategies of --methods (their vr_path strategy; path has none)
-        self.strategies = list(dict.fromkeys(m.strategy for m in args.method_objs
+        self.strategies = list(dict.fromkeys(m.strategy for m in settings.methods
                                              if m.strategy is not None)) or ["bsdf"]
         self.scene_dir = os.path.join(self.out, NAME, "scenes")
-        high = args.depth.max_depth
+        high = settings.depth.max_depth
         # unbounded (-1) becomes 8: plain Halton's all-zero first sample would never end its
         # path under Russian roulette (plan.check_terminates)
         self.halton_depths = [2, high if high is not None and high > 2 else 8]
@@ -241,11 +251,11 @@ class Context:
         """The scene loaded for probing its surfaces (loaded once per run)."""
         if self._probe is None:
             from ..scene_probes import probe_scene
-            self._probe = probe_scene(self.args.scene, self.width, self.height)
+            self._probe = probe_scene(self.settings.scene, self.width, self.height)
         return self._probe
 
     def depth(self, max_depth: int) -> Depth:
-        d = self.args.depth
+        d = self.settings.depth
         return Depth(max_depth, d.rr_depth, d.hide_emitters)
 
     def point(self, sweep: str, x, info, methods, extra=None) -> SweepPoint:
@@ -256,7 +266,7 @@ class Context:
                     for r in range(self.repeats)] for m in methods}
         return SweepPoint(x, info, self.st.reference_jobs(info), jobs, dict(extra or {}))
 
-    def read_run(self, jobs: list[J.Job], method: str, ref, mask=None,
+    def read_run(self, jobs: list[Job], method: str, ref, mask=None,
                  floor=None) -> tuple[Run, np.ndarray]:
         """The numbers of one run (its jobs accumulated) and its image; counts outliers.
         ``floor``: the reference's own relMSE per pixel and channel (``Study.reference``'s

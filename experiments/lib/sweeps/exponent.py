@@ -128,7 +128,7 @@ class ExponentSweep:
         return list(strategies())
 
     def plan(self, ctx: Context) -> list[SweepPoint]:
-        info = ctx.args.info
+        info = ctx.settings.info
         return [ctx.point(self.name, n, scene_variant(info, ctx.scene_dir, f"exponent-{n:g}",
                                                       {"exponent": float(n)}), self.methods())
                 for n in ctx.cfg.exponents]
@@ -147,7 +147,7 @@ class ExponentSweep:
     analyse = staticmethod(analyse)
 
     def report(self, ctx: Context, res: ExponentResult) -> SweepReport:
-        a, xs = ctx.args, res.xs
+        a, xs = ctx.settings, res.xs
         figures.sweep_chart(ctx.path("exponent.png"), "Phong exponent of the glossy object", xs,
                            {m: (res.relmse[m], res.seconds[m]) for m in res.methods},
                            "relMSE on the Phong pixels", "Exponent")

@@ -12,9 +12,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .. import jobs as J
+from .. import jobs
 from .. import metrics, report, stats
-from .. import plan as P
 from ..methods import strategies
 from ..scenes import Needs
 from ..scene_probes import direction_sampling_table, first_hit_sampling, phong_bsdf
@@ -106,11 +105,11 @@ class GrazingSweep:
 
     def plan(self, ctx: Context) -> list[SweepPoint]:
         """One point per exponent, nothing to render (the samples are drawn in measure)."""
-        return [SweepPoint(n, ctx.args.info, [], {}) for n in ctx.cfg.grazing_exponents]
+        return [SweepPoint(n, ctx.settings.info, [], {}) for n in ctx.cfg.grazing_exponents]
 
     def measure(self, ctx: Context, points: list[SweepPoint]) -> GrazingData:
         import mitsuba as mi
-        cfg, seed = ctx.cfg, ctx.args.seed
+        cfg, seed = ctx.cfg, ctx.settings.seed
         scene = ctx.probe()
         bsdf, shape = phong_bsdf(scene)
         params = mi.traverse(bsdf)
@@ -121,7 +120,7 @@ class GrazingSweep:
             params.update()
             for s in self.strategies():
                 # repeat 0 keeps the single run's seed; repeat r draws an independent set
-                seeds = [seed] + [J.derive_seed(seed, NAME, self.name, r)
+                seeds = [seed] + [jobs.derive_seed(seed, NAME, self.name, r)
                                   for r in range(1, ctx.repeats)]
                 out[(s, p.x)] = direction_sampling_table(
                     bsdf, [math.cos(math.radians(t)) for t in cfg.angles], s,

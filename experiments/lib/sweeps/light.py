@@ -96,7 +96,7 @@ class LightSweep:
         return ctx.strategies + [nee]
 
     def plan(self, ctx: Context) -> list[SweepPoint]:
-        info = ctx.args.info
+        info = ctx.settings.info
         defaults = scene_defaults(info.path)
         size0, rad0 = float(defaults["light_size"]), float(defaults["light_radiance"])
         points = []

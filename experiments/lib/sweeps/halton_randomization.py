@@ -13,9 +13,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from .. import figures, metrics, report, stats
-from .. import plan as P
-from .. import samplers as S
+from .. import samplers
 from ..methods import parse_method
+from ..plan import doubling_targets
 from ..scenes import Needs
 from .base import (NAME, Context, SweepPoint, SweepReport, basis, exceeds, g, mean_interval,
                    onset, ratio, repeat_prefix)
@@ -114,10 +114,11 @@ class HaltonSweep:
 
     def methods(self, ctx: Context) -> list[str]:
         strategy = "uniform" if "uniform" in ctx.strategies else ctx.strategies[0]
-        return [strategy] + [f"{strategy}+halton:{r}" for r in S.get("halton").randomizations]
+        randomizations = samplers.get("halton").randomizations
+        return [strategy] + [f"{strategy}+halton:{r}" for r in randomizations]
 
     def plan(self, ctx: Context) -> list[SweepPoint]:
-        targets = P.doubling_targets(ctx.halton_spp)
+        targets = doubling_targets(ctx.halton_spp)
         points = []
         for d in ctx.halton_depths:
             depth = ctx.depth(d)
@@ -125,8 +126,9 @@ class HaltonSweep:
                                       parse_method(m),
                                       targets, depth=depth, timing_group=f"{NAME}/halton")
                         for r in range(ctx.repeats)] for m in self.methods(ctx)}
-            points.append(SweepPoint(d, ctx.args.info, ctx.st.reference_jobs(ctx.args.info, depth),
-                                     jobs, {"depth": d}))
+            info = ctx.settings.info
+            points.append(SweepPoint(d, info, ctx.st.reference_jobs(info, depth), jobs,
+                                     {"depth": d}))
         return points
 
     def measure(self, ctx: Context, points: list[SweepPoint]) -> HaltonData:
