@@ -7,7 +7,7 @@ import warnings
 import drjit as dr
 import mitsuba as mi
 
-from . import qmc
+from . import qmc, qmc_sobol
 from .sequence_sampler import SequenceSampler
 
 
@@ -81,7 +81,7 @@ class ZSobolSampler(SequenceSampler):
     pbrt-v4's ``ZSobolSampler``): sample ``i`` of pixel ``(x, y)`` is point
     ``P_d(morton(x, y) * L + i)`` of the 2-D Sobol' (0,2)-sequence, ``L`` the
     sequence length and ``P_d`` a nested random permutation of the index per
-    dimension pair ``d`` (see :func:`integrators.qmc.zsobol_permute_index`):
+    dimension pair ``d`` (see :func:`integrators.qmc_sobol.zsobol_permute_index`):
     each Morton digit, the quad of pixels it selects, is permuted depending
     only on the digits above it, so every aligned ``2^k x 2^k`` block of
     pixels owns an aligned block of the sequence and neighbouring pixels get
@@ -246,11 +246,11 @@ class ZSobolSampler(SequenceSampler):
         Float64 = dr.float64_array_t(mi.Float)
         row = mi.UInt32(dr.floor((Float64(pixel) + 0.5) * dr.opaque(Float64, 1.0 / width)))
         log2_length = self._length().bit_length() - 1
-        morton = qmc.morton_encode(pixel - row * dr.opaque(mi.UInt32, width), row)
+        morton = qmc_sobol.morton_encode(pixel - row * dr.opaque(mi.UInt32, width), row)
         #: First sequence index of every lane's pixel (its Morton index times the length).
         self._pixel_base = morton << dr.opaque(mi.UInt32, log2_length)
-        #: The Morton digits' x bits of a reversed index (qmc.morton_x_mask).
-        self._x_mask = dr.opaque(mi.UInt32, qmc.morton_x_mask(log2_length))
+        #: The Morton digits' x bits of a reversed index (qmc_sobol.morton_x_mask).
+        self._x_mask = dr.opaque(mi.UInt32, qmc_sobol.morton_x_mask(log2_length))
         self._seed = seed
 
     def _layout_error(self, wavefront_size: int, spw: int) -> str | None:
@@ -274,11 +274,11 @@ class ZSobolSampler(SequenceSampler):
         length = self._length()
         side_bits = 2 * (_round_up_pow2(max(width, height)).bit_length() - 1)
         log2_length = length.bit_length() - 1
-        if side_bits + log2_length > qmc.ZSOBOL_INDEX_BITS:
+        if side_bits + log2_length > qmc_sobol.ZSOBOL_INDEX_BITS:
             return (f"zsobol: {width} x {height} pixels (a Morton square of {side_bits} bits) "
                     f"with sequences of {length} samples need {side_bits + log2_length} index "
-                    f"bits; at most {qmc.ZSOBOL_INDEX_BITS} are available: render fewer pixels "
-                    f"or samples per pixel")
+                    f"bits; at most {qmc_sobol.ZSOBOL_INDEX_BITS} are available: render fewer "
+                    f"pixels or samples per pixel")
         return self._fit_error(spw)
 
     def _advanced(self) -> None:
@@ -298,7 +298,7 @@ class ZSobolSampler(SequenceSampler):
     def next_1d(self, active=True) -> mi.Float:
         self._check_layout()
         index = self.current_sample_index()
-        (x,) = qmc.zsobol_sample(index, self._dimension, self._seed, self._x_mask,
+        (x,) = qmc_sobol.zsobol_sample(index, self._dimension, self._seed, self._x_mask,
                                  self.randomization, components=1)
         self._dimension += 1
         return x
@@ -306,7 +306,7 @@ class ZSobolSampler(SequenceSampler):
     def next_2d(self, active=True) -> mi.Point2f:
         self._check_layout()
         index = self.current_sample_index()
-        x, y = qmc.zsobol_sample(index, self._dimension, self._seed, self._x_mask,
+        x, y = qmc_sobol.zsobol_sample(index, self._dimension, self._seed, self._x_mask,
                                  self.randomization)
         self._dimension += 2
         return mi.Point2f(x, y)

@@ -222,8 +222,7 @@ def test_no_class_in_experiments_is_too_long():
 # ------------------------------------------------------------------ typed settings (issue 29)
 
 #: The modules of experiments/lib that still hand the argparse Namespace down.
-# issue 29: the sampler study and the lab move to typed settings next
-NAMESPACE_ALLOWED = {"studies.samplers", "studies.lab"}
+NAMESPACE_ALLOWED: set = set()
 
 
 def namespace_uses(source: str) -> list[tuple[str, int]]:

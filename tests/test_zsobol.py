@@ -22,7 +22,7 @@ from scipy.stats import qmc as scipy_qmc
 
 import _blocks as B
 from conftest import scene_path
-from integrators import qmc
+from integrators import qmc, qmc_sobol
 from integrators.zsobol import ZSobolSampler
 
 ALPHA = 1e-3                    # chi-square tests of the scrambles
@@ -136,7 +136,7 @@ def test_sobol_points_match_scipy():
     Gray-code order), exactly."""
     n = 2**12
     i = np.arange(n, dtype=np.uint32)
-    x, y = qmc.sobol_2d(mi.UInt32(i ^ (i >> 1)))
+    x, y = qmc_sobol.sobol_2d(mi.UInt32(i ^ (i >> 1)))
     got = np.stack([np.array(x, np.float64), np.array(y, np.float64)], axis=1) / 2**32
     np.testing.assert_array_equal(got, scipy_qmc.Sobol(2, scramble=False).random(n))
 
@@ -150,12 +150,12 @@ def test_pascal_matrix_equals_the_generator_matrix():
     expected = np.zeros_like(a)
     for j in range(32):
         expected ^= np.where((a >> np.uint32(j)) & 1, np.uint32(cols[j]), np.uint32(0))
-    np.testing.assert_array_equal(np.array(qmc.sobol_2d(mi.UInt32(a))[1]), expected)
+    np.testing.assert_array_equal(np.array(qmc_sobol.sobol_2d(mi.UInt32(a))[1]), expected)
 
 
 def test_morton_order_is_a_bijection():
     x, y = np.meshgrid(np.arange(256, dtype=np.uint32), np.arange(256, dtype=np.uint32))
-    m = np.array(qmc.morton_encode(mi.UInt32(x.ravel()), mi.UInt32(y.ravel())))
+    m = np.array(qmc_sobol.morton_encode(mi.UInt32(x.ravel()), mi.UInt32(y.ravel())))
     np.testing.assert_array_equal(np.sort(m), np.arange(256 * 256))
     # pbrt's EncodeMorton2: x in the even bits, y in the odd ones
     assert list(m[[0, 1, 256, 257, 2]]) == [0, 1, 2, 3, 4]
@@ -215,9 +215,9 @@ class OffByOne(ZSobolSampler):
 
     def next_2d(self, active=True):
         index = self.current_sample_index()
-        x = qmc.zsobol_sample(index, self._dimension, self._seed, self._x_mask,
+        x = qmc_sobol.zsobol_sample(index, self._dimension, self._seed, self._x_mask,
                               self.randomization, components=1)[0]
-        y = qmc.zsobol_sample(index, self._dimension + 1, self._seed, self._x_mask,
+        y = qmc_sobol.zsobol_sample(index, self._dimension + 1, self._seed, self._x_mask,
                               self.randomization)[1]
         self._dimension += 2
         return mi.Point2f(x, y)
@@ -236,16 +236,16 @@ def test_net_check_catches_broken_permutations(monkeypatch):
     props["sample_count"], props["film_width"] = 16, 8
     assert not _nets_hold(OffByOne(props))
     with monkeypatch.context() as m:
-        m.setattr(qmc, "zsobol_permute_index", _broken_permutation)
+        m.setattr(qmc_sobol, "zsobol_permute_index", _broken_permutation)
         assert not _nets_hold(make())
     with monkeypatch.context() as m:
-        m.setattr(qmc, "morton_encode", lambda x, y: y * 8 + x)
+        m.setattr(qmc_sobol, "morton_encode", lambda x, y: y * 8 + x)
         assert not _nets_hold(make())
 
 
 def _permuted(index, seeds, log2_length):
-    return np.array(qmc.zsobol_permute_index(mi.UInt32(index), mi.UInt32(seeds),
-                                             qmc.morton_x_mask(log2_length)), dtype=np.int64)
+    return np.array(qmc_sobol.zsobol_permute_index(mi.UInt32(index), mi.UInt32(seeds),
+                                             qmc_sobol.morton_x_mask(log2_length)), dtype=np.int64)
 
 
 def hierarchy_holds(permuted, side, length) -> bool:
@@ -266,7 +266,7 @@ def hierarchy_holds(permuted, side, length) -> bool:
 def test_index_permutation_keeps_the_hierarchy_of_blocks(log2_length):
     side, length = 16, 2**log2_length
     y, x, i = np.meshgrid(np.arange(side), np.arange(side), np.arange(length), indexing="ij")
-    morton = np.array(qmc.morton_encode(mi.UInt32(x.ravel()), mi.UInt32(y.ravel())))
+    morton = np.array(qmc_sobol.morton_encode(mi.UInt32(x.ravel()), mi.UInt32(y.ravel())))
     index = (morton.astype(np.int64) << log2_length) + i.ravel()
     for seed in (0, 1, 0xDEADBEEF, 77777):
         seeds = np.full(index.size, seed, np.uint32)
@@ -287,11 +287,11 @@ def test_quad_pairings_are_transpose_symmetric():
     seeds = qmc.mix32(mi.UInt32(np.arange(n)))
 
     def partner_counts(permute):
-        halves = [np.array(permute(mi.UInt32(q), seeds, mi.UInt32(qmc.morton_x_mask(0)))) >> 1
+        halves = [np.array(permute(mi.UInt32(q), seeds, mi.UInt32(qmc_sobol.morton_x_mask(0)))) >> 1
                   for q in range(4)]                  # Morton 1: right, 2: below, 3: diagonal
         return [int(np.sum(halves[q] == halves[0])) for q in (1, 2, 3)]
 
-    counts = partner_counts(qmc.zsobol_permute_index)
+    counts = partner_counts(qmc_sobol.zsobol_permute_index)
     assert sum(counts) == n
     assert stats.chisquare(counts, [n / 4, n / 4, n / 2]).pvalue > ALPHA, counts
     flips_only = partner_counts(lambda i, s, m: dr.brev(qmc.laine_karras(dr.brev(i), s)))
@@ -301,10 +301,10 @@ def test_quad_pairings_are_transpose_symmetric():
 # ---------------------------------------------------------- randomization
 
 def _one_point(randomization, seeds, dimension=4, pixel=(3, 5), sample=2, log2_length=4):
-    morton = int(np.array(qmc.morton_encode(mi.UInt32(pixel[0]), mi.UInt32(pixel[1])))[0])
+    morton = int(np.array(qmc_sobol.morton_encode(mi.UInt32(pixel[0]), mi.UInt32(pixel[1])))[0])
     index = mi.UInt32((morton << log2_length) + sample)
-    x, y = qmc.zsobol_sample(index, mi.UInt32(dimension), mi.UInt32(seeds),
-                             qmc.morton_x_mask(log2_length), randomization)
+    x, y = qmc_sobol.zsobol_sample(index, mi.UInt32(dimension), mi.UInt32(seeds),
+                             qmc_sobol.morton_x_mask(log2_length), randomization)
     return np.array(x, np.float64), np.array(y, np.float64)
 
 
@@ -364,7 +364,7 @@ class FrozenZSobol(ZSobolSampler):
         self._py_dimension = 0
 
     def _draw(self, components):
-        values = qmc.zsobol_sample(self.current_sample_index(), mi.UInt32(self._py_dimension),
+        values = qmc_sobol.zsobol_sample(self.current_sample_index(), mi.UInt32(self._py_dimension),
                                    self._seed, self._x_mask, self.randomization, components)
         self._py_dimension += components
         return values

@@ -81,7 +81,7 @@ MUTANTS = [
            "the sequence samplers' advance() keeps the dimension counter: a declared pass "
            "draws its camera sample from the dimensions where the previous pass stopped",
            ("tests/test_sequence_sampler.py", "tests/test_halton.py")),
-    Mutant("zsobol-matrix", "integrators/qmc.py",
+    Mutant("zsobol-matrix", "integrators/qmc_sobol.py",
            "v = v ^ ((v >> 4) & 0x0F0F0F0F)",
            "v = v ^ ((v >> 4) & 0x0F0F0F0E)",
            "one entry of Sobol's second generator matrix wrong",

@@ -33,6 +33,7 @@ from experiments.lib import cli, figures, files, lab_figures, lab_points, lab_wa
 from experiments.lib import screen_space
 from experiments.lib.methods import Method, parse_method, strategies as registered_strategies
 from experiments.lib.study import Study
+from experiments.lib.studies.settings import StudySettings, common_fields
 from experiments.lib.studies import StudySpec, register_study
 from experiments.lib.studies import sampler_comparison, sampler_comparison_plan
 from experiments.lib.studies.sampler_comparison_analysis import families
@@ -445,7 +446,7 @@ def run(args) -> None:
     points = measure_points(plan_points(cfg), os.path.join(out_dir, "cache", "points"))
     point_found = analyse_points(points, cfg.counts[0])
     point_seconds = time.perf_counter() - start - warp_seconds
-    st = Study(args)
+    st = Study(StudySettings(**common_fields(args)))
     screen = measure_screen(st, cfg, plan_screen(st, cfg, settings.reference))
     screen_seconds = time.perf_counter() - start - warp_seconds - point_seconds
     blocks = ([report.text(GUIDE)] + report_warps(out, cfg, warps, warp_found)

@@ -43,6 +43,7 @@ import time
 from experiments.lib import cli, clock, files, plan, report, samplers, stats
 from experiments.lib.methods import Method
 from experiments.lib.study import Study
+from experiments.lib.studies.settings import StudySettings, common_fields
 from experiments.lib.studies import StudySpec, register_study
 from experiments.lib.studies.sampler_comparison_analysis import BASELINE, METRIC, METRIC_NAMES
 from experiments.lib.studies.sampler_comparison_efficiency import Efficiency
@@ -212,7 +213,7 @@ def screen_settings_text(sc: ScreenSettings | None) -> str:
 
 def run(args) -> None:
     start = time.perf_counter()
-    st, cfg = Study(args), settings_of(args)
+    st, cfg = Study(StudySettings(**common_fields(args))), settings_of(args)
     planned = [(p, p.plan(st, cfg)) for p in PASSES]
     planned = [(p, pl) for p, pl in planned if pl is not None]      # passes switched off
     st.run([j for p, pl in planned for j in p.jobs(pl)], f"{NAME}: renders")
