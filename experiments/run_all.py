@@ -23,7 +23,7 @@ SHARED = {"scene": "--scene", "variant": "--variant", "seed": "--seed", "out": "
 FORWARDED = {"resolution": "--resolution", "spp": "--spp", "max_depth": "--max-depth",
              "rr_depth": "--rr-depth", "reference_spp": "--reference-spp",
              "repeats": "--repeats", "methods": "--methods",
-             "reference_cache": "--reference-cache"}
+             "reference_cache": "--reference-cache", "replay_counts": "--replay-counts"}
 
 
 def build_parser() -> cli.Parser:

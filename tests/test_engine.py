@@ -34,11 +34,12 @@ BUDGETS = (Budget.equal_spp(4), Budget.equal_time(2e-3))
 DECLARED = Declaration("engine-test", METHODS, SCENES, BUDGETS, repeats=2)
 
 
-def make_study(out, seed: int = 0, executor=None, repeats: int = 2) -> Study:
+def make_study(out, seed: int = 0, executor=None, repeats: int = 2, replay=None) -> Study:
     settings = StudySettings(
         out=str(out), scene=SCENES[0].info.path, info=SCENES[0].info, resolution=(16, 8),
         depth=Depth(3), methods=METHODS, repeats=repeats, variant=VARIANT, seed=seed,
-        reference_spp=64, reference_method=parse_method("path"), executor=executor)
+        reference_spp=64, reference_method=parse_method("path"), executor=executor,
+        replay_counts=None if replay is None else str(replay))
     return Study(settings, executor)
 
 
@@ -86,6 +87,26 @@ def test_a_rerun_renders_nothing(local, count_jobs):
     assert count_jobs == []
     cell = Cell("cbox", "bsdf+nee", "equal-spp")
     np.testing.assert_array_equal(again.runs[cell][1][0].image, measured.runs[cell][1][0].image)
+
+
+def test_replayed_counts_are_the_earlier_runs(local, tmp_path):
+    """--replay-counts: the equal-time counts of an earlier run, whatever this run's timings
+    say (a budget of 1e-9 s would give 1 spp: the negative control is that budget unreplayed)."""
+    out, _, measured = local
+    tiny = Declaration("engine-test", METHODS, SCENES, (BUDGETS[0], Budget.equal_time(1e-9)),
+                       repeats=2)
+    earlier = {c: {r[0].spp for r in runs} for c, runs in measured.runs.items()
+               if c.budget == "equal-time"}
+    assert any(n != {1} for n in earlier.values())
+    replayed = Engine(make_study(tmp_path / "replayed", replay=out)).run(tiny)
+    assert {c: {r[0].spp for r in runs} for c, runs in replayed.runs.items()
+            if c.budget == "equal-time"} == earlier
+    unreplayed = Engine(make_study(tmp_path / "measured")).run(tiny)
+    assert {r[0].spp for c, runs in unreplayed.runs.items() if c.budget == "equal-time"
+            for r in runs} == {1}
+    other = Declaration("engine-other", METHODS, SCENES[:1], tiny.budgets)
+    with pytest.raises(KeyError, match="no job 'engine-other/cbox/bsdf_nee/equal-time'"):
+        Engine(make_study(tmp_path / "missing", replay=out)).run(other)
 
 
 def _equal_spp_images(measured) -> dict:

@@ -151,6 +151,10 @@ def common_parser(prog: str, description: str, spp: int | None = None,
                    help="the reference store every study and run shares (references are "
                         "keyed by the scene's content and settings, and extended in place); "
                         "default: OUT/references")
+    p.add_argument("--replay-counts", default=None, metavar="OUT",
+                   help="take every equal-time render's sample count from the job of the same "
+                        "name in an earlier run's OUT/store instead of from this run's timings "
+                        "(re-measure a run with the same renders)")
     add_plugin_option(p)
     return p
 

@@ -21,6 +21,7 @@ references), Mitsuba's ``ADIntegrator`` (the shared work in one base).
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, replace
 from typing import Callable
 
@@ -29,6 +30,8 @@ import numpy as np
 from . import clock, metrics, stats
 from .methods import Depth, Method
 from .scenes import SceneInfo
+from .plan import job_name
+from .store import STORE_DIR, JobStore
 from .study import Study, repeat_prefix
 
 
@@ -51,6 +54,7 @@ class Budget:
     seconds: float = 0.0         # equal time: seconds of cost (the clock) per image ...
     after: str = ""              # ... at the cost per sample measured by this budget's renders
     power_of_two: bool = False   # equal time: the count rounded to the nearest power of two
+    max_spp: int = 0             # equal time: at most this count (0: no cap)
     ladder: tuple = ()           # progressive: the counts, each image all samples up to it
 
     @classmethod
@@ -59,8 +63,9 @@ class Budget:
 
     @classmethod
     def equal_time(cls, seconds: float, after: str = "equal-spp", name: str = "equal-time",
-                   power_of_two: bool = False) -> "Budget":
-        return cls(name, seconds=float(seconds), after=after, power_of_two=power_of_two)
+                   power_of_two: bool = False, max_spp: int = 0) -> "Budget":
+        return cls(name, seconds=float(seconds), after=after, power_of_two=power_of_two,
+                   max_spp=int(max_spp))
 
     @classmethod
     def progressive(cls, targets, name: str = "ladder") -> "Budget":
@@ -110,6 +115,7 @@ class Declaration:
     sweep: Sweep | None = None
     reference_spp: int | None = None        # None: the study's --reference-spp
     reference_method: Method | None = None  # None: the study's --reference-method
+    reference_typical_spp: int | None = None  # sizes the reference's chunks (None: the study's)
     key: Callable = default_key
 
     def __post_init__(self):
@@ -189,6 +195,7 @@ class Engine:
 
     def __init__(self, study: Study):
         self.study = study
+        self._replay: dict | None = None       # {job name: spp} of --replay-counts
 
     # ---------------------------------------------------------------- plan
     def jobs(self, declaration: Declaration, budget: Budget, spp: dict | None = None) -> dict:
@@ -219,7 +226,7 @@ class Engine:
                 setup = scene if shared else declaration.setup(scene, point)
                 out[key] = self.study.reference_jobs(
                     setup.info, setup.depth, setup.resolution, declaration.reference_spp,
-                    declaration.reference_method)
+                    declaration.reference_method, declaration.reference_typical_spp)
         return out
 
     def equal_time_spp(self, budget: Budget, measured: list) -> int:
@@ -228,31 +235,54 @@ class Engine:
         per_sample = np.mean([clock.total(rs) / sum(r.spp for r in rs) for rs in measured])
         spp = budget.seconds / max(float(per_sample), 1e-12)
         if budget.power_of_two:
-            return int(2 ** max(0, round(math.log2(max(spp, 1.0)))))
-        return max(1, int(spp))
+            spp = 2 ** max(0, round(math.log2(max(spp, 1.0))))
+        spp = max(1, int(spp))
+        return min(spp, budget.max_spp) if budget.max_spp else spp
+
+    def replayed(self, declaration: Declaration, cell: Cell) -> int | None:
+        """The count an earlier run (``--replay-counts``) gave ``cell``'s first repeat, or
+        None without one; an earlier run that lacks the job is an error."""
+        if self.study.replay_counts is None:
+            return None
+        if self._replay is None:
+            self._replay = JobStore(os.path.join(self.study.replay_counts, STORE_DIR)).counts()
+        name = job_name(repeat_prefix(declaration.key(declaration, cell), 0))
+        if name not in self._replay:
+            raise KeyError(f"--replay-counts {self.study.replay_counts}: no job '{name}' in "
+                           f"its store, so its equal-time count cannot be replayed")
+        return self._replay[name]
 
     # ---------------------------------------------------------------- run
-    def run(self, declaration: Declaration) -> Measurements:
-        """Plan, render (resuming) and measure every cell of ``declaration``."""
+    def references(self, declaration: Declaration) -> dict:
+        """{(scene, point): (reference image, its metadata with the floors)}, rendered where
+        the reference store lacks them."""
+        jobs = self.reference_jobs(declaration)
+        self.study.run([j for chunks in jobs.values() for j in chunks],
+                       f"{declaration.name}: references")
+        return {key: self.study.reference(chunks) for key, chunks in jobs.items()}
+
+    def run(self, declaration: Declaration, references: dict | None = None) -> Measurements:
+        """Plan, render (resuming) and measure every cell of ``declaration``, against
+        ``references`` ({(scene, point): (image, metadata)}; default :meth:`references`)."""
         st = self.study
-        references = self.reference_jobs(declaration)
-        st.run([j for jobs in references.values() for j in jobs],
-               f"{declaration.name}: references")
+        refs = self.references(declaration) if references is None else references
         planned = {}
         for budget in declaration.budgets:
             spp = None
             if budget.timed:
-                spp = {cell: self.equal_time_spp(budget, [st.results(jobs) for jobs in reps])
-                       for cell, reps in planned[budget.after].items()}
-                spp = {replace(cell, budget=budget.name): n for cell, n in spp.items()}
+                spp = {}
+                for cell, reps in planned[budget.after].items():
+                    cell = replace(cell, budget=budget.name)
+                    spp[cell] = self.replayed(declaration, cell) or self.equal_time_spp(
+                        budget, [st.results(jobs) for jobs in reps])
             planned[budget.name] = self.jobs(declaration, budget, spp)
             st.run([j for reps in planned[budget.name].values() for jobs in reps
                     for j in jobs], f"{declaration.name}: {budget.name}")
-        return self.measure(declaration, planned, references)
+        return self.measure(declaration, planned, refs)
 
-    def measure(self, declaration: Declaration, planned: dict, references: dict) -> Measurements:
+    def measure(self, declaration: Declaration, planned: dict, refs: dict) -> Measurements:
+        """The :class:`Measurements` of rendered ``planned`` jobs against ``refs``."""
         st = self.study
-        refs = {key: st.reference(jobs) for key, jobs in references.items()}
         out = Measurements(declaration, {}, refs)
         for cells in planned.values():
             for cell, reps in cells.items():

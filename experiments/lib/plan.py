@@ -56,6 +56,12 @@ def check_terminates(method: Method, depth: Depth) -> None:
             f"or a randomized sampler (e.g. {method.sampler}:owen)")
 
 
+def job_name(prefix: str) -> str:
+    """The name part of a job key: its prefix, spelt safely as a path (the key appends a
+    hash of everything the image depends on)."""
+    return prefix.replace(":", "-").replace("+", "_")
+
+
 def make_job(prefix: str, info: SceneInfo, method: Method, width: int, height: int, spp: int,
              seed: int, depth: Depth, variant: str, sample_offset: int = 0, pass_spp: int = 0,
              timing_group: str | None = None, sequence_spp: int = 0) -> Job:
@@ -73,7 +79,7 @@ def make_job(prefix: str, info: SceneInfo, method: Method, width: int, height: i
         fields["sequence_spp"] = sequence_spp
     digest = hashlib.sha256(json.dumps([fields, variant, plugins_version()],
                                        sort_keys=True).encode()).hexdigest()[:12]
-    safe = prefix.replace(":", "-").replace("+", "_")
+    safe = job_name(prefix)
     fields["method"] = method
     return Job(key=f"{safe}-{digest}", timing_group=timing_group, **fields)
 

@@ -80,6 +80,21 @@ class JobStore:
         if entry is not None:
             self._read_bytes -= entry[1]
 
+    def counts(self) -> dict[str, int]:
+        """{job name: samples per pixel} of every finished job (the name: the key without
+        its hash, which changes with the plugin sources), for ``--replay-counts``."""
+        if not os.path.isdir(self.root):
+            raise FileNotFoundError(f"no job store at '{self.root}': give the --out of an "
+                                    f"earlier run (its store/ folder holds the jobs)")
+        out = {}
+        for directory, _, names in os.walk(self.root):
+            for name in names:
+                if name.endswith(".npz"):
+                    key = os.path.relpath(os.path.join(directory, name), self.root)[:-4]
+                    job = json.loads(str(read_npz(self.path(key))["meta"]))["job"]
+                    out[key.rsplit("-", 1)[0]] = int(job["spp"])
+        return out
+
     def results(self, jobs) -> list[JobResult]:
         """The results of ``jobs`` (any iterable of :class:`~.jobs.Job`), in order."""
         return [self.get(job.key) for job in jobs]

@@ -51,6 +51,8 @@ class Study:
                                          or os.path.join(settings.out, REFERENCES_DIR))
         self.executor = executor if executor is not None else settings.executor
         self.repeats: int = settings.repeats
+        #: an earlier run's --out whose equal-time counts are replayed (None: measure them)
+        self.replay_counts: str | None = settings.replay_counts
         self._reference_of: dict[str, RefSpec] = {}       # chunk key -> its reference
 
     def run(self, jobs: list, label: str = "render jobs") -> int:

@@ -35,6 +35,8 @@ class StudySettings:
     #: the study's default --reference-spp, which sizes a reference's chunks whatever this
     #: run asks for (:func:`~..references.chunk_spp_for`); None: this run's reference_spp
     reference_spp_default: int | None = field(default=None, kw_only=True)
+    #: an earlier run's --out whose equal-time counts are replayed (``--replay-counts``)
+    replay_counts: str | None = field(default=None, kw_only=True)
 
 
 def common_fields(args) -> dict:
@@ -45,4 +47,5 @@ def common_fields(args) -> dict:
             "variant": args.variant, "seed": args.seed, "reference_spp": args.reference_spp,
             "reference_method": args.reference_method, "executor": args.executor,
             "reference_cache": args.reference_cache,
-            "reference_spp_default": args.reference_spp_default}
+            "reference_spp_default": args.reference_spp_default,
+            "replay_counts": args.replay_counts}

@@ -240,7 +240,7 @@ def settings(args) -> suite_plan.Settings:
                                                      REFERENCE_GROWTH * ref_spp),
         reference_typical_spp=REFERENCE_GROWTH * (args.reference_spp_default or ref_spp),
         reference_spp_default=args.reference_spp_default,
-        reference_cache=args.reference_cache,
+        reference_cache=args.reference_cache, replay_counts=args.replay_counts,
         reference_method=args.reference_method,
         reference_root=args.reference_cache or os.path.join(args.out, references.REFERENCES_DIR),
         user_references=dict(args.user_references), flip=args.flip, best_note=args.best_note)

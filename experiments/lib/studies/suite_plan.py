@@ -63,6 +63,7 @@ class Settings:
     resolution: tuple = (1, 1)          # Study's film: unused (every job names its own)
     reference_cache: str | None = None  # Study's reference store (--reference-cache)
     reference_spp_default: int | None = None     # the parser's default --reference-spp
+    replay_counts: str | None = None    # an earlier run's --out (--replay-counts)
 
 
 # ------------------------------------------------------------------ the plan
