@@ -5,9 +5,11 @@ that each module imports only modules above it (``tests/test_layout.py`` checks
 that the import graph has no cycle):
 
 * :mod:`.files`          atomic file writes, EXR/PNG/JSON/CSV/NPZ, tone mapping (no lib imports)
+* :mod:`.clock`          the one clock: what an image costs (kernel time of every pass plus
+                         the method's host work between passes; no lib imports)
 * :mod:`.jobs`           jobs and results as plain data (``Job``, ``JobResult``, ``derive_seed``,
                          ``MAX_LANES``), ``Accumulator``/``accumulate`` over results,
-                         ``cpu_model`` (no lib imports)
+                         ``cpu_model`` (the clock)
 * :mod:`.metrics`        MSE, relMSE (with outlier rejection), slopes, efficiency, bias checks
 * :mod:`.stats`          intervals, errors over the reference's floor, verdicts over repeats
 * :mod:`.samplers`       the sampler table: one descriptor per sampler, ``register_sampler``
@@ -22,6 +24,9 @@ that the import graph has no cycle):
 * :mod:`.extensions`     ``--plugin FILE``: a researcher's strategy, sampler or study
 * :mod:`.cluster`        the Dask executor (execute, extensions)
 * :mod:`.study`          what a study shares: store, executor, reference image, accumulation
+* :mod:`.engine`         the experiment engine: a study's ``Declaration`` (methods, scenes,
+                         budgets, a sweep, repeats) planned, rendered, costed and measured
+* :mod:`.prose`          the report layer's sentences from templates (jinja2)
 * :mod:`.figures`        every chart (matplotlib, Agg)
 * :mod:`.viewer`         the report's interactive image comparisons (files, metrics)
 * :mod:`.report`         per-experiment sections and ``results/index.html``
