@@ -73,13 +73,6 @@ class Measured:
         return list(self.targets) or [r.spp for r in next(iter(self.ladders.values()))]
 
 
-def equal_time_spp(seconds, spp, budget: float) -> int:
-    """Samples per pixel that fit in ``budget`` seconds at the speed of jobs that took
-    ``seconds`` for ``spp`` samples each (at least 1)."""
-    per_sample = sum(seconds) / sum(spp)
-    return max(1, int(budget / per_sample))
-
-
 # ------------------------------------------------------------------ the result
 
 #: The metric of every efficiency ratio, ranking and verdict, and why (for the report).
