@@ -18,6 +18,7 @@ from experiments.lib.methods import Depth, parse_method
 from experiments.lib.studies import conclusion as C
 from experiments.lib.studies import convergence
 from experiments.lib.studies import convergence_analysis as A
+from experiments.lib.studies.convergence_report import best_text
 
 JITTER = (0.94, 0.98, 1.02, 1.06)            # four repeats, mean exactly 1
 COUNTS = (1, 2, 4, 8, 16, 32, 64)
@@ -262,14 +263,15 @@ def test_paragraph_checker_finds_a_long_paragraph():
 
 
 def test_the_best_combination_says_where_it_was_chosen_and_that_it_differs():
-    note = _four_methods(best_spp=4, resolution="16x8").best_note
+    note = best_text(_four_methods(best_spp=4, resolution="16x8").best_note)
     assert "chosen at max_depth 8, 4 spp, 16x8" in note
     assert "this study runs at max_depth 8, 64 spp, 128x64" in note
     assert "not claimed to be the best here" in note
     # negative control: chosen at this study's own count, depth and resolution
-    same = _four_methods(best_spp=64).best_note
+    same = best_text(_four_methods(best_spp=64).best_note)
     assert "chosen at max_depth 8, 64 spp, 128x64" in same and "not claimed" not in same
-    assert "not claimed" in _four_methods(best_spp=64, best_depth=2).best_note
+    assert "not claimed" in best_text(_four_methods(best_spp=64, best_depth=2).best_note)
+    assert _four_methods(best_spp=64, best_depth=2).best_note.differs        # as data
 
 
 def test_settings_read_where_the_sampler_study_chose_its_winner(tmp_path):
