@@ -441,7 +441,7 @@ def test_study_survives_a_killed_worker(local_study, local_cluster, tmp_path, mo
         put(self, job, result)
         if len(killed) == 0 and job.key.startswith("convergence/"):
             ex = cli._EXECUTORS[-1]
-            victim = ex._pins["convergence"]
+            victim = ex._pins[job.timing_group]
             pid = ex.client.run(os.getpid)[victim]
             os.kill(pid, signal.SIGKILL)
             killed.append(pid)

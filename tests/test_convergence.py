@@ -8,14 +8,17 @@ distinguishable".
 """
 import dataclasses
 import json
+import types
 
 import pytest
 
 from experiments.lib import stats
+from experiments.lib.engine import Cell, Engine
 from experiments.lib.methods import Depth, parse_method
 from experiments.lib.studies import conclusion as C
 from experiments.lib.studies import convergence
 from experiments.lib.studies import convergence_analysis as A
+from experiments.lib.studies.convergence_report import best_text
 
 JITTER = (0.94, 0.98, 1.02, 1.06)            # four repeats, mean exactly 1
 COUNTS = (1, 2, 4, 8, 16, 32, 64)
@@ -158,11 +161,27 @@ def test_an_error_below_the_floor_is_a_bound_and_its_verdict_cannot_be_told():
 
 # ------------------------------------------------------------ equal time, slopes, ladder
 
-def test_equal_time_spp_from_a_known_per_sample_time():
+def test_the_declaration_ladders_then_equal_time_at_the_ladders_cost_per_sample():
+    """The study as the engine runs it: a doubling ladder to --spp, then as many samples as
+    fit in --time-budget at the cost per sample measured on each method's ladders (the
+    engine's rule), under the job names the study always had."""
+    decl = convergence.declare(dataclasses.replace(SETTINGS, methods=(
+        parse_method("bsdf"), parse_method("uniform+halton"))))
+    ladder_budget, equal = decl.budgets
+    assert ladder_budget.ladder == COUNTS and equal.timed and equal.after == ladder_budget.name
+    assert equal.seconds == 0.25 and not equal.power_of_two and not equal.max_spp
+    cell = Cell("scene", "bsdf", ladder_budget.name)
+    assert decl.key(decl, cell) == "convergence/bsdf"
+    assert decl.key(decl, dataclasses.replace(cell, budget=equal.name)) == "equal_time/bsdf"
     per_sample = 1 / 1024                                     # exact in binary
-    assert A.equal_time_spp([512 * per_sample] * 2, [512, 512], 0.25) == 256
-    assert A.equal_time_spp([1024 * per_sample] * 2, [512, 512], 0.25) == 128   # 2x slower
-    assert A.equal_time_spp([1.0], [1], 0.25) == 1            # less than a sample: one
+
+    def ran(seconds, spp):
+        return [types.SimpleNamespace(spp=spp, kernel_seconds=seconds, host_seconds=0.0,
+                                      wall_seconds=seconds)]
+    engine = Engine(None)
+    assert engine.equal_time_spp(equal, [ran(512 * per_sample, 512)] * 2) == 256
+    assert engine.equal_time_spp(equal, [ran(1024 * per_sample, 512)] * 2) == 128  # 2x slower
+    assert engine.equal_time_spp(equal, [ran(1.0, 1)]) == 1      # less than a sample: one
 
 
 def test_slopes_of_synthetic_power_laws():
@@ -244,14 +263,15 @@ def test_paragraph_checker_finds_a_long_paragraph():
 
 
 def test_the_best_combination_says_where_it_was_chosen_and_that_it_differs():
-    note = _four_methods(best_spp=4, resolution="16x8").best_note
+    note = best_text(_four_methods(best_spp=4, resolution="16x8").best_note)
     assert "chosen at max_depth 8, 4 spp, 16x8" in note
     assert "this study runs at max_depth 8, 64 spp, 128x64" in note
     assert "not claimed to be the best here" in note
     # negative control: chosen at this study's own count, depth and resolution
-    same = _four_methods(best_spp=64).best_note
+    same = best_text(_four_methods(best_spp=64).best_note)
     assert "chosen at max_depth 8, 64 spp, 128x64" in same and "not claimed" not in same
-    assert "not claimed" in _four_methods(best_spp=64, best_depth=2).best_note
+    assert "not claimed" in best_text(_four_methods(best_spp=64, best_depth=2).best_note)
+    assert _four_methods(best_spp=64, best_depth=2).best_note.differs        # as data
 
 
 def test_settings_read_where_the_sampler_study_chose_its_winner(tmp_path):

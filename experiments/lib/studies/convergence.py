@@ -8,10 +8,12 @@ comparison: each method renders as many samples as fit in --time-budget
 seconds at the speed measured on its ladder. The default methods include
 ``bsdf+nee`` and Mitsuba's ``path`` as what a user would run instead.
 
-The study runs in four steps, data flowing one way: :func:`plan` (jobs as data),
-:func:`measure` (plain numbers from the store), :func:`.convergence_analysis.analyse`
-(pure: every ratio, interval, ranking, verdict and sentence) and
-:func:`.convergence_report.report` (blocks, CSVs, figures, summary.json).
+The study is a declaration on the experiment engine (:func:`declare`: the methods, one
+scene, a ladder and an equal-time budget measured on it, the repeats): the engine plans,
+renders (resuming), costs with the one clock and measures against the reference;
+:func:`measured_of` gives its numbers to :func:`.convergence_analysis.analyse` (pure:
+every ratio, interval, ranking and verdict) and :func:`.convergence_report.report`
+(blocks, CSVs, figures, summary.json).
 :class:`ConvergenceSettings` is made from the command line in one place
 (:func:`settings_from`); the library never sees the Namespace.
 
@@ -23,7 +25,8 @@ import os
 import time
 from dataclasses import dataclass
 
-from experiments.lib import cli, clock, files, metrics
+from experiments.lib import cli, files, metrics
+from experiments.lib.engine import Budget, Cell, Declaration, Engine, Measurements, SceneSetup
 from experiments.lib.jobs import Job
 from experiments.lib.plan import doubling_targets
 from experiments.lib.methods import Method
@@ -31,7 +34,7 @@ from experiments.lib.studies import StudySpec, register_study
 from experiments.lib.studies import convergence_analysis
 from experiments.lib.studies import convergence_report
 from experiments.lib.studies.settings import StudySettings, common_fields
-from experiments.lib.study import Study, repeat_prefix
+from experiments.lib.study import Study
 
 NAME = convergence_analysis.NAME
 ORDER = 20
@@ -119,75 +122,70 @@ def settings_from(args) -> ConvergenceSettings:
                                best=best)
 
 
-# ------------------------------------------------------------------ plan
+# ------------------------------------------------------------------ declaration
 
-@dataclass(frozen=True)
-class Plan:
-    """The jobs: the reference, and per method one ladder per repeat (a deterministic
-    method: one, every run gives the same image)."""
-    targets: tuple
-    reference: list
-    ladders: dict                     # method name -> [ladder (list of Job) per repeat]
-
-    def jobs(self) -> list[Job]:
-        return self.reference + [j for reps in self.ladders.values() for jobs in reps
-                                 for j in jobs]
+#: The budgets: each method's ladder (the progress label "sequences"), then equal time.
+SEQUENCES, EQUAL_TIME = "sequences", "equal time"
 
 
-def plan(st: Study, settings: ConvergenceSettings) -> Plan:
-    targets = doubling_targets(settings.spp)
-    ladders = {m.name: [st.ladder(repeat_prefix(f"{NAME}/{m.name}", r), m, targets,
-                                  timing_group=NAME)
-                        for r in range(st.repeats_of(m))] for m in settings.methods}
-    return Plan(tuple(targets), st.reference_jobs(), ladders)
+def job_key(declaration: Declaration, cell: Cell) -> str:
+    """The prefix of a cell's jobs, as the study always named them (so their seeds too)."""
+    return f"{NAME}/{cell.method}" if cell.budget == SEQUENCES else f"equal_time/{cell.method}"
 
 
-def plan_equal_time(st: Study, settings: ConvergenceSettings, plan: Plan) -> dict:
-    """Per method, repeats of one job with as many spp as fit in the budget at the speed
-    measured on its ladders (read from the store: plan the ladders' run first)."""
-    jobs = {}
-    for name, reps in plan.ladders.items():
-        results = [st.store.get(j.key) for ladder in reps for j in ladder]
-        spp = convergence_analysis.equal_time_spp([clock.cost(r) for r in results],
-                                                  [r.spp for r in results],
-                                                  settings.time_budget)
-        method = reps[0][0].method
-        jobs[name] = [st.job(repeat_prefix(f"equal_time/{name}", r), method, spp,
-                             timing_group=NAME) for r in range(st.repeats_of(method))]
-    return jobs
+def declare(settings: ConvergenceSettings) -> Declaration:
+    """Every method's ladder 1, 2, 4, ... --spp, then as many samples as fit in
+    --time-budget at the cost per sample measured on its ladders; --repeats of each."""
+    scene = SceneSetup("scene", settings.info, tuple(settings.resolution), settings.depth)
+    return Declaration(NAME, tuple(settings.methods), (scene,), (
+        Budget.progressive(doubling_targets(settings.spp), name=SEQUENCES),
+        Budget.equal_time(settings.time_budget, after=SEQUENCES, name=EQUAL_TIME)),
+        settings.repeats, key=job_key)
+
+
+class RecordingStudy(Study):
+    """A :class:`Study` that keeps the jobs the engine runs (which machine timed them:
+    :meth:`Study.timed_on`; the engine's Measurements do not keep the jobs)."""
+
+    def __init__(self, settings):
+        super().__init__(settings)
+        self.asked: list[Job] = []
+
+    def run(self, jobs: list, label: str = "render jobs") -> int:
+        self.asked += jobs
+        return super().run(jobs, label)
 
 
 # ------------------------------------------------------------------ measure
 
-def measure(st: Study, plan: Plan, equal_jobs: dict) -> convergence_analysis.Measured:
-    """Errors (against the reference, its own expected error not subtracted), seconds and
-    spp per method, count and repeat; the first repeat's images for the report."""
-    ref, meta = st.reference(plan.reference)
+def _rung(runs: list, count: int, reference) -> convergence_analysis.Rung:
+    """One rung over the repeats (``runs``: the engine's Run per repeat, ``count`` of them
+    distinct renders); FLIP of the first repeat's image, the one shown."""
+    return convergence_analysis.Rung(
+        runs[0].spp, count, tuple(r.cost for r in runs), tuple(r.mse for r in runs),
+        tuple(r.relmse for r in runs), metrics.flip_mean(runs[0].image, reference))
+
+
+def measured_of(measurements: Measurements) -> convergence_analysis.Measured:
+    """The analysis's numbers from the engine's: per method and rung the cost, the errors
+    (the reference's floor not subtracted) per repeat; the first repeat's images."""
+    decl = measurements.declaration
+    ref, meta = measurements.references[("scene", None)]
+    distinct = {m.name: 1 if m.deterministic else decl.repeats for m in decl.methods}
     ladders, equal, images, equal_images = {}, {}, {}, {}
-    for name, reps in plan.ladders.items():
-        runs = [st.accumulate(jobs) for jobs in reps]
-        ladders[name], images[name] = [], []
-        for accs in zip(*runs):
-            first = accs[0]
-            ladders[name].append(convergence_analysis.Rung(
-                first.spp, len(accs), st.per_repeat(a.cost for a in accs),
-                st.per_repeat(metrics.mse(a.mean, ref) for a in accs),
-                st.per_repeat(metrics.relmse(a.mean, ref) for a in accs),
-                metrics.flip_mean(first.mean, ref)))
-            images[name].append(first.mean)
-    for name, reps in equal_jobs.items():
-        results = [st.store.get(j.key) for j in reps]
-        shown = results[0].image.astype(float)
-        equal[name] = convergence_analysis.Rung(
-            results[0].spp, len(results), st.per_repeat(clock.cost(r) for r in results),
-            st.per_repeat(metrics.mse(r.image.astype(float), ref) for r in results),
-            st.per_repeat(metrics.relmse(r.image.astype(float), ref) for r in results),
-            metrics.flip_mean(shown, ref))
-        equal_images[name] = shown
+    for cell, reps in measurements.runs.items():
+        if cell.budget == SEQUENCES:
+            ladders[cell.method] = [_rung(list(rung), distinct[cell.method], ref)
+                                    for rung in zip(*reps)]
+            images[cell.method] = [r.image for r in reps[0]]
+        else:
+            equal[cell.method] = _rung([r[-1] for r in reps], distinct[cell.method], ref)
+            equal_images[cell.method] = reps[0][-1].image
     floor = convergence_analysis.Floor(meta["mse_floor"], meta["relmse_floor"])
-    return convergence_analysis.Measured(ladders, equal, floor, st.repeats, plan.targets,
-                      convergence_analysis.Images(ref, images, equal_images),
-                      {k: v for k, v in meta.items() if k != "relmse_floor_map"})
+    return convergence_analysis.Measured(
+        ladders, equal, floor, decl.repeats, decl.budgets[0].ladder,
+        convergence_analysis.Images(ref, images, equal_images),
+        {k: v for k, v in meta.items() if k != "relmse_floor_map"})
 
 
 # ------------------------------------------------------------------ run
@@ -195,18 +193,13 @@ def measure(st: Study, plan: Plan, equal_jobs: dict) -> convergence_analysis.Mea
 def run_settings(settings: ConvergenceSettings) -> convergence_analysis.Result:
     """The whole study from typed settings; returns the analysis."""
     start = time.perf_counter()
-    st = Study(settings)
-    the_plan = plan(st, settings)
-    st.run(the_plan.jobs(), f"{NAME}: sequences")
-    equal_jobs = plan_equal_time(st, settings, the_plan)
-    st.run([j for reps in equal_jobs.values() for j in reps], f"{NAME}: equal time")
-    measured = measure(st, the_plan, equal_jobs)
+    st = RecordingStudy(settings)
+    declaration = declare(settings)
+    measured = measured_of(Engine(st).run(declaration))
     result = convergence_analysis.analyse(measured, settings)
-    timed = st.timed_on([j for reps in the_plan.ladders.values() for jobs in reps
-                         for j in jobs] + [j for reps in equal_jobs.values() for j in reps])
-    convergence_report.report(convergence_report.Context(settings, st, measured, the_plan.targets,
-                                                         timed, TITLE, ORDER, start),
-                              result)
+    convergence_report.report(convergence_report.Context(
+        settings, st, measured, measured.targets, st.timed_on(st.asked), TITLE, ORDER, start),
+        result)
     return result
 
 

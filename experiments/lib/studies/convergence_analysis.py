@@ -73,13 +73,6 @@ class Measured:
         return list(self.targets) or [r.spp for r in next(iter(self.ladders.values()))]
 
 
-def equal_time_spp(seconds, spp, budget: float) -> int:
-    """Samples per pixel that fit in ``budget`` seconds at the speed of jobs that took
-    ``seconds`` for ``spp`` samples each (at least 1)."""
-    per_sample = sum(seconds) / sum(spp)
-    return max(1, int(budget / per_sample))
-
-
 # ------------------------------------------------------------------ the result
 
 #: The metric of every efficiency ratio, ranking and verdict, and why (for the report).
@@ -151,7 +144,7 @@ class Result:
     ranking: list               # methods, most efficient first (those that can be told)
     conclusion: list            # [conclusion.Comparison]: the conclusion table
     sentences: list             # at most three, made from the conclusion's rows
-    best_note: str = ""         # where the best combination was chosen, against here
+    best_note: BestNote | None = None   # where the best combination was chosen, against here
 
 
 # ------------------------------------------------------------------ analysis
@@ -270,25 +263,32 @@ def conclusion(measured: Measured, settings, base: str, ranking: list,
     return table, [c.sentence() for c in said][:MAX_SENTENCES]
 
 
-def best_note(settings) -> str:
+@dataclass(frozen=True)
+class BestNote:
+    """Where the best combination was chosen (None where --best-sampler gave it) against
+    this study's depth, count and resolution, and whether they differ."""
+    method: str
+    given: bool                 # named by --best-sampler (nothing more to say)
+    depth: int | None = None
+    spp: int | None = None
+    resolution: str | None = None
+    here_depth: int = DEFAULT_DEPTH
+    here_spp: int = 0
+    here_resolution: str = ""
+    differs: bool = False
+
+
+def best_note(settings) -> BestNote | None:
     """Where the best combination was chosen, and whether that differs from this study."""
     best = settings.best
     if best is None:
-        return ""
+        return None
     if best.depth is None:
-        return f"{best.method.name} is the combination given by --best-sampler."
+        return BestNote(best.method.name, True)
     w, h = settings.resolution
     depth = settings.depth.max_depth
     here_depth = depth if depth is not None else DEFAULT_DEPTH
-    where = ", ".join(p for p in (f"max_depth {best.depth}",
-                                  f"{best.spp} spp" if best.spp else "",
-                                  best.resolution or "") if p)
-    here = f"max_depth {here_depth}, {settings.spp} spp, {w}x{h}"
-    text = (f"{best.method.name} is the best combination the sampler study found: bsdf+nee "
-            f"with its most efficient sampler, chosen at {where}; this study runs at {here}.")
     differs = (best.spp not in (None, settings.spp) or best.depth != here_depth
                or best.resolution not in (None, f"{w}x{h}"))
-    if differs:
-        text += (" A winner picked at another count or depth is not claimed to be the best "
-                 "here: its row in the conclusion says how it does at this study's count.")
-    return text
+    return BestNote(best.method.name, False, best.depth, best.spp, best.resolution,
+                    here_depth, settings.spp, f"{w}x{h}", differs)

@@ -10,7 +10,7 @@ import os
 import time
 from dataclasses import dataclass
 
-from .. import files, figures, metrics, stats
+from .. import files, figures, metrics, prose, stats
 from .. import report as rep
 from .. import jobs
 from .conclusion import BOUNDS, HEADER as CONCLUSION_HEADER, ratio_cells
@@ -45,6 +45,28 @@ EFFICIENCY_HEADER = ["method", "spp", "repeats", "seconds", "MSE", "MSE_lo", "MS
                      "equal-time relative efficiency_hi", BOUNDS]
 
 
+#: Where the best combination was chosen (:class:`~.convergence_analysis.BestNote`).
+BEST_NOTE = """
+{% if note.given %}{{ note.method }} is the combination given by --best-sampler.
+{% else %}
+{{ note.method }} is the best combination the sampler study found: bsdf+nee with its most
+efficient sampler, chosen at {{ where | join(", ") }}; this study runs at max_depth
+{{ note.here_depth }}, {{ note.here_spp }} spp, {{ note.here_resolution }}.
+{% if note.differs %} A winner picked at another count or depth is not claimed to be the
+best here: its row in the conclusion says how it does at this study's count.{% endif %}
+{% endif %}
+"""
+
+
+def best_text(note) -> str:
+    """The best combination's note as a sentence ("" without one)."""
+    if note is None:
+        return ""
+    where = [p for p in (f"max_depth {note.depth}", f"{note.spp} spp" if note.spp else "",
+                         note.resolution or "") if p]
+    return prose.say(BEST_NOTE, note=note, where=where)
+
+
 def _stem(method: str, spp: int) -> str:
     return f"{NAME}/{method}/spp{spp:05d}"
 
@@ -63,7 +85,7 @@ def intro(ctx: Context, result: Result) -> list[dict]:
         f"noise is given as an upper bound.\n\n"
         f"Times are warm render times in the timed configuration (JIT compilation excluded), "
         f"cumulative over passes. Intervals: {stats.LEVEL:.0%}, {stats.METHOD}.\n\n"
-        + (result.best_note or
+        + (best_text(result.best_note) or
            "The sampler study's winner is not among the methods (run the sampler study "
            "first, as run_all does, or give --best-sampler)."))]
 
@@ -211,4 +233,5 @@ def report(ctx: Context, result: Result) -> None:
                       "efficiency_metric": convergence_analysis.METRIC,
                       "conclusion": [dict(zip(CONCLUSION_HEADER, row))
                                      for row in conclusion_rows(result.conclusion)],
-                      "sentences": result.sentences, "best_combination": result.best_note})
+                      "sentences": result.sentences,
+                      "best_combination": best_text(result.best_note)})

@@ -8,9 +8,12 @@
   difference with a 99% confidence interval and the fraction of pixel values
   passing a per-pixel z-test (expected about 99%).
 
-The study runs in four steps, data flowing one way: :func:`plan` (jobs as data),
-:func:`measure` (plain numbers from the store), :func:`.writeup_analysis.analyse` (pure:
-every ratio, interval, verdict and sentence) and :func:`.writeup_report.report`.
+The study is declared on the experiment engine (:func:`declare`: one declaration per
+method and pass, each method's ladder to the counts of its pairs); :func:`measure` renders
+them (resuming; the jobs with the passes the bias checks need, :func:`jobs`) and measures
+them (the engine's errors per repeat, the first repeat's passes for the variances), then
+:func:`.writeup_analysis.analyse` (pure: every ratio, interval, verdict and sentence) and
+:func:`.writeup_report.report`.
 :class:`WriteupSettings` is made from the command line in one place (:func:`settings_from`).
 
     python -m experiments.writeup --help
@@ -18,10 +21,10 @@ every ratio, interval, verdict and sentence) and :func:`.writeup_report.report`.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from experiments.lib import cli, metrics
-from experiments.lib.jobs import Job
+from experiments.lib.engine import Budget, Declaration, Engine, SceneSetup
 from experiments.lib.studies import StudySpec, register_study
 from experiments.lib.studies import writeup_analysis
 from experiments.lib.studies import writeup_report
@@ -82,39 +85,40 @@ def settings_from(args) -> WriteupSettings:
                            full_spp=args.full_spp)
 
 
-# ------------------------------------------------------------------ plan
+# ------------------------------------------------------------------ declarations
 
 @dataclass(frozen=True)
 class Plan:
-    reference: list
+    """The declarations (one per method and pass: each method renders its own ladder) and
+    their jobs, as the engine plans them (with the writeup's passes)."""
     pairs: tuple                # (a, b, spp) of the short figures
-    ladders: dict               # method name -> [ladder per repeat] (short figures)
     methods: dict               # method name -> Method
+    resolution: tuple
+    short: tuple                # Declarations of the short figures
+    full: tuple = ()            # ... and of the --full checks
     full_pairs: tuple = ()      # (a, b) of the --full checks
-    full_reference: list = ()
-    full_ladders: dict = None   # method name -> ladder (one run)
     full_spp: int = 0
-
-    def short_jobs(self) -> list[Job]:
-        return [j for reps in self.ladders.values() for jobs in reps for j in jobs]
-
-    def full_jobs(self) -> list[Job]:
-        return list(self.full_reference) + [j for jobs in (self.full_ladders or {}).values()
-                                            for j in jobs]
+    full_resolution: tuple = ()
 
 
-def _ladder(st: Study, experiment: str, method, targets, resolution, pass_spp: int,
-            repeat: int = 0) -> list[Job]:
-    """The ladder of ``method`` to ``targets`` (a deterministic method also to 1/4 and 1/2
-    of the last, for its convergence check); ``repeat``: an independent randomization."""
+def _targets(method, targets) -> tuple:
+    """``targets``, and for a deterministic method also 1/4 and 1/2 of the last (for its
+    convergence check)."""
     targets = set(targets)
     if method.deterministic:
         targets |= {max(1, max(targets) // 4), max(1, max(targets) // 2)}
-    return st.ladder(repeat_prefix(f"{experiment}/{method.name}", repeat), method,
-                     sorted(targets), resolution=resolution, pass_spp=pass_spp)
+    return tuple(sorted(targets))
 
 
-def plan(st: Study, settings: WriteupSettings) -> Plan:
+def _declaration(name: str, method, scene: SceneSetup, targets, repeats: int) -> Declaration:
+    return Declaration(name, (method,), (scene,), (Budget.progressive(_targets(
+        method, targets)),), repeats, key=lambda decl, cell: f"{decl.name}/{cell.method}")
+
+
+def declare(settings: WriteupSettings) -> Plan:
+    """Each method of the short pairs renders a ladder to the counts of the pairs it is
+    in, --repeats times; with --full, those of the full pairs render one ladder to
+    --full-spp at --full-resolution in jobs of 10 passes."""
     methods = {m.name: m for m in settings.methods}
     pairs = tuple((a, b, getattr(settings, opt)) for a, b, opt in SHORT_PAIRS
                   if a in methods and b in methods)
@@ -122,22 +126,33 @@ def plan(st: Study, settings: WriteupSettings) -> Plan:
     for a, b, spp in pairs:
         for name in (a, b):
             wanted.setdefault(name, set()).add(spp)
-    # 1-spp passes in the first repeat: the spread of its passes gives the per-pixel
-    # variances of the bias check; the other repeats only enter the expected errors
-    ladders = {n: [_ladder(st, NAME, methods[n], t, settings.resolution, 1 if r == 0 else 0, r)
-                   for r in range(st.repeats_of(methods[n]))] for n, t in wanted.items()}
-    result = Plan(st.reference_jobs(), pairs, ladders, methods)
+    scene = SceneSetup("short", settings.info, tuple(settings.resolution), settings.depth)
+    short = tuple(_declaration(NAME, methods[n], scene, t, settings.repeats)
+                  for n, t in wanted.items())
     full_pairs = tuple((a, b) for a, b in FULL_PAIRS if a in methods and b in methods)
     if not settings.full or not full_pairs:
-        return result
-    pass_spp = max(1, settings.full_spp // FULL_PASSES)
-    chunk = pass_spp * 10                     # 10 passes per job: an interruption loses little
+        return Plan(pairs, methods, scene.resolution, short)
+    # 10 passes per job: an interruption loses little
+    chunk = max(1, settings.full_spp // FULL_PASSES) * 10
     targets = list(range(chunk, settings.full_spp, chunk)) + [settings.full_spp]
-    full = {n: _ladder(st, NAME + "_full", methods[n], targets, settings.full_resolution,
-                       pass_spp) for n in dict.fromkeys(x for p in full_pairs for x in p)}
-    return Plan(result.reference, pairs, ladders, methods, full_pairs,
-                st.reference_jobs(resolution=settings.full_resolution), full,
-                settings.full_spp)
+    full_scene = replace(scene, name="full", resolution=tuple(settings.full_resolution))
+    full = tuple(_declaration(NAME + "_full", methods[n], full_scene, targets, 1)
+                 for n in dict.fromkeys(x for p in full_pairs for x in p))
+    return Plan(pairs, methods, scene.resolution, short, full, full_pairs, settings.full_spp,
+                full_scene.resolution)
+
+
+def jobs(st: Study, declaration: Declaration, pass_spp) -> dict:
+    """:meth:`Engine.jobs` of a one-budget declaration with passes of ``pass_spp(repeat)``
+    samples (the spread of the passes gives the per-pixel variances of the bias checks;
+    the engine's jobs have no passes)."""
+    budget, out = declaration.budgets[0], {}
+    for cell, setup, method in declaration.cells(budget):
+        out[cell] = [st.ladder(repeat_prefix(declaration.key(declaration, cell), r), method,
+                               budget.ladder, info=setup.info, depth=setup.depth,
+                               resolution=setup.resolution, pass_spp=pass_spp(r))
+                     for r in range(1 if method.deterministic else declaration.repeats)]
+    return out
 
 
 # ------------------------------------------------------------------ measure
@@ -151,21 +166,39 @@ def _images(st: Study, jobs) -> dict:
     return dict(zip(targets, st.accumulate(jobs)))
 
 
+def _reference(st: Study, resolution: tuple, label: str):
+    """The reference at ``resolution`` (rendered where the reference store lacks it) as
+    accumulated chunks (its mean, and the per-pixel variance of its mean that the checks
+    need), and its metadata."""
+    chunks = st.reference_jobs(resolution=resolution)
+    st.run(chunks, f"{NAME}: {label}")
+    return st.accumulate(chunks)[-1], st.reference(chunks)[1]
+
+
 def measure_short(st: Study, plan: Plan) -> tuple:
     """The short pairs as numbers, and the images the report shows."""
-    accs = st.accumulate(plan.reference)
-    ref, ref_var = accs[-1].mean, accs[-1].variance_of_mean()
-    repeats = {n: [_images(st, jobs) for jobs in reps] for n, reps in plan.ladders.items()}
-    renders = {n: reps[0] for n, reps in repeats.items()}
+    reference, meta = _reference(st, plan.resolution, "reference")
+    ref, ref_var = reference.mean, reference.variance_of_mean()
+    refs = {("short", None): (ref, meta)}
+    planned = {d.methods[0].name: jobs(st, d, lambda r: 1 if r == 0 else 0)
+               for d in plan.short}
+    st.run([j for cells in planned.values() for reps in cells.values() for ladder in reps
+            for j in ladder], f"{NAME}: figures")
+    errors, renders = {}, {}
+    for d in plan.short:
+        name, cells = d.methods[0].name, planned[d.methods[0].name]
+        rungs = dict(zip(d.budgets[0].ladder, zip(*next(iter(Engine(st).measure(
+            d, {d.budgets[0].name: cells}, refs).runs.values())))))
+        errors[name] = {spp: tuple(run.mse for run in runs) for spp, runs in rungs.items()}
+        renders[name] = _images(st, next(iter(cells.values()))[0])   # the first repeat's
     pairs, shown = [], {}
     for a, b, spp in plan.pairs:
         sides = []
         for n in (a, b):
             image = renders[n][spp].mean
             shown[(n, spp)] = image
-            sides.append(writeup_analysis.Side(n, st.per_repeat(metrics.mse(r[spp].mean, ref)
-                                                 for r in repeats[n]),
-                                metrics.rmse(image, ref), plan.methods[n].deterministic))
+            sides.append(writeup_analysis.Side(n, errors[n][spp], metrics.rmse(image, ref),
+                                               plan.methods[n].deterministic))
         if sides[0].deterministic:
             spps = sorted(renders[a])
             check = metrics.deterministic_check(spps, [renders[a][s].mean for s in spps],
@@ -175,13 +208,17 @@ def measure_short(st: Study, plan: Plan) -> tuple:
             check = metrics.bias_check(acc_a.mean, acc_a.variance_of_mean(), acc_b.mean,
                                        acc_b.variance_of_mean())
         pairs.append(writeup_analysis.PairMeasured(sides[0], sides[1], spp, check))
-    return pairs, ref, ref_var, shown
+    return pairs, ref, ref_var, shown, meta
 
 
 def measure_full(st: Study, plan: Plan) -> tuple:
     """The --full checks as numbers, and their images (with the z-maps' inputs)."""
-    renders = {n: _images(st, jobs) for n, jobs in plan.full_ladders.items()}
-    ref = st.accumulate(list(plan.full_reference))[-1]
+    ref, _ = _reference(st, plan.full_resolution, "--full reference")
+    pass_spp = max(1, plan.full_spp // FULL_PASSES)
+    ladders = {d.methods[0].name: next(iter(jobs(st, d, lambda r: pass_spp).values()))[0]
+               for d in plan.full}
+    st.run([j for ladder in ladders.values() for j in ladder], f"{NAME}: --full")
+    renders = {n: _images(st, ladder) for n, ladder in ladders.items()}
     out, shown = [], {}
     for a, b in plan.full_pairs:
         acc_a, acc_b = renders[a][plan.full_spp], renders[b][plan.full_spp]
@@ -210,9 +247,9 @@ class Images:
 
 
 def measure(st: Study, plan: Plan) -> writeup_analysis.Measured:
-    pairs, ref, ref_var, shown = measure_short(st, plan)
+    """Render (resuming) what the stores lack and measure it."""
+    pairs, ref, ref_var, shown, meta = measure_short(st, plan)
     full, full_ref, full_shown = measure_full(st, plan) if plan.full_pairs else ([], None, {})
-    _, meta = st.reference(plan.reference)
     return writeup_analysis.Measured(pairs, full, float(ref_var.mean()), st.repeats,
                       Images(ref, shown, full_ref, full_shown),
                       {k: v for k, v in meta.items() if k != "relmse_floor_map"})
@@ -224,13 +261,7 @@ def run_settings(settings: WriteupSettings) -> writeup_analysis.Result:
     """The whole study from typed settings; returns the analysis."""
     start = time.perf_counter()
     st = Study(settings)
-    the_plan = plan(st, settings)
-    st.run(the_plan.reference, f"{NAME}: reference")
-    if the_plan.pairs:
-        st.run(the_plan.short_jobs(), f"{NAME}: figures")
-    if the_plan.full_pairs:
-        st.run(the_plan.full_jobs(), f"{NAME}: --full")
-    measured = measure(st, the_plan)
+    measured = measure(st, declare(settings))
     result = writeup_analysis.analyse(measured, settings)
     writeup_report.report(writeup_report.Context(settings, st, measured, TITLE, ORDER, start),
                           result)
