@@ -11,7 +11,7 @@ import numpy as np
 from .. import figures, files, metrics, report, stats
 from ..execute import VIEW_CACHE
 from . import suite_analysis
-from .suite_plan import NAME, ORDER, TITLE
+from .suite_plan import NAME, ORDER, TIME, TITLE
 
 g = stats.g
 BASELINE_WHY = ("Mitsuba's own path tracer (next-event estimation + MIS), what a user would "
@@ -108,24 +108,23 @@ def bias_rows(results: dict) -> list[list]:
             for name, r in results.items() for m, c in r.cells.items() if c.bias]
 
 
-def images_of(st, sp, methods) -> list[tuple[str, np.ndarray]]:
+def images_of(sp, measured, methods) -> list[tuple[str, np.ndarray]]:
     """The first repeat's equal-time image of every compared method."""
-    return [(m, st.store.get(sp.cells[m].equal_time[0].key).image.astype(np.float64))
-            for m in methods]
+    return [(m, measured.final(sp.cell(m, TIME))[0].image) for m in methods]
 
 
-def error_maps(st, sp, methods, ref) -> list[np.ndarray]:
+def error_maps(sp, measured, methods, ref) -> list[np.ndarray]:
     """Per method the relMSE map averaged over its equal-time repeats."""
-    return [np.mean([metrics.relmse_map(st.store.get(j.key).image.astype(np.float64), ref)
-                     for j in sp.cells[m].equal_time], axis=0) for m in methods]
+    return [np.mean([metrics.relmse_map(run.image, ref)
+                     for run in measured.final(sp.cell(m, TIME))], axis=0) for m in methods]
 
 
-def crop_block(cfg, st, sp, r: suite_analysis.SceneResult, ref) -> dict:
+def crop_block(cfg, sp, measured, r: suite_analysis.SceneResult, ref) -> dict:
     methods = list(r.cells)
-    maps = error_maps(st, sp, methods, ref.image)
+    maps = error_maps(sp, measured, methods, ref.image)
     boxes = suite_analysis.crop_boxes(maps, max(4, min(sp.width, sp.height) // 3))
     crops = []
-    for (m, image), emap in zip(images_of(st, sp, methods), maps):
+    for (m, image), emap in zip(images_of(sp, measured, methods), maps):
         first = metrics.relmse_map(image, ref.image)
         caps = [f"relMSE {g(float(first[y:y + h, x:x + w].mean()))}\n"
                 f"x{r.cells[m].relative['equal_time'].short().split(' [')[0]}"
@@ -142,8 +141,8 @@ def crop_block(cfg, st, sp, r: suite_analysis.SceneResult, ref) -> dict:
         f"equal-time efficiency over {r.baseline} ('x'); PDF: {NAME}/crops/{sp.name}.pdf")
 
 
-def viewer_block(cfg, st, sp, r: suite_analysis.SceneResult, ref) -> dict:
-    images = images_of(st, sp, list(r.cells))
+def viewer_block(cfg, sp, measured, r: suite_analysis.SceneResult, ref) -> dict:
+    images = images_of(sp, measured, list(r.cells))
     notes = [f"{r.cells[m].spp['equal_time']} spp · relMSE "
              f"{r.cells[m].errors['equal_time']['relmse'].text()} · x"
              f"{r.cells[m].relative['equal_time'].short()} over {r.baseline}" for m, _ in images]
@@ -204,7 +203,7 @@ def timing_text(clock, analysis: tuple[float, float], cfg) -> str:
           f"thread of this process.")
 
 
-def write(cfg, st, plans, numbers, refs, results, viewers, failed, clock, since,
+def write(cfg, st, plans, numbers, refs, results, viewers, measured, failed, clock, since,
           start) -> dict:
     out, blocks = cfg.out, []
     by_name = {sp.name: sp for sp in plans}
@@ -259,7 +258,7 @@ def write(cfg, st, plans, numbers, refs, results, viewers, failed, clock, since,
         if sp.header_note:
             extra.append(f"Note: {sp.header_note}.")
         blocks += [report.text(lead + " ".join(list(r.sentences) + extra)),
-                   viewers[name], crop_block(cfg, st, sp, r, ref)]
+                   viewers[name], crop_block(cfg, sp, measured[name], r, ref)]
     fails = [[n, "(scene)", e] for n, e in failed.items()]
     fails += [[n, m, e] for n, r in results.items() for m, e in r.failed.items()]
     if fails:
@@ -290,14 +289,12 @@ def write(cfg, st, plans, numbers, refs, results, viewers, failed, clock, since,
                                                              f"{cfg.max_size}"),
                 "reference": f"{cfg.reference_method}, >= {cfg.reference_spp} spp (cap "
                              f"{cfg.reference_max_spp}), chunks of " + (
-                    f"{cfg.reference_chunk} spp" if cfg.reference_chunk else
                     ", ".join(sorted({f"{sp.ref.chunk} spp" for sp in plans if sp.ref}))
                     or "-"),
                 "reference store": cfg.reference_root, "variant": cfg.variant,
                 "seed": cfg.seed, "intervals": f"{stats.LEVEL:.0%}, {stats.METHOD}",
                 "render times measured on": st.timed_on(
-                    [j for sp in plans for c in sp.cells.values() for j in c.all()
-                     if st.store.has(j.key)])}
+                    [j for sp in plans for j in sp.all_jobs() if st.store.has(j.key)])}
     report.write_section(out, NAME, TITLE, ORDER, settings, blocks, cfg.variant,
                          time.perf_counter() - start)
     return summary
