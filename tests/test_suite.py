@@ -9,6 +9,7 @@ from __future__ import annotations
 import html
 import json
 import shutil
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -277,13 +278,24 @@ def test_relmse_rejected_against_a_hand_computed_case():
     assert metrics.relmse_rejected(image, ref, share=0.0) > 10 * kept
 
 
-def test_equal_time_count_is_the_budgets_power_of_two():
-    cfg = S.settings(S.parse(["--quick", "--spp", "16", "--time-budget", "0.1"]))
-    assert S.suite_plan.equal_time_spp(cfg, [0.1 / 45]) == 32         # 45 spp: nearest power 32
-    assert S.suite_plan.equal_time_spp(cfg, [0.1 / 46, 0.1 / 100]) == 64   # the repeats' mean
-    assert S.suite_plan.equal_time_spp(cfg, [0.1 / 17]) == 16
-    assert S.suite_plan.equal_time_spp(cfg, [10.0]) == 1
-    assert S.suite_plan.equal_time_spp(cfg, [1e-9]) == S.suite_plan.MAX_EQUAL_TIME_SPP
+def test_equal_time_count_is_the_budgets_power_of_two(tmp_path):
+    """The suite declares equal time to the engine: the count from the equal-spp renders'
+    cost per sample (the repeats' mean), rounded to the nearest power of two, capped."""
+    cfg = S.settings(S.parse(["--quick", "--spp", "16", "--time-budget", "0.1",
+                              "--out", str(tmp_path)]))
+    budget = S.suite_plan.declaration(cfg, S.suite_plan.plan_scenes(cfg)[0]).budgets[1]
+    engine = S.Engine(S.Study(cfg))
+
+    def count(*per_sample):         # one render of 16 spp per repeat at these s per spp
+        return engine.equal_time_spp(budget, [[SimpleNamespace(
+            spp=16, kernel_seconds=16 * b, host_seconds=0.0, wall_seconds=0.0)]
+            for b in per_sample])
+    assert (budget.name, budget.after) == ("equal-time", "equal-spp")
+    assert count(0.1 / 45) == 32                                     # 45 spp: nearest power 32
+    assert count(0.1 / 46, 0.1 / 100) == 64                          # the repeats' mean
+    assert count(0.1 / 17) == 16
+    assert count(10.0) == 1
+    assert count(1e-9) == S.suite_plan.MAX_EQUAL_TIME_SPP
 
 
 def test_crop_boxes_follow_the_data():

@@ -33,6 +33,7 @@ import numpy as np
 
 import scenes as bundled
 from experiments.lib import cli, files
+from experiments.lib.engine import Engine
 from experiments.lib.execute import VIEW_CACHE
 from experiments.lib import references
 from experiments.lib import samplers
@@ -270,7 +271,7 @@ def comparable(cfg: suite_plan.Settings, sp) -> str:
     """Why a rendered scene cannot be compared ('' when it can)."""
     if sp.error:
         return sp.error
-    ok = [m for m in sp.cells if m not in sp.failed]
+    ok = [m for m in sp.methods if m not in sp.failed]
     if cfg.baseline.name not in ok:
         why = sp.failed.get(cfg.baseline.name, "not run")
         return f"the baseline {cfg.baseline} failed: {why}"
@@ -280,7 +281,7 @@ def comparable(cfg: suite_plan.Settings, sp) -> str:
     return ""
 
 
-def adequate(cfg: suite_plan.Settings, st: Study, refs: references.ReferenceStore, unit,
+def adequate(cfg: suite_plan.Settings, engine: Engine, refs: references.ReferenceStore, unit,
              clock: Clock) -> None:
     """A first measurement of each scene of ``unit``; a reference too noisy for the
     comparison is extended (once, to what its floor's 1/spp law says is needed, up to the
@@ -294,7 +295,8 @@ def adequate(cfg: suite_plan.Settings, st: Study, refs: references.ReferenceStor
         if sp.ref is None:                      # the user's EXR: nothing to extend
             continue
         ref = suite_plan.reference_of(refs, sp, None)    # every chunk cached
-        measured = suite_plan.measure_scene(cfg, st, sp, ref, flip=False)
+        measured = suite_plan.measure_scene(
+            cfg, engine.study, sp, suite_plan.measurements(engine, sp, ref), ref, flip=False)
         spp[sp.name] = suite_plan.needed_spp(measured, ref.spp, cfg.reference_max_spp)
         if spp[sp.name] > ref.spp:
             grow.append(sp)
@@ -302,12 +304,13 @@ def adequate(cfg: suite_plan.Settings, st: Study, refs: references.ReferenceStor
         clock.time("references", suite_plan.render_references, refs, cfg, grow, spp)
 
 
-def render(cfg: suite_plan.Settings, st: Study, refs: references.ReferenceStore, plans,
+def render(cfg: suite_plan.Settings, engine: Engine, refs: references.ReferenceStore, plans,
            clock: Clock) -> None:
-    """Per scene: its reference, phase 1 and phase 2 of every cell, then its reference's
-    extension where it is too noisy. A scene's cells go in groups of at most the scenes a
-    process keeps loaded (a scene loaded again compiles again), the baseline and the timed
-    pair leading the last group, their timed renders interleaved. Locally scene by scene and
+    """Per scene: its reference, the equal-spp then the equal-time budget of every cell
+    (planned by the engine from the scene's declaration), then its reference's extension
+    where it is too noisy. A scene's cells go in groups of at most the scenes a process
+    keeps loaded (a scene loaded again compiles again), the baseline and the timed pair
+    leading the last group, their timed renders interleaved. Locally scene by scene and
     group by group (each stays loaded from one step to the next); on a cluster every
     scene's step at once (they fan out)."""
     live = [sp for sp in plans if not sp.error]
@@ -317,41 +320,38 @@ def render(cfg: suite_plan.Settings, st: Study, refs: references.ReferenceStore,
         clock.time("references", suite_plan.render_references, refs, cfg, unit,
                    {sp.name: cfg.reference_spp for sp in unit})
         unit = [sp for sp in unit if not sp.error]
-        groups = []
-        for sp in unit:
-            suite_plan.plan_cells(st, cfg, sp)
-            groups += suite_plan.timing_groups(sp, first, VIEW_CACHE)
+        groups = [g for sp in unit for g in suite_plan.timing_groups(sp, first, VIEW_CACHE)]
         for batch in ([groups] if cfg.executor is not None else [[g] for g in groups]):
-            clock.time("renders", suite_plan.run_cells, st, batch, lambda c: c.equal_spp,
+            clock.time("renders", suite_plan.run_budget, engine, batch, suite_plan.SPP,
                        f"{NAME}: equal spp")
-            for sp, name, cell in (c for g in batch for c in g):
-                if name not in sp.failed:
-                    suite_plan.plan_equal_time(st, cfg, sp, name, cell)
-            clock.time("renders", suite_plan.run_cells, st, batch, lambda c: c.equal_time,
+            clock.time("renders", suite_plan.run_budget, engine, batch, suite_plan.TIME,
                        f"{NAME}: equal time")
-        adequate(cfg, st, refs, unit, clock)
+        adequate(cfg, engine, refs, unit, clock)
 
 
 def run_suite(cfg: suite_plan.Settings) -> dict:
     """Plan, render, measure, analyse and report the suite; returns summary.json's data."""
     start = time.perf_counter()
     clock = Clock()
-    st = Study(cfg)
+    engine = Engine(Study(cfg))
     refs = references.ReferenceStore(cfg.reference_root)
     plans = suite_plan.plan_scenes(cfg)
-    render(cfg, st, refs, plans, clock)
+    render(cfg, engine, refs, plans, clock)
     wall, cpu = time.perf_counter(), time.process_time()
-    numbers, results, viewers, ref_images = {}, {}, {}, {}
+    numbers, results, viewers, ref_images, measured = {}, {}, {}, {}, {}
     failed = {sp.name: sp.error for sp in plans if sp.error}
     for sp in plans:          # the final numbers with FLIP, each scene's viewer at once
         if sp.error:          # (its FLIPs are still in metrics' cache)
             continue
         ref_images[sp.name] = ref = suite_plan.reference_of(refs, sp, None)
-        numbers[sp.name] = suite_plan.measure_scene(cfg, st, sp, ref, flip=True)
+        measured[sp.name] = suite_plan.measurements(engine, sp, ref)
+        numbers[sp.name] = suite_plan.measure_scene(cfg, engine.study, sp, measured[sp.name],
+                                                    ref, flip=True)
         results[sp.name] = suite_analysis.analyse_scene(numbers[sp.name])
-        viewers[sp.name] = suite_report.viewer_block(cfg, st, sp, results[sp.name], ref)
-    return suite_report.write(cfg, st, plans, numbers, ref_images, results, viewers, failed, clock,
-                   (wall, cpu), start)
+        viewers[sp.name] = suite_report.viewer_block(cfg, sp, measured[sp.name],
+                                                     results[sp.name], ref)
+    return suite_report.write(cfg, engine.study, plans, numbers, ref_images, results, viewers,
+                              measured, failed, clock, (wall, cpu), start)
 
 
 def run(args) -> None:

@@ -8,15 +8,14 @@ render's samples and the image means (the bias check); the scene's header (hypot
 exact value). Output per scene (:class:`SceneResult`): every estimate with its interval,
 the efficiency over the baseline at both budgets (:class:`Ratio`: an interval, or a bound
 where an error is below the reference's noise), the winner or the methods that cannot be
-told apart, the hypothesis' verdict, vr_path's time per sample over path's, the bias
-check and at most three sentences. :func:`findings` sums up the scenes.
+told apart, the hypothesis' verdict, vr_path's time per sample over path's and the bias
+check, all as data: the words are the report's (:mod:`.suite_report`).
 
 Verdicts use relMSE at equal time; a method wins only where the interval of its
 efficiency over every other method excludes 1.
 """
 from __future__ import annotations
 
-import dataclasses
 import fnmatch
 import math
 from dataclasses import dataclass, field
@@ -40,8 +39,6 @@ BIAS_LEVEL = 0.99
 FLOOR_SHARE = 0.1
 #: The vr_path method whose time per sample is compared with path's on every scene.
 TIMED_PAIR = ("bsdf+nee", "path")
-#: Longest "where each method wins" paragraph, in words.
-MAX_WORDS = 80
 
 
 # ------------------------------------------------------------------ input
@@ -196,9 +193,14 @@ def rank(relative: dict, compare) -> Ranking:
 
 @dataclass(frozen=True)
 class Verdict:
+    """The hypothesis' verdict as data (the report says it in words)."""
     status: str               # held | failed | undecided | untestable | none
-    text: str
-    favoured: str | None = None
+    favoured: str | None = None     # the best favoured method
+    against: tuple = ()       # failed: the method that beats it; undecided: those it cannot
+    #                           be told from; held: the one it beats by the least
+    ratio: Ratio | None = None      # failed, held: favoured over against[0]
+    missing: str = ""         # untestable: the patterns ("favours" or "over") ...
+    patterns: tuple = ()      # ... that match no method run
 
 
 def matching(patterns, methods) -> list[str]:
@@ -210,35 +212,22 @@ def hypothesis(favours, over, relative: dict, compare) -> Verdict:
     (methods of both lists count as favoured)? held: it beats each at the interval's
     level; failed: one of them beats it; undecided: neither (the budget cannot tell)."""
     if not favours:
-        return Verdict("none", "the scene states no hypothesis")
+        return Verdict("none")
     fav = matching(favours, relative)
     opp = [m for m in matching(over, relative) if m not in fav]
     if not fav or not opp:
-        missing = "favours" if not fav else "over"
-        return Verdict("untestable", f"no method run matches its '{missing}' patterns "
-                                     f"({', '.join(favours if not fav else over)})")
+        return Verdict("untestable", missing="favours" if not fav else "over",
+                       patterns=tuple(favours if not fav else over))
     top = max(fav, key=lambda m: relative[m].score())
     ratios = {o: compare(top, o) for o in opp}
     winners = [o for o, r in ratios.items() if r.less()]
     if winners:
-        o = winners[0]
-        return Verdict("failed", f"{o} is more efficient than {top}, the best favoured "
-                                 f"method (ratio {ratios[o].text()})", top)
+        return Verdict("failed", top, (winners[0],), ratios[winners[0]])
     unclear = [o for o, r in ratios.items() if not r.greater()]
     if unclear:
-        return Verdict("undecided", f"{top}, the best favoured method, cannot be told from "
-                                    f"{_names(unclear)} at this budget", top)
+        return Verdict("undecided", top, tuple(unclear))
     weakest = min(ratios, key=lambda o: ratios[o].score())
-    return Verdict("held", f"{top} beats every method it should beat (by the least against "
-                           f"{weakest}: {ratios[weakest].text()})", top)
-
-
-def _names(methods, limit: int = 4) -> str:
-    methods = list(methods)
-    if len(methods) > limit:
-        return ", ".join(methods[:limit]) + f" and {len(methods) - limit} more"
-    return " and ".join([", ".join(methods[:-1]), methods[-1]]) if len(methods) > 1 \
-        else (methods[0] if methods else "none")
+    return Verdict("held", top, (weakest,), ratios[weakest])
 
 
 # ------------------------------------------------------------------ bias
@@ -300,7 +289,6 @@ class SceneResult:
     time_ratio: stats.Estimate | None     # TIMED_PAIR[0] / TIMED_PAIR[1] per sample
     floor_share: float        # the reference's own relMSE over the smallest measured
     floor_known: bool
-    sentences: tuple
     failed: dict
 
     @property
@@ -351,96 +339,21 @@ def analyse_scene(numbers: SceneNumbers) -> SceneResult:
                                        [list(cells[b].ns_per_sample)])
                   if a in cells and b in cells else None)
     share = floor_share(numbers)
-    partial = SceneResult(numbers.name, base, results, ranking, verdict, time_ratio, share,
-                          floor.known, (), dict(numbers.failed))
-    return dataclasses.replace(partial, sentences=tuple(sentences(partial)))
+    return SceneResult(numbers.name, base, results, ranking, verdict, time_ratio, share,
+                       floor.known, dict(numbers.failed))
 
 
-# ------------------------------------------------------------------ words
-
-VERDICT_WORDS = {"held": "held", "failed": "failed", "undecided": "is undecided",
-                 "untestable": "cannot be tested"}
-
-
-def _words(text: str) -> int:
-    return len(text.split())
-
-
-def sentences(r: SceneResult) -> list[str]:
-    """Where each method wins on this scene: at most three sentences, at most
-    :data:`MAX_WORDS` words together (the last ones are dropped to fit)."""
-    rank, base = r.ranking, r.baseline
-    out = []
-    if rank.winner:
-        w = rank.winner
-        vs = (f"{r.cells[w].relative['equal_time'].text()} times {base}'s efficiency"
-              if w != base else "ahead of every other method")
-        out.append(f"On {r.name}, {w} wins at equal time: {vs}.")
-    elif rank.ties:
-        lead = rank.ties[0]
-        best = (f"{lead}, {g(r.cells[lead].relative['equal_time'].value)} times {base}"
-                if lead != base else f"{base} itself")
-        out.append(f"On {r.name}, {_names(rank.ties)} cannot be told apart at equal time "
-                   f"(best estimate: {best}).")
-    if r.verdict.status != "none":
-        out.append(f"Its hypothesis {VERDICT_WORDS[r.verdict.status]}: {r.verdict.text}.")
-    if r.time_ratio is not None:
-        a, b = TIMED_PAIR
-        out.append(f"vr_path {a} takes {r.time_ratio.text()} of {b}'s time per sample.")
-    while len(out) > 1 and _words(" ".join(out)) > MAX_WORDS:
-        out.pop()
-    return out[:3]
-
-
-def findings(results: list[SceneResult], failed_scenes: dict) -> list[str]:
-    """The report's findings box: the best method per scene and the overall picture."""
-    if not results:
-        return [f"No scene could be compared ({len(failed_scenes)} failed)."]
-    best = "; ".join(f"{r.name}: " + (r.ranking.winner or
-                                      f"{_names(r.ranking.ties)} (cannot be told apart)")
-                     for r in results)
-    out = [f"Best method per scene at equal time (relMSE efficiency, 95% intervals): {best}."]
-    methods = list(dict.fromkeys(m for r in results for m in r.cells))
-    top = {m: sum(m in r.ranking.best() for r in results) for m in methods}
-    leaders = sorted((m for m in methods if top[m]), key=lambda m: -top[m])[:4]
-    if leaders:
-        out.append("Best or tied for best most often: " + ", ".join(
-            f"{m} ({top[m]} of {len(results)} scenes)" for m in leaders) + ".")
+def geometric_means(results: list[SceneResult]) -> dict:
+    """{method: (geometric mean of its equal-time efficiency over the baseline across the
+    scenes where it is an interval, not a bound; how many scenes)}."""
     gm = {}
-    for m in methods:
+    for m in dict.fromkeys(m for r in results for m in r.cells):
         logs = [math.log(r.cells[m].relative["equal_time"].value) for r in results
                 if m in r.cells and r.cells[m].relative["equal_time"].side == ""
                 and r.cells[m].relative["equal_time"].value > 0]
         if logs:
             gm[m] = (math.exp(sum(logs) / len(logs)), len(logs))
-    if gm:
-        base = results[0].baseline
-        order = sorted(gm, key=lambda m: -gm[m][0])
-        shown = order[:3] + [m for m in order[-2:] if m not in order[:3]]
-        out.append(f"Geometric mean of the equal-time efficiency over {base} across scenes: "
-                   + ", ".join(f"{m} {g(gm[m][0])} ({gm[m][1]} scenes)" for m in shown) + ".")
-    status = {}
-    for r in results:
-        status.setdefault(r.verdict.status, []).append(r.name)
-    words = {"held": "held", "failed": "failed", "undecided": "undecided",
-             "untestable": "could not be tested", "none": "stated none"}
-    out.append("Hypotheses: " + "; ".join(f"{words[s]} on {', '.join(n)}"
-                                          for s, n in status.items()) + ".")
-    checks = [(r.name, m, c.bias) for r in results for m, c in r.cells.items() if c.bias]
-    if checks:
-        outside = [f"{m} on {n} ({b.text()}, exact {g(b.exact)})" for n, m, b in checks
-                   if b.checked and not b.inside]
-        scenes_checked = sorted({n for n, _, _ in checks})
-        out.append(f"Bias check ({', '.join(scenes_checked)}): " + (
-            "the exact value lies inside every method's interval." if not outside else
-            "the exact value lies outside the interval of " + "; ".join(outside) + "."))
-    noisy = [r.name for r in results if not r.reference_adequate]
-    if noisy:
-        out.append(f"The reference is too noisy for a full comparison on {', '.join(noisy)} "
-                   f"(see the suite section).")
-    if failed_scenes:
-        out.append(f"Not compared: {', '.join(failed_scenes)} (errors in the suite section).")
-    return out
+    return gm
 
 
 # ------------------------------------------------------------------ crops

@@ -1,18 +1,21 @@
-"""The scene suite's plan and measurements: scenes, cells, jobs, times, numbers.
+"""The scene suite's plan and measurements: scenes, its declarations on the engine, numbers.
 
-Data flows one way: :func:`plan_scenes` reads every scene file (or records why it cannot),
-:func:`plan_cells` plans phase 1 of every cell (R runs at equal spp),
-:func:`plan_equal_time` phase 2 (R runs with the time budget's samples at the time per
-sample phase 1 measured), :func:`run_cells` renders them through the study's executor
-(cell by cell where a batch fails, so one broken scene or method stops nothing else), and
-:func:`measure_scene` reads the numbers back from the store for the pure analysis
+Data flows one way: :func:`plan_scenes` reads every scene file (or records why it cannot)
+and declares each readable scene to the experiment engine (:func:`declaration`: every
+method, R repeats, equal spp then equal time at the cost per sample the equal-spp renders
+measured, rounded to a power of two and capped); :func:`plan_budget` plans a budget's jobs
+through :class:`~..engine.Engine` (job keys and seeds from the engine's plan),
+:func:`run_cells` renders them through the study's executor (cell by cell where a batch
+fails, so one broken scene or method stops nothing else), and :func:`measure_scene` turns
+the engine's :class:`~..engine.Measurements` (against the suite's own reference: extended
+where too noisy, or the user's EXR) into the numbers of the pure analysis
 (:mod:`.suite_analysis`).
 """
 from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -20,9 +23,9 @@ import scenes as bundled
 from .. import clock, files, metrics
 from .. import references
 from .. import scenes
-from ..jobs import Job
+from ..engine import Budget, Cell, Declaration, Engine, Measurements, SceneSetup
 from ..methods import Depth, Method
-from ..study import Study, repeat_prefix
+from ..study import Study
 from . import suite_analysis
 
 NAME = "suite"
@@ -30,6 +33,8 @@ ORDER = 50
 TITLE = "Scene suite: every method on scenes that each isolate one phenomenon"
 #: Largest equal-time sample count (a very cheap scene would otherwise render thousands).
 MAX_EQUAL_TIME_SPP = 4096
+#: The budgets' names (their part of the job keys).
+SPP, TIME = "equal-spp", "equal-time"
 
 
 @dataclass(frozen=True)
@@ -58,7 +63,6 @@ class Settings:
     user_references: dict               # {scene name: EXR path}
     flip: str = "first"
     best_note: str = ""
-    reference_chunk: int | None = None   # None: references.chunk_spp_for the film
     reference_typical_spp: int | None = None     # the default cap (chunk_spp_for)
     resolution: tuple = (1, 1)          # Study's film: unused (every job names its own)
     reference_cache: str | None = None  # Study's reference store (--reference-cache)
@@ -82,18 +86,25 @@ class ScenePlan:
     depth: Depth = Depth()
     ref: references.RefSpec | None = None
     user_ref: str | None = None
-    cells: dict = field(default_factory=dict)     # {method name: CellJobs}
+    declaration: Declaration | None = None
+    jobs: dict = field(default_factory=dict)      # {budget: {Cell: [per repeat: [Job]]}}
     failed: dict = field(default_factory=dict)    # {method name: error}
 
+    @property
+    def methods(self) -> list[str]:
+        return [m.name for m in self.declaration.methods] if self.declaration else []
 
-@dataclass
-class CellJobs:
-    method: Method
-    equal_spp: list               # R runs at --spp
-    equal_time: list = field(default_factory=list)   # R runs at the time budget's spp
+    def cell(self, method: str, budget: str) -> Cell:
+        return Cell(self.name, method, budget)
 
-    def all(self) -> list:
-        return self.equal_spp + self.equal_time
+    def cell_jobs(self, method: str, budget: str) -> list:
+        """The jobs of a method's repeats at ``budget`` (none where it was not planned)."""
+        reps = self.jobs.get(budget, {}).get(self.cell(method, budget), [])
+        return [j for jobs in reps for j in jobs]
+
+    def all_jobs(self) -> list:
+        return [j for cells in self.jobs.values() for reps in cells.values()
+                for jobs in reps for j in jobs]
 
 
 def film(cfg: Settings, info: scenes.SceneInfo, user_exr: str | None) -> tuple[int, int]:
@@ -151,63 +162,54 @@ def plan_scenes(cfg: Settings) -> list[ScenePlan]:
                 continue
         sp.depth = scenes.effective_depth(sp.info, cfg.max_depth, cfg.rr_depth)
         if sp.user_ref is None:
-            chunk = cfg.reference_chunk or references.chunk_spp_for(
-                sp.width, sp.height, cfg.reference_typical_spp)
+            chunk = references.chunk_spp_for(sp.width, sp.height, cfg.reference_typical_spp)
             sp.ref = references.RefSpec(sp.info, sp.width, sp.height, sp.depth,
                                         cfg.reference_method, cfg.variant, chunk)
+        sp.declaration = declaration(cfg, sp)
     return plans
 
 
-def plan_cells(st: Study, cfg: Settings, sp: ScenePlan) -> None:
-    """Per method: R runs at equal spp (phase 1)."""
-    for m in cfg.methods:
-        sp.cells[m.name] = CellJobs(m, [st.job(
-            repeat_prefix(f"{NAME}/{sp.name}/{m.name}/equal-spp", r), m, cfg.spp,
-            info=sp.info, depth=sp.depth, resolution=(sp.width, sp.height),
-            timing_group=f"{NAME}/{sp.name}") for r in range(st.repeats_of(m))])
+def declaration(cfg: Settings, sp: ScenePlan) -> Declaration:
+    """The scene as the engine's declaration: every method, R repeats, equal spp, then equal
+    time at the cost per sample the equal-spp renders measured (the count rounded to the
+    nearest power of two: Mitsuba renders a power-of-two count with another kernel than any
+    other count, this keeps one kernel per cell; at most :data:`MAX_EQUAL_TIME_SPP`). Job
+    keys: the engine's ``suite/SCENE/METHOD/BUDGET``, timed in the group ``suite/SCENE``."""
+    return Declaration(
+        NAME, tuple(cfg.methods), (SceneSetup(sp.name, sp.info, (sp.width, sp.height),
+                                              sp.depth),),
+        (Budget.equal_spp(cfg.spp, SPP),
+         Budget.equal_time(cfg.time_budget, SPP, TIME, power_of_two=True,
+                           max_spp=MAX_EQUAL_TIME_SPP)), cfg.repeats)
 
 
-def per_sample(cfg: Settings, st: Study, cell: CellJobs) -> tuple[float, list[float]]:
-    """(a, [b per repeat]) of a cell: a the mean per-call seconds of its renders
-    (:func:`.clock.overhead`: tracing, launching), b per repeat the cost per spp (whole
-    film, :func:`.clock.cost`) of the repeat's renders at both budgets (phase 1 alone before
-    phase 2)."""
-    results = [st.store.get(j.key) for j in cell.all()]
-    a = float(np.mean([clock.overhead(r) for r in results]))
-    b = []
-    for r in range(len(cell.equal_spp)):
-        runs = [st.store.get(j.key) for j in ([cell.equal_spp[r]] + (
-            [cell.equal_time[r]] if cell.equal_time else []))]
-        b.append(clock.total(runs) / sum(x.spp for x in runs))
-    return a, b
+def plan_budget(engine: Engine, sp: ScenePlan, budget: str, methods: list[str]) -> None:
+    """Plan the jobs of ``methods`` at ``budget`` (:meth:`.Engine.jobs`); an equal-time
+    budget takes each cell's count from its equal-spp renders (or ``--replay-counts``)."""
+    decl = sp.declaration
+    chosen = replace(decl, methods=tuple(m for m in decl.methods if m.name in methods))
+    b = next(x for x in decl.budgets if x.name == budget)
+    spp = None
+    if b.timed:
+        spp = {sp.cell(m, budget): engine.replayed(decl, sp.cell(m, budget)) or
+               engine.equal_time_spp(b, [engine.study.results(jobs) for jobs in
+                                         sp.jobs[b.after][sp.cell(m, b.after)]])
+               for m in methods}
+    sp.jobs.setdefault(budget, {}).update(engine.jobs(chosen, b, spp))
 
 
-def equal_time_spp(cfg: Settings, b: list[float]) -> int:
-    """Samples per pixel of an equal-time render: --time-budget seconds of samples at ``b``
-    seconds per spp, rounded to the nearest power of two (Mitsuba renders a power-of-two
-    count with another kernel than any other count: this keeps one kernel per cell)."""
-    spp = cfg.time_budget / max(float(np.mean(b)), 1e-12)
-    return int(min(MAX_EQUAL_TIME_SPP, 2 ** max(0, round(math.log2(max(spp, 1.0))))))
-
-
-def plan_equal_time(st: Study, cfg: Settings, sp: ScenePlan, name: str,
-                    cell: CellJobs) -> None:
-    """R runs of a cell with --time-budget seconds of samples at the time per sample its
-    phase 1 measured (phase 2)."""
-    spp = equal_time_spp(cfg, per_sample(cfg, st, cell)[1])
-    cell.equal_time = [st.job(repeat_prefix(f"{NAME}/{sp.name}/{name}/equal-time", r),
-                              cell.method, spp, info=sp.info, depth=sp.depth,
-                              resolution=(sp.width, sp.height),
-                              timing_group=f"{NAME}/{sp.name}")
-                       for r in range(len(cell.equal_spp))]
+def overhead(st: Study, sp: ScenePlan, method: str) -> float:
+    """The mean per-call seconds of a cell's renders at both budgets
+    (:func:`.clock.overhead`: tracing, launching)."""
+    jobs = sp.cell_jobs(method, SPP) + sp.cell_jobs(method, TIME)
+    return float(np.mean([clock.overhead(r) for r in st.results(jobs)]))
 
 
 # ------------------------------------------------------------------ running, robustly
 
 def live_cells(plans: list[ScenePlan]) -> list[tuple]:
-    """(scene plan, method name, cell) of every cell not failed yet."""
-    return [(sp, name, cell) for sp in plans for name, cell in sp.cells.items()
-            if name not in sp.failed]
+    """(scene plan, method name) of every cell not failed yet."""
+    return [(sp, name) for sp in plans for name in sp.methods if name not in sp.failed]
 
 
 def timing_groups(sp: ScenePlan, first: tuple, size: int) -> list[list[tuple]]:
@@ -230,21 +232,24 @@ def interleaved(lists: list[list]) -> list:
     return [x[k] for k in range(max(map(len, lists), default=0)) for x in lists if k < len(x)]
 
 
-def run_cells(st: Study, groups: list[list[tuple]], jobs_of, label: str) -> None:
-    """Render the jobs ``jobs_of(cell)`` of the cells of ``groups`` (lists of (scene plan,
-    name, cell) triples; interleaved within each group) in one executor call; where that
-    fails, cell by cell, recording each failing cell's error in its scene plan (finished
-    jobs are in the store either way)."""
+def run_budget(engine: Engine, groups: list[list[tuple]], budget: str, label: str) -> None:
+    """Plan (:func:`plan_budget`) and render the jobs at ``budget`` of the cells of
+    ``groups`` (lists of (scene plan, method name) pairs; interleaved within each group) in
+    one executor call; where that fails, cell by cell, recording each failing cell's error
+    in its scene plan (finished jobs are in the store either way)."""
     groups = [[c for c in g if c[1] not in c[0].failed] for g in groups]
     cells = [c for g in groups for c in g]
+    for sp in {id(sp): sp for sp, _ in cells}.values():
+        plan_budget(engine, sp, budget, [m for s, m in cells if s is sp])
     try:
-        st.run([j for g in groups for j in interleaved([jobs_of(c) for _, _, c in g])], label)
+        engine.study.run([j for g in groups for j in interleaved(
+            [sp.cell_jobs(m, budget) for sp, m in g])], label)
         return
     except Exception:  # noqa: BLE001  (found cell by cell below)
         pass
-    for sp, name, cell in cells:
+    for sp, name in cells:
         try:
-            st.run(jobs_of(cell), f"{label} ({sp.name}, {name})")
+            engine.study.run(sp.cell_jobs(name, budget), f"{label} ({sp.name}, {name})")
         except Exception as e:  # noqa: BLE001  (listed in the report, the others go on)
             sp.failed[name] = one_line(e)
 
@@ -279,51 +284,60 @@ def reference_of(refs: references.ReferenceStore, sp: ScenePlan,
 
 # ------------------------------------------------------------------ measuring
 
-def _runs(cfg: Settings, st: Study, jobs: list[Job], ref: references.Reference, b: list[float],
+def measurements(engine: Engine, sp: ScenePlan, ref: references.Reference) -> Measurements:
+    """The engine's measurements of the scene's cells not failed, against ``ref``."""
+    planned = {budget: {cell: reps for cell, reps in cells.items()
+                        if cell.method not in sp.failed} for budget, cells in sp.jobs.items()}
+    return engine.measure(sp.declaration, planned, {(sp.name, None): (ref.image, ref.meta())})
+
+
+def _runs(cfg: Settings, runs: list, ref: references.Reference, b: list[float],
           flip: str) -> tuple[suite_analysis.Runs, float]:
-    """The numbers of one budget's repeats (deterministic: one run stands for all), and
-    the reference's own expected relMSE over the pixels the rejected relMSE kept."""
+    """The numbers of one budget's repeats (the engine's :class:`~..engine.Run` values),
+    and the reference's own expected relMSE over the pixels the rejected relMSE kept."""
     fmap = ref.floor_map()
     rel, rej, rej_floor, mse, secs, means, mvars, flips = ([] for _ in range(8))
-    results = [st.store.get(j.key) for j in jobs]
-    for r, (res, per_spp) in enumerate(zip(results, b)):
-        image = res.image.astype(np.float64)
-        rel.append(metrics.relmse(image, ref.image))
+    for run, per_spp in zip(runs, b):
+        image = run.image
+        rel.append(run.relmse)
         raw = metrics.relmse_rejected(image, ref.image)
         rej.append(raw)
         rej_floor.append(raw - metrics.relmse_rejected(image, ref.image, floor_map=fmap))
-        mse.append(metrics.mse(image, ref.image))
-        secs.append(res.spp * per_spp)
+        mse.append(run.mse)
+        secs.append(run.spp * per_spp)
         lum = image.mean(axis=-1).ravel()
         means.append(float(lum.mean()))
         mvars.append(float(lum.var(ddof=1) / lum.size) if lum.size > 1 else math.inf)
     if flip == "all":
-        flips = [metrics.flip_mean(x.image.astype(np.float64), ref.image) for x in results]
+        flips = [metrics.flip_mean(x.image, ref.image) for x in runs]
     elif flip == "first":
-        flips = [metrics.flip_mean(results[0].image.astype(np.float64), ref.image)]
-    k = cfg.repeats if len(results) == 1 else 1
-    return suite_analysis.Runs(results[0].spp, tuple(rel) * k, tuple(rej) * k, tuple(mse) * k,
-                  tuple(secs) * k, tuple(flips), tuple(means) * k,
-                  tuple(mvars) * k), float(np.mean(rej_floor))
+        flips = [metrics.flip_mean(runs[0].image, ref.image)]
+    return suite_analysis.Runs(runs[0].spp, tuple(rel), tuple(rej), tuple(mse), tuple(secs),
+                               tuple(flips), tuple(means), tuple(mvars)), \
+        float(np.mean(rej_floor))
 
 
-def measure_scene(cfg: Settings, st: Study, sp: ScenePlan, ref: references.Reference,
-                  flip: bool) -> suite_analysis.SceneNumbers:
-    """The numbers of one scene (FLIP only when ``flip``: it costs the most)."""
+def measure_scene(cfg: Settings, st: Study, sp: ScenePlan, measured: Measurements,
+                  ref: references.Reference, flip: bool) -> suite_analysis.SceneNumbers:
+    """The numbers of one scene from the engine's ``measured`` (FLIP only when ``flip``: it
+    costs the most). Time per sample per repeat: the cost (:func:`.clock.cost`, in the
+    engine's runs) of the repeat's renders at both budgets over their samples."""
     cells, rej_floors = {}, []
-    for name, cell in sp.cells.items():
+    methods = {m.name: m for m in sp.declaration.methods}
+    for name in sp.methods:
         if name in sp.failed:
             continue
-        a, b = per_sample(cfg, st, cell)
-        px = sp.width * sp.height
+        finals = {budget: measured.final(sp.cell(name, budget)) for budget in (TIME, SPP)}
+        b = [(x.cost + y.cost) / (x.spp + y.spp) for x, y in zip(finals[SPP], finals[TIME])]
         runs = {}
-        for budget, jobs in (("equal_time", cell.equal_time), ("equal_spp", cell.equal_spp)):
-            mode = ("none" if not flip else cfg.flip if budget == "equal_time" or
+        for budget, key in ((TIME, "equal_time"), (SPP, "equal_spp")):
+            mode = ("none" if not flip else cfg.flip if budget == TIME or
                     cfg.flip == "all" else "none")
-            runs[budget], fl = _runs(cfg, st, jobs, ref, b, mode)
+            runs[key], fl = _runs(cfg, finals[budget], ref, b, mode)
             rej_floors.append(fl)
-        cells[name] = suite_analysis.Cell(name, runs, tuple(x / px * 1e9 for x in b) * (
-            cfg.repeats if len(b) == 1 else 1), a, cell.method.deterministic)
+        px = sp.width * sp.height
+        cells[name] = suite_analysis.Cell(name, runs, tuple(x / px * 1e9 for x in b),
+                                          overhead(st, sp, name), methods[name].deterministic)
     floor = suite_analysis.Floor(ref.relmse_floor or 0.0,
                                  float(np.mean(rej_floors)) if rej_floors else 0.0,
                                  ref.mse_floor or 0.0, ref.floor_known)

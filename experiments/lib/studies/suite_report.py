@@ -8,10 +8,10 @@ import time
 
 import numpy as np
 
-from .. import figures, files, metrics, report, stats
+from .. import figures, files, metrics, prose, report, stats
 from ..execute import VIEW_CACHE
 from . import suite_analysis
-from .suite_plan import NAME, ORDER, TITLE
+from .suite_plan import NAME, ORDER, TIME, TITLE
 
 g = stats.g
 BASELINE_WHY = ("Mitsuba's own path tracer (next-event estimation + MIS), what a user would "
@@ -32,6 +32,114 @@ def _safe(x):
     if isinstance(x, (list, tuple)):
         return [_safe(v) for v in x]
     return x
+
+
+# ------------------------------------------------------------------ words
+
+#: Longest "where each method wins" paragraph, in words.
+MAX_WORDS = 80
+VERDICT_WORDS = {"held": "held", "failed": "failed", "undecided": "is undecided",
+                 "untestable": "cannot be tested"}
+VERDICT = {
+    "none": "the scene states no hypothesis",
+    "untestable": "no method run matches its '{{ missing }}' patterns "
+                  "({{ patterns | join(', ') }})",
+    "failed": "{{ against[0] }} is more efficient than {{ favoured }}, the best favoured "
+              "method (ratio {{ ratio.text() }})",
+    "undecided": "{{ favoured }}, the best favoured method, cannot be told from {{ names }} "
+                 "at this budget",
+    "held": "{{ favoured }} beats every method it should beat (by the least against "
+            "{{ against[0] }}: {{ ratio.text() }})"}
+WINNER = ("On {{ scene }}, {{ winner }} wins at equal time: {% if winner != base %}"
+          "{{ ratio.text() }} times {{ base }}'s efficiency{% else %}ahead of every other "
+          "method{% endif %}.")
+TIES = ("On {{ scene }}, {{ names }} cannot be told apart at equal time (best estimate: "
+        "{% if lead != base %}{{ lead }}, {{ value | g }} times {{ base }}{% else %}"
+        "{{ base }} itself{% endif %}).")
+HYPOTHESIS = "Its hypothesis {{ words }}: {{ why }}."
+TIME_RATIO = "vr_path {{ a }} takes {{ ratio.text() }} of {{ b }}'s time per sample."
+
+
+def names(methods, limit: int = 4) -> str:
+    """'a', 'a and b', 'a, b and c', at most ``limit`` named ('... and 2 more')."""
+    methods = list(methods)
+    if len(methods) > limit:
+        return ", ".join(methods[:limit]) + f" and {len(methods) - limit} more"
+    return prose.and_join(methods) if methods else "none"
+
+
+def verdict_text(v: suite_analysis.Verdict) -> str:
+    """The hypothesis' verdict in words."""
+    return prose.say(VERDICT[v.status], missing=v.missing, patterns=v.patterns,
+                     favoured=v.favoured, against=v.against, ratio=v.ratio,
+                     names=names(v.against))
+
+
+def sentences(r: suite_analysis.SceneResult) -> list[str]:
+    """Where each method wins on this scene: at most three sentences, at most
+    :data:`MAX_WORDS` words together (the last ones are dropped to fit)."""
+    rank, base, out = r.ranking, r.baseline, []
+    if rank.winner:
+        out.append(prose.say(WINNER, scene=r.name, winner=rank.winner, base=base,
+                             ratio=r.cells[rank.winner].relative["equal_time"]))
+    elif rank.ties:
+        lead = rank.ties[0]
+        out.append(prose.say(TIES, scene=r.name, names=names(rank.ties), lead=lead, base=base,
+                             value=r.cells[lead].relative["equal_time"].value))
+    if r.verdict.status != "none":
+        out.append(prose.say(HYPOTHESIS, words=VERDICT_WORDS[r.verdict.status],
+                             why=verdict_text(r.verdict)))
+    if r.time_ratio is not None:
+        a, b = suite_analysis.TIMED_PAIR
+        out.append(prose.say(TIME_RATIO, a=a, b=b, ratio=r.time_ratio))
+    while len(out) > 1 and len(" ".join(out).split()) > MAX_WORDS:
+        out.pop()
+    return out[:3]
+
+
+def findings(results: list, failed_scenes: dict) -> list[str]:
+    """The report's findings box: the best method per scene and the overall picture."""
+    if not results:
+        return [f"No scene could be compared ({len(failed_scenes)} failed)."]
+    best = "; ".join(f"{r.name}: " + (r.ranking.winner or
+                                      f"{names(r.ranking.ties)} (cannot be told apart)")
+                     for r in results)
+    out = [f"Best method per scene at equal time (relMSE efficiency, 95% intervals): {best}."]
+    methods = list(dict.fromkeys(m for r in results for m in r.cells))
+    top = {m: sum(m in r.ranking.best() for r in results) for m in methods}
+    leaders = sorted((m for m in methods if top[m]), key=lambda m: -top[m])[:4]
+    if leaders:
+        out.append("Best or tied for best most often: " + ", ".join(
+            f"{m} ({top[m]} of {len(results)} scenes)" for m in leaders) + ".")
+    gm = suite_analysis.geometric_means(results)
+    if gm:
+        order = sorted(gm, key=lambda m: -gm[m][0])
+        shown = order[:3] + [m for m in order[-2:] if m not in order[:3]]
+        out.append(f"Geometric mean of the equal-time efficiency over {results[0].baseline} "
+                   f"across scenes: " + ", ".join(f"{m} {g(gm[m][0])} ({gm[m][1]} scenes)"
+                                                  for m in shown) + ".")
+    status = {}
+    for r in results:
+        status.setdefault(r.verdict.status, []).append(r.name)
+    words = {"held": "held", "failed": "failed", "undecided": "undecided",
+             "untestable": "could not be tested", "none": "stated none"}
+    out.append("Hypotheses: " + "; ".join(f"{words[s]} on {', '.join(n)}"
+                                          for s, n in status.items()) + ".")
+    checks = [(r.name, m, c.bias) for r in results for m, c in r.cells.items() if c.bias]
+    if checks:
+        outside = [f"{m} on {n} ({b.text()}, exact {g(b.exact)})" for n, m, b in checks
+                   if b.checked and not b.inside]
+        scenes_checked = sorted({n for n, _, _ in checks})
+        out.append(f"Bias check ({', '.join(scenes_checked)}): " + (
+            "the exact value lies inside every method's interval." if not outside else
+            "the exact value lies outside the interval of " + "; ".join(outside) + "."))
+    noisy = [r.name for r in results if not r.reference_adequate]
+    if noisy:
+        out.append(f"The reference is too noisy for a full comparison on {', '.join(noisy)} "
+                   f"(see the suite section).")
+    if failed_scenes:
+        out.append(f"Not compared: {', '.join(failed_scenes)} (errors in the suite section).")
+    return out
 
 
 # ------------------------------------------------------------------ the matrix
@@ -98,7 +206,7 @@ def scene_row(r: suite_analysis.SceneResult, header, numbers: suite_analysis.Sce
                  + ("" if r.reference_adequate else " (too noisy)")
                  if ref.floor_known else f"user's EXR (own error unknown)")
     return [r.name, header.isolates if header else "(no header)", best, r.verdict.status,
-            r.verdict.text, ratio, reference]
+            verdict_text(r.verdict), ratio, reference]
 
 
 def bias_rows(results: dict) -> list[list]:
@@ -108,24 +216,23 @@ def bias_rows(results: dict) -> list[list]:
             for name, r in results.items() for m, c in r.cells.items() if c.bias]
 
 
-def images_of(st, sp, methods) -> list[tuple[str, np.ndarray]]:
+def images_of(sp, measured, methods) -> list[tuple[str, np.ndarray]]:
     """The first repeat's equal-time image of every compared method."""
-    return [(m, st.store.get(sp.cells[m].equal_time[0].key).image.astype(np.float64))
-            for m in methods]
+    return [(m, measured.final(sp.cell(m, TIME))[0].image) for m in methods]
 
 
-def error_maps(st, sp, methods, ref) -> list[np.ndarray]:
+def error_maps(sp, measured, methods, ref) -> list[np.ndarray]:
     """Per method the relMSE map averaged over its equal-time repeats."""
-    return [np.mean([metrics.relmse_map(st.store.get(j.key).image.astype(np.float64), ref)
-                     for j in sp.cells[m].equal_time], axis=0) for m in methods]
+    return [np.mean([metrics.relmse_map(run.image, ref)
+                     for run in measured.final(sp.cell(m, TIME))], axis=0) for m in methods]
 
 
-def crop_block(cfg, st, sp, r: suite_analysis.SceneResult, ref) -> dict:
+def crop_block(cfg, sp, measured, r: suite_analysis.SceneResult, ref) -> dict:
     methods = list(r.cells)
-    maps = error_maps(st, sp, methods, ref.image)
+    maps = error_maps(sp, measured, methods, ref.image)
     boxes = suite_analysis.crop_boxes(maps, max(4, min(sp.width, sp.height) // 3))
     crops = []
-    for (m, image), emap in zip(images_of(st, sp, methods), maps):
+    for (m, image), emap in zip(images_of(sp, measured, methods), maps):
         first = metrics.relmse_map(image, ref.image)
         caps = [f"relMSE {g(float(first[y:y + h, x:x + w].mean()))}\n"
                 f"x{r.cells[m].relative['equal_time'].short().split(' [')[0]}"
@@ -142,8 +249,8 @@ def crop_block(cfg, st, sp, r: suite_analysis.SceneResult, ref) -> dict:
         f"equal-time efficiency over {r.baseline} ('x'); PDF: {NAME}/crops/{sp.name}.pdf")
 
 
-def viewer_block(cfg, st, sp, r: suite_analysis.SceneResult, ref) -> dict:
-    images = images_of(st, sp, list(r.cells))
+def viewer_block(cfg, sp, measured, r: suite_analysis.SceneResult, ref) -> dict:
+    images = images_of(sp, measured, list(r.cells))
     notes = [f"{r.cells[m].spp['equal_time']} spp · relMSE "
              f"{r.cells[m].errors['equal_time']['relmse'].text()} · x"
              f"{r.cells[m].relative['equal_time'].short()} over {r.baseline}" for m, _ in images]
@@ -204,13 +311,13 @@ def timing_text(clock, analysis: tuple[float, float], cfg) -> str:
           f"thread of this process.")
 
 
-def write(cfg, st, plans, numbers, refs, results, viewers, failed, clock, since,
+def write(cfg, st, plans, numbers, refs, results, viewers, measured, failed, clock, since,
           start) -> dict:
     out, blocks = cfg.out, []
     by_name = {sp.name: sp for sp in plans}
     methods = [m.name for m in cfg.methods]
     blocks.append(report.text(intro(cfg, plans, numbers)))
-    found = suite_analysis.findings(list(results.values()), failed)
+    found = findings(list(results.values()), failed)
     blocks.append(report.text("Findings (also at the top of the report): " + " ".join(found)))
     if results:
         values, texts, marks, rows = matrix(results, methods)
@@ -258,8 +365,8 @@ def write(cfg, st, plans, numbers, refs, results, viewers, failed, clock, since,
             f"{', '.join(r.bounds()) or 'none'}."]
         if sp.header_note:
             extra.append(f"Note: {sp.header_note}.")
-        blocks += [report.text(lead + " ".join(list(r.sentences) + extra)),
-                   viewers[name], crop_block(cfg, st, sp, r, ref)]
+        blocks += [report.text(lead + " ".join(sentences(r) + extra)),
+                   viewers[name], crop_block(cfg, sp, measured[name], r, ref)]
     fails = [[n, "(scene)", e] for n, e in failed.items()]
     fails += [[n, m, e] for n, r in results.items() for m, e in r.failed.items()]
     if fails:
@@ -272,7 +379,8 @@ def write(cfg, st, plans, numbers, refs, results, viewers, failed, clock, since,
         "findings": found, "baseline": cfg.baseline.name, "methods": methods,
         "scenes": [{"name": n, "winner": r.ranking.winner, "ties": list(r.ranking.ties),
                     "order": list(r.ranking.order), "hypothesis": r.verdict.status,
-                    "hypothesis_text": r.verdict.text, "sentences": list(r.sentences),
+                    "hypothesis_text": verdict_text(r.verdict),
+                    "sentences": sentences(r),
                     "reference_spp": refs[n].spp, "reference_floor_share": r.floor_share,
                     "reference_adequate": r.reference_adequate,
                     **(r.time_ratio.fields("time_ratio") if r.time_ratio else {}),
@@ -290,14 +398,12 @@ def write(cfg, st, plans, numbers, refs, results, viewers, failed, clock, since,
                                                              f"{cfg.max_size}"),
                 "reference": f"{cfg.reference_method}, >= {cfg.reference_spp} spp (cap "
                              f"{cfg.reference_max_spp}), chunks of " + (
-                    f"{cfg.reference_chunk} spp" if cfg.reference_chunk else
                     ", ".join(sorted({f"{sp.ref.chunk} spp" for sp in plans if sp.ref}))
                     or "-"),
                 "reference store": cfg.reference_root, "variant": cfg.variant,
                 "seed": cfg.seed, "intervals": f"{stats.LEVEL:.0%}, {stats.METHOD}",
                 "render times measured on": st.timed_on(
-                    [j for sp in plans for c in sp.cells.values() for j in c.all()
-                     if st.store.has(j.key)])}
+                    [j for sp in plans for j in sp.all_jobs() if st.store.has(j.key)])}
     report.write_section(out, NAME, TITLE, ORDER, settings, blocks, cfg.variant,
                          time.perf_counter() - start)
     return summary
