@@ -160,3 +160,29 @@ def test_bad_declarations_are_refused():
     with pytest.raises(ValueError, match=r"repeats >= 1 \(got 0\)"):
         Declaration("x", METHODS, SCENES, BUDGETS, repeats=0)
     assert clock.NAME == "kernel time"
+
+
+def test_runs_carry_their_overhead_their_variance_and_their_jobs(local):
+    """A run's overhead is its renders' wall time the clock does not count; its per-pixel
+    variance is known only from two passes or more (the 4-spp renders here are one pass);
+    the measurements keep the jobs each cell was made of."""
+    _, _, measured = local
+    cell = Cell("cbox", "path", "equal-spp")
+    run = measured.runs[cell][0][0]
+    assert run.overhead >= 0 and run.variance is None
+    jobs = measured.jobs[cell]
+    assert len(jobs) == 2 and all(j.spp == 4 for reps in jobs for j in reps)
+    assert len(measured.all_jobs()) == sum(len(j) for reps in measured.jobs.values()
+                                           for j in reps)
+
+
+def test_a_ladder_accumulates_its_stretches(tmp_path):
+    """Budget.progressive: each rung the image of all samples up to its count, costed by
+    the clock over the stretches so far (cumulative), with a variance from their spread."""
+    declared = Declaration("engine-ladder", METHODS[1:], SCENES[:1],
+                           (Budget.progressive([1, 2, 4]),), repeats=1)
+    runs = Engine(make_study(tmp_path, repeats=1)).run(declared).runs[
+        Cell("cbox", "path", "ladder")][0]
+    assert [r.spp for r in runs] == [1, 2, 4]
+    assert runs[0].cost < runs[1].cost < runs[2].cost
+    assert runs[0].variance is None and runs[2].variance.shape == (8, 16, 3)

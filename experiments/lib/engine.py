@@ -22,12 +22,13 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Callable
 
 import numpy as np
 
 from . import clock, metrics, stats
+from .jobs import accumulate
 from .methods import Depth, Method
 from .scenes import SceneInfo
 from .plan import job_name
@@ -149,6 +150,9 @@ class Run:
     mse: float
     relmse: float
     image: np.ndarray
+    overhead: float = 0.0        # seconds the clock does not count (tracing, launching)
+    variance: np.ndarray | None = None   # per pixel, of the image (from its passes' spread;
+                                         # None with fewer than two passes)
 
 
 @dataclass
@@ -157,6 +161,11 @@ class Measurements:
     declaration: Declaration
     runs: dict                   # Cell -> [per repeat: [Run per rung (one without a ladder)]]
     references: dict             # (scene, point) -> (image, metadata with the floors)
+    jobs: dict = field(default_factory=dict)   # Cell -> [per repeat rendered: [jobs]]
+
+    def all_jobs(self) -> list:
+        """Every job the cells were made of (e.g. for :meth:`.study.Study.timed_on`)."""
+        return [j for reps in self.jobs.values() for jobs in reps for j in jobs]
 
     def reference_of(self, cell: Cell) -> tuple:
         return self.references[self._reference_key(cell)]
@@ -282,13 +291,20 @@ class Engine:
 
     def measure(self, declaration: Declaration, planned: dict, refs: dict) -> Measurements:
         """The :class:`Measurements` of rendered ``planned`` jobs against ``refs``."""
-        st = self.study
         out = Measurements(declaration, {}, refs)
         for cells in planned.values():
             for cell, reps in cells.items():
                 ref = out.reference_of(cell)[0]
-                runs = [[Run(acc.spp, acc.cost, metrics.mse(acc.mean, ref),
-                             metrics.relmse(acc.mean, ref), acc.mean)
-                         for acc in st.accumulate(jobs)] for jobs in reps]
+                runs = [self._rungs(jobs, ref) for jobs in reps]
                 out.runs[cell] = runs * (declaration.repeats if len(runs) == 1 else 1)
+                out.jobs[cell] = reps
         return out
+
+    def _rungs(self, jobs: list, ref: np.ndarray) -> list[Run]:
+        """A run's :class:`Run` per rung: the images accumulated over its jobs."""
+        results = self.study.results(jobs)
+        overheads = np.cumsum([clock.overhead(r) for r in results])
+        return [Run(acc.spp, acc.cost, metrics.mse(acc.mean, ref), metrics.relmse(acc.mean, ref),
+                    acc.mean, float(overhead),
+                    acc.variance_of_mean() if acc.passes > 1 else None)
+                for acc, overhead in zip(accumulate(results), overheads)]

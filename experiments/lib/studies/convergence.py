@@ -27,7 +27,6 @@ from dataclasses import dataclass
 
 from experiments.lib import cli, files, metrics
 from experiments.lib.engine import Budget, Cell, Declaration, Engine, Measurements, SceneSetup
-from experiments.lib.jobs import Job
 from experiments.lib.plan import doubling_targets
 from experiments.lib.methods import Method
 from experiments.lib.studies import StudySpec, register_study
@@ -143,19 +142,6 @@ def declare(settings: ConvergenceSettings) -> Declaration:
         settings.repeats, key=job_key)
 
 
-class RecordingStudy(Study):
-    """A :class:`Study` that keeps the jobs the engine runs (which machine timed them:
-    :meth:`Study.timed_on`; the engine's Measurements do not keep the jobs)."""
-
-    def __init__(self, settings):
-        super().__init__(settings)
-        self.asked: list[Job] = []
-
-    def run(self, jobs: list, label: str = "render jobs") -> int:
-        self.asked += jobs
-        return super().run(jobs, label)
-
-
 # ------------------------------------------------------------------ measure
 
 def _rung(runs: list, count: int, reference) -> convergence_analysis.Rung:
@@ -193,12 +179,13 @@ def measured_of(measurements: Measurements) -> convergence_analysis.Measured:
 def run_settings(settings: ConvergenceSettings) -> convergence_analysis.Result:
     """The whole study from typed settings; returns the analysis."""
     start = time.perf_counter()
-    st = RecordingStudy(settings)
+    st = Study(settings)
     declaration = declare(settings)
-    measured = measured_of(Engine(st).run(declaration))
+    measurements = Engine(st).run(declaration)
+    measured = measured_of(measurements)
     result = convergence_analysis.analyse(measured, settings)
     convergence_report.report(convergence_report.Context(
-        settings, st, measured, measured.targets, st.timed_on(st.asked), TITLE, ORDER, start),
+        settings, st, measured, measured.targets, st.timed_on(measurements.all_jobs()), TITLE, ORDER, start),
         result)
     return result
 
