@@ -28,7 +28,7 @@ def test_registry_lists_every_sweep_with_the_whole_protocol():
     assert SWEEPS == ("exponent", "light", "grazing", "halton")
     for name, sweep in REGISTRY.items():
         assert sweep.name == name
-        for step in ("plan", "measure", "analyse", "report"):
+        for step in ("declare", "measure", "analyse", "report"):
             assert callable(getattr(sweep, step)), (name, step)
 
 

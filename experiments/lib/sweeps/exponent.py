@@ -9,15 +9,16 @@ on the interval's lower bound); and ``mis`` against the better of the two.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from .. import metrics, report, stats
+from ..engine import Budget, Declaration, Measurements
 from ..methods import strategies
 from ..scenes import Needs, scene_variant
 from ..scene_probes import phong_mask
 from .. import figures
-from .base import (BREAK_FACTOR, NAME, Context, Run, SweepPoint, SweepReport, basis, below,
-                   budget, exceeds, g, mean_interval, onset, ratio, worst)
+from .base import (BREAK_FACTOR, NAME, Context, Run, SweepReport, basis, below, budget, cells,
+                   exceeds, g, mean_interval, onset, ratio, worst)
 
 
 @dataclass(frozen=True)
@@ -127,22 +128,28 @@ class ExponentSweep:
         """Every vr_path strategy (the list the plugin defines), no NEE, as in the writeup."""
         return list(strategies())
 
-    def plan(self, ctx: Context) -> list[SweepPoint]:
+    def declare(self, ctx: Context) -> Declaration:
+        """Every strategy at every exponent (a scene variant each), --spp split over the
+        repeats."""
         info = ctx.settings.info
-        return [ctx.point(self.name, n, scene_variant(info, ctx.scene_dir, f"exponent-{n:g}",
-                                                      {"exponent": float(n)}), self.methods())
-                for n in ctx.cfg.exponents]
 
-    def measure(self, ctx: Context, points: list[SweepPoint]) -> ExponentData:
+        def variant(n, scene):
+            return replace(scene, info=scene_variant(info, ctx.scene_dir, f"exponent-{n:g}",
+                                                     {"exponent": float(n)}))
+        return ctx.declare(self.name, ctx.cfg.exponents, variant, self.methods(),
+                           Budget.equal_spp(ctx.spp))
+
+    def measure(self, ctx: Context, measured: Measurements) -> ExponentData:
         mask = phong_mask(ctx.probe())
-        runs = {m: [] for m in self.methods()}
-        for p in points:
-            ref, meta = ctx.st.reference(p.ref_jobs)
-            for m, reps in p.jobs.items():
-                runs[m].append([ctx.read_run(jobs, m, ref, mask, meta["relmse_floor_map"])[0]
-                               for jobs in reps])
-        return ExponentData([p.x for p in points], runs, ctx.spp, int(mask.sum()),
-                            int(mask.size))
+        methods = self.methods()
+        runs = {m: [] for m in methods}
+        for i, x in enumerate(measured.declaration.sweep.values):
+            ref, meta = measured.reference_of(cells(measured, methods[0])[i][1])
+            for m in methods:
+                runs[m].append([ctx.read_run(run, m, ref, mask, meta["relmse_floor_map"])[0]
+                                for run in measured.final(cells(measured, m)[i][1])])
+        return ExponentData(list(measured.declaration.sweep.values), runs, ctx.spp,
+                            int(mask.sum()), int(mask.size))
 
     analyse = staticmethod(analyse)
 

@@ -18,7 +18,7 @@ from ..methods import strategies
 from ..scenes import Needs
 from ..scene_probes import direction_sampling_table, first_hit_sampling, phong_bsdf
 from .. import figures
-from .base import NAME, Context, SweepPoint, SweepReport, basis, below, g, onset
+from .base import NAME, Context, SweepReport, basis, below, g, onset
 
 #: Strategies whose prose is in the closing note (every strategy is in the table).
 LOBE = ("bsdf", "mis")
@@ -103,11 +103,11 @@ class GrazingSweep:
     def strategies(self) -> list[str]:
         return list(strategies())
 
-    def plan(self, ctx: Context) -> list[SweepPoint]:
-        """One point per exponent, nothing to render (the samples are drawn in measure)."""
-        return [SweepPoint(n, ctx.settings.info, [], {}) for n in ctx.cfg.grazing_exponents]
+    def declare(self, ctx: Context) -> None:
+        """Nothing to render: the samples are drawn in :meth:`measure`, per exponent."""
+        return None
 
-    def measure(self, ctx: Context, points: list[SweepPoint]) -> GrazingData:
+    def measure(self, ctx: Context, measured=None) -> GrazingData:
         import mitsuba as mi
         cfg, seed = ctx.cfg, ctx.settings.seed
         scene = ctx.probe()
@@ -115,14 +115,14 @@ class GrazingSweep:
         params = mi.traverse(bsdf)
         scene_n = float(params["exponent"][0])
         out = {}
-        for p in points:
-            params["exponent"] = float(p.x)
+        for n in cfg.grazing_exponents:
+            params["exponent"] = float(n)
             params.update()
             for s in self.strategies():
                 # repeat 0 keeps the single run's seed; repeat r draws an independent set
                 seeds = [seed] + [jobs.derive_seed(seed, NAME, self.name, r)
                                   for r in range(1, ctx.repeats)]
-                out[(s, p.x)] = direction_sampling_table(
+                out[(s, n)] = direction_sampling_table(
                     bsdf, [math.cos(math.radians(t)) for t in cfg.angles], s,
                     ctx.grazing_samples, seeds)
         params["exponent"] = scene_n

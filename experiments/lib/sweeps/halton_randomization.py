@@ -10,15 +10,15 @@ neighbour-pixel correlation of the errors (structured artifacts).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from .. import figures, metrics, report, stats
 from .. import samplers
-from ..methods import parse_method
+from ..engine import Budget, Declaration, Measurements
 from ..plan import doubling_targets
 from ..scenes import Needs
-from .base import (NAME, Context, SweepPoint, SweepReport, basis, exceeds, g, mean_interval,
-                   onset, ratio, repeat_prefix)
+from .base import (NAME, Context, SweepReport, basis, cells, exceeds, g, mean_interval, onset,
+                   ratio)
 
 
 @dataclass(frozen=True)
@@ -117,39 +117,30 @@ class HaltonSweep:
         randomizations = samplers.get("halton").randomizations
         return [strategy] + [f"{strategy}+halton:{r}" for r in randomizations]
 
-    def plan(self, ctx: Context) -> list[SweepPoint]:
-        targets = doubling_targets(ctx.halton_spp)
-        points = []
-        for d in ctx.halton_depths:
-            depth = ctx.depth(d)
-            jobs = {m: [ctx.st.ladder(repeat_prefix(f"{NAME}/halton/depth{d}/{m}", r),
-                                      parse_method(m),
-                                      targets, depth=depth, timing_group=f"{NAME}/halton")
-                        for r in range(ctx.repeats)] for m in self.methods(ctx)}
-            info = ctx.settings.info
-            points.append(SweepPoint(d, info, ctx.st.reference_jobs(info, depth), jobs,
-                                     {"depth": d}))
-        return points
+    def declare(self, ctx: Context) -> Declaration:
+        """Every method at every depth, progressive to the Halton budget per repeat (a
+        ladder of doubling counts; a deterministic method renders once)."""
+        return ctx.declare(self.name, ctx.halton_depths,
+                           lambda d, scene: replace(scene, depth=ctx.depth(d)),
+                           self.methods(ctx), Budget.progressive(doubling_targets(ctx.halton_spp)))
 
-    def measure(self, ctx: Context, points: list[SweepPoint]) -> HaltonData:
+    def measure(self, ctx: Context, measured: Measurements) -> HaltonData:
+        methods = self.methods(ctx)
         curves, corr, images = {}, {}, {}
-        for p in points:
-            d = p.x
-            ref, meta = ctx.st.reference(p.ref_jobs)
+        for i, d in enumerate(measured.declaration.sweep.values):
+            ref, meta = measured.reference_of(cells(measured, methods[0])[i][1])
             curves[d], corr[d], images[d] = {}, {}, (ref, [])
-            for m, reps in p.jobs.items():
+            for m in methods:
                 curves[d][m], corr[d][m] = [], []
-                for r, jobs in enumerate(reps):
-                    accs = ctx.st.accumulate(jobs)
-                    curves[d][m].append([(a.spp, a.cost, metrics.relmse(a.mean, ref)
-                                          - meta["relmse_floor"])
-                                         for a in accs])
-                    image = accs[-1].mean
+                for r, rungs in enumerate(measured.runs[cells(measured, m)[i][1]]):
+                    curves[d][m].append([(a.spp, a.cost, a.relmse - meta["relmse_floor"])
+                                         for a in rungs])
+                    image = rungs[-1].image
                     ctx.outliers.add(m, image, ref)
                     corr[d][m].append(metrics.neighbour_correlation(image, ref))
                     if r == 0:
                         images[d][1].append((m, image))
-        return HaltonData(self.methods(ctx)[0], curves, corr, images)
+        return HaltonData(methods[0], curves, corr, images)
 
     analyse = staticmethod(analyse)
 

@@ -8,13 +8,14 @@ the NEE method's (on the interval's lower bound).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from .. import metrics, report, stats
+from ..engine import Budget, Declaration, Measurements
 from ..scenes import Needs, scene_defaults, scene_variant
 from .. import figures
-from .base import (BREAK_FACTOR, NAME, Context, Run, SweepPoint, SweepReport, basis,
-                   budget, exceeds, g, label, mean_interval, ratio, onset, worst)
+from .base import (BREAK_FACTOR, NAME, Context, Run, SweepReport, basis, budget, cells,
+                   exceeds, g, label, mean_interval, ratio, onset, worst)
 
 
 @dataclass(frozen=True)
@@ -95,30 +96,34 @@ class LightSweep:
         nee = ("bsdf" if "bsdf" in ctx.strategies else ctx.strategies[0]) + "+nee"
         return ctx.strategies + [nee]
 
-    def plan(self, ctx: Context) -> list[SweepPoint]:
-        info = ctx.settings.info
-        defaults = scene_defaults(info.path)
-        size0, rad0 = float(defaults["light_size"]), float(defaults["light_radiance"])
-        points = []
-        for size in ctx.cfg.light_sizes:
-            radiance = rad0 * (size0 / size) ** 2
-            variant = scene_variant(info, ctx.scene_dir, f"light-{size:g}",
-                                    {"light_size": float(size), "light_radiance": radiance})
-            points.append(ctx.point(self.name, size, variant, self.methods(ctx),
-                                    {"radiance": radiance, "size0": size0, "rad0": rad0}))
-        return points
+    def lights(self, ctx: Context) -> tuple[float, float]:
+        """The scene's light size and radiance (the sweep keeps size^2 x radiance)."""
+        defaults = scene_defaults(ctx.settings.info.path)
+        return float(defaults["light_size"]), float(defaults["light_radiance"])
 
-    def measure(self, ctx: Context, points: list[SweepPoint]) -> LightData:
-        methods = self.methods(ctx)
+    def declare(self, ctx: Context) -> Declaration:
+        """Every method at every light size (a scene variant each, constant power), --spp
+        split over the repeats."""
+        info, (size0, rad0) = ctx.settings.info, self.lights(ctx)
+
+        def variant(size, scene):
+            return replace(scene, info=scene_variant(
+                info, ctx.scene_dir, f"light-{size:g}",
+                {"light_size": float(size), "light_radiance": rad0 * (size0 / size) ** 2}))
+        return ctx.declare(self.name, ctx.cfg.light_sizes, variant, self.methods(ctx),
+                           Budget.equal_spp(ctx.spp))
+
+    def measure(self, ctx: Context, measured: Measurements) -> LightData:
+        methods, (size0, rad0) = self.methods(ctx), self.lights(ctx)
+        xs = list(measured.declaration.sweep.values)
         runs = {m: [] for m in methods}
-        for p in points:
-            ref, meta = ctx.st.reference(p.ref_jobs)
-            for m, reps in p.jobs.items():
-                runs[m].append([ctx.read_run(jobs, m, ref, floor=meta["relmse_floor_map"])[0]
-                               for jobs in reps])
-        first = points[0].extra
-        return LightData([p.x for p in points], runs, methods[-1], ctx.spp,
-                         [p.extra["radiance"] for p in points], first["size0"], first["rad0"])
+        for i in range(len(xs)):
+            ref, meta = measured.reference_of(cells(measured, methods[0])[i][1])
+            for m in methods:
+                runs[m].append([ctx.read_run(run, m, ref, floor=meta["relmse_floor_map"])[0]
+                                for run in measured.final(cells(measured, m)[i][1])])
+        return LightData(xs, runs, methods[-1], ctx.spp,
+                         [rad0 * (size0 / size) ** 2 for size in xs], size0, rad0)
 
     analyse = staticmethod(analyse)
 
