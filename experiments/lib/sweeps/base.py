@@ -7,14 +7,16 @@ is an object with four steps, data flowing one way::
     declare(ctx)           -> Declaration | None  what it renders, on the experiment engine
                                                  (:mod:`..engine`; None: nothing to render)
     measure(ctx, measured) -> measurements       numbers from the engine's Measurements
-    analyse(measured)      -> result dataclass   pure: numbers in, numbers and sentences out
-    report(ctx, result)    -> SweepReport        charts, tables, prose
+    analyse(measured)      -> result dataclass   pure: numbers in, numbers and verdicts out
+    report(ctx, result)    -> SweepReport        charts, tables, prose (the words: each
+                                                 module's sentences(result), templates)
 
 Each sweep point is a scene variant or a depth (the declaration's :class:`~..engine.Sweep`),
 rendered per method and repeat, with the reference of that point; the engine plans,
 renders (resuming from the stores), costs with the one clock and measures.
 ``analyse`` takes and returns plain numbers, so tests feed it synthetic
-measurements whose conclusion is known (``tests/test_sweeps.py``).
+measurements whose conclusion is known (``tests/test_sweeps.py``); each module's
+``sentences(result)`` turns a result into words (:func:`..prose.say` over its templates).
 
 Every comparison is measured over R independent randomizations (``--repeats``):
 each (point, method) has R runs whose seeds derive from the repeat index

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
-from .. import figures, metrics, report, stats
+from .. import figures, metrics, prose, report, stats
 from .. import samplers
 from ..engine import Budget, Declaration, Measurements
 from ..plan import doubling_targets
@@ -47,9 +47,11 @@ class HaltonResult:
     repeats: int
     lines: dict               # depth -> {method: Line}
     worse_from: dict          # depth -> first spp where 'none' is worse than independent
-    sentences: list
     images: dict = field(default_factory=dict)
     worse_at: dict = field(default_factory=dict)   # depth -> every such spp
+    identical: dict = field(default_factory=dict)  # depth -> 'none''s repeats are identical
+    #: depth -> {method: Estimate of relMSE(independent) / relMSE(method) at the last spp}
+    accuracy: dict = field(default_factory=dict)
 
 
 def plain(strategy: str) -> str:
@@ -57,8 +59,10 @@ def plain(strategy: str) -> str:
 
 
 def analyse(data: HaltonData) -> HaltonResult:
-    """Pure: intervals per ladder step, slopes, the onset, and sentences."""
-    s, lines, worse, worse_at, sentences, repeats = data.strategy, {}, {}, {}, [], 1
+    """Pure: intervals per ladder step, slopes, the onset, the accuracy ratios at the last
+    step (the words: :func:`sentences`)."""
+    s, lines, worse, worse_at, repeats = data.strategy, {}, {}, {}, 1
+    identical, accuracy = {}, {}
     for d, by_method in data.curves.items():
         lines[d] = {}
         for m, reps in by_method.items():
@@ -76,26 +80,40 @@ def analyse(data: HaltonData) -> HaltonResult:
         rat = [ratio(a, b) for a, b in zip(err_of[none], err_of[indep])]
         worse_at[d] = [n for n, q in zip(ln[none].spp, rat) if exceeds(q, 1.0)]
         worse[d] = worse_at[d][0] if worse_at[d] else None
+        identical[d] = repeats > 1 and len(set(err_of[none][-1])) == 1
+        accuracy[d] = {m: ratio(err_of[indep][-1], err_of[m][-1])
+                       for m in ln if m != indep}
+    return HaltonResult(s, repeats, lines, worse, dict(data.images), worse_at, identical,
+                        accuracy)
+
+
+# ------------------------------------------------------------------ words
+
+DEPTH = """Halton at max_depth {{ d }}: without randomization ('none') relMSE after {{ last }}
+    spp is {{ plain.relmse[-1].text() }} (slope {{ plain.slope | g }}),
+    {% for ln in rand %}{{ ln.method.split(':')[-1] }} {{ ln.relmse[-1].text() }} (slope
+    {{ ln.slope | g }}), {% endfor %}independent {{ indep.relmse[-1].text() }}; 'none' is
+    worse than independent sampling {{ where }} ({{ how }}
+    {%- if identical %}; 'none' is deterministic: its repeats are identical{% endif %}).
+    {% for v in verdicts %}At {{ last }} spp, {{ v }}. {% endfor %}
+    Neighbour-pixel error correlation: none {{ '%.2f' | format(plain.corr) }},
+    {% for ln in rand %}{{ ln.method.split(':')[-1] }} {{ '%.2f' | format(ln.corr) }},
+    {% endfor %}independent {{ '%.2f' | format(indep.corr) }}."""
+
+
+def sentences(res: HaltonResult) -> list[str]:
+    """One paragraph per depth: final errors and slopes, where plain Halton is worse than
+    independent sampling, the verdicts at the last spp, the neighbour correlations."""
+    out, none, indep = [], plain(res.strategy), res.strategy
+    for d, ln in res.lines.items():
         rand = [m for m in ln if m not in (none, indep)]
-        identical = repeats > 1 and len(set(err_of[none][-1])) == 1
-        last = ln[indep].spp[-1]
-        text = (f"Halton at max_depth {d}: without randomization ('none') relMSE after {last} "
-                f"spp is {ln[none].relmse[-1].text()} (slope {g(ln[none].slope)}), "
-                + ", ".join(f"{m.split(':')[-1]} {ln[m].relmse[-1].text()} (slope "
-                            f"{g(ln[m].slope)})" for m in rand)
-                + f", independent {ln[indep].relmse[-1].text()}; 'none' is worse than "
-                  f"independent sampling " + _where(worse_at[d], ln[none].spp)
-                + f" ({basis(repeats)}"
-                + ("; 'none' is deterministic: its repeats are identical" if identical else "")
-                + "). "
-                + " ".join(f"At {last} spp, " + stats.verdict(
-                    m, indep, ratio(err_of[indep][-1], err_of[m][-1]), "accurate") + "."
-                           for m in [none] + rand)
-                + f" Neighbour-pixel error correlation: none {ln[none].corr:.2f}, "
-                + ", ".join(f"{m.split(':')[-1]} {ln[m].corr:.2f}" for m in rand)
-                + f", independent {ln[indep].corr:.2f}.")
-        sentences.append(text)
-    return HaltonResult(s, repeats, lines, worse, sentences, dict(data.images), worse_at)
+        out.append(prose.say(
+            DEPTH, d=d, last=ln[indep].spp[-1], plain=ln[none], indep=ln[indep],
+            rand=[ln[m] for m in rand], where=_where(res.worse_at[d], ln[none].spp),
+            how=basis(res.repeats), identical=res.identical[d],
+            verdicts=[stats.verdict(m, indep, res.accuracy[d][m], "accurate")
+                      for m in [none] + rand]))
+    return out
 
 
 def _where(at: list, spp: list) -> str:
@@ -145,7 +163,7 @@ class HaltonSweep:
     analyse = staticmethod(analyse)
 
     def report(self, ctx: Context, res: HaltonResult) -> SweepReport:
-        h, w = ctx.height, ctx.width
+        h, w, words = ctx.height, ctx.width, sentences(res)
         side = max(4, h // 2)
         y0, x0 = (h - side) // 2, min(w - side, w // 2 + side // 4)
         depths = list(res.lines)
@@ -190,12 +208,12 @@ class HaltonSweep:
         blocks += viewers + [
             report.image(f"{NAME}/halton_crops.png", "Image crops after the last spp: "
                          "structured artifacts of plain Halton."),
-            report.text("\n\n".join(res.sentences)),
+            report.text("\n\n".join(words)),
             report.write_table(ctx.out, f"{NAME}/halton",
                                ["max_depth", "method", "spp", "repeats", "relmse", "relmse_lo",
                                 "relmse_hi", "slope_vs_spp", "neighbour_corr"], rows,
                                "Halton sweep")]
-        return SweepReport(blocks, list(res.sentences), summary)
+        return SweepReport(blocks, words, summary)
 
 
 SWEEP = HaltonSweep()

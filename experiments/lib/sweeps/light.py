@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from .. import metrics, report, stats
+from .. import metrics, prose, report, stats
 from ..engine import Budget, Declaration, Measurements
 from ..scenes import Needs, scene_defaults, scene_variant
 from .. import figures
@@ -50,20 +50,20 @@ class LightResult:
     outliers: dict            # method -> (largest pixel, fireflies, NaN/Inf) per point
     comparisons: list
     nee_change: object        # Estimate: NEE's relMSE at the last size / at the first
-    sentences: list
+    nee_holds: bool           # NEE's change is not above BREAK_FACTOR
     radiance: list = ()       # the light's radiance per point
 
 
 def analyse(data: LightData) -> LightResult:
-    """Pure: intervals, breakdown sizes and sentences from the measured numbers."""
+    """Pure: intervals and breakdown sizes from the measured numbers (the words:
+    :func:`sentences`)."""
     xs, runs, nee = list(data.xs), data.runs, data.nee
     repeats = min(len(r) for per in runs.values() for r in per)
     err = {m: [[r.relmse for r in rs] for rs in per] for m, per in runs.items()}
     secs = {m: [[r.seconds for r in rs] for rs in per] for m, per in runs.items()}
     relmse = {m: [mean_interval(v) for v in e] for m, e in err.items()}
     seconds = {m: [sum(v) / len(v) for v in s] for m, s in secs.items()}
-    how = basis(repeats)
-    comparisons, sentences = [], []
+    comparisons = []
     for m in [k for k in runs if k != nee]:
         rat = [ratio(a, b) for a, b in zip(err[m], err[nee])]
         c = LightComparison(m, rat, metrics.first_where(xs, [exceeds(q, BREAK_FACTOR)
@@ -72,20 +72,34 @@ def analyse(data: LightData) -> LightResult:
                             stats.efficiency_ratio(err[nee][-1], secs[nee][-1], err[m][-1],
                                                    secs[m][-1]))
         comparisons.append(c)
-        sentences.append(
-            f"Light sweep, {m} without NEE: relMSE exceeds {BREAK_FACTOR:g}x {label(nee)}'s "
-            + onset("light size", c.breaks_from, g)
-            + f"; it grows {c.growth.text()}x from size {g(xs[0])} to {g(xs[-1])} (at "
-              f"{g(xs[-1])}: {rat[-1].text()}x {label(nee)}). At size {g(xs[-1])}, "
-            + stats.verdict(label(nee), m, c.efficiency_last) + f" ({how}).")
     change = ratio(err[nee][-1], err[nee][0])
-    holds = not exceeds(change, BREAK_FACTOR)
-    sentences.append(f"Light sweep, {label(nee)}: relMSE changes {change.text()}x from size "
-                     f"{g(xs[0])} to {g(xs[-1])}: next-event estimation + MIS "
-                     + ("holds." if holds else f"degrades too (more than {BREAK_FACTOR:g}x)."))
     return LightResult(xs, list(runs), nee, repeats, relmse, seconds,
                        {m: [worst(rs) for rs in per] for m, per in runs.items()},
-                       comparisons, change, sentences, list(data.radiance))
+                       comparisons, change, not exceeds(change, BREAK_FACTOR),
+                       list(data.radiance))
+
+
+# ------------------------------------------------------------------ words
+
+BREAKS = """Light sweep, {{ c.method }} without NEE: relMSE exceeds {{ '%g' | format(factor) }}x
+    {{ nee }}'s {{ breaks }}; it grows {{ c.growth.text() }}x from size {{ first | g }} to
+    {{ last | g }} (at {{ last | g }}: {{ c.ratio[-1].text() }}x {{ nee }}). At size
+    {{ last | g }}, {{ verdict }} ({{ how }})."""
+
+NEE = """Light sweep, {{ nee }}: relMSE changes {{ change.text() }}x from size {{ first | g }}
+    to {{ last | g }}: next-event estimation + MIS
+    {% if holds %}holds.{% else %}degrades too (more than {{ '%g' | format(factor) }}x).{% endif %}"""
+
+
+def sentences(res: LightResult) -> list[str]:
+    """The sweep's findings in words: each method without NEE, then the NEE method."""
+    nee, how, ends = label(res.nee), basis(res.repeats), dict(first=res.xs[0], last=res.xs[-1])
+    return [prose.say(BREAKS, c=c, nee=nee, factor=BREAK_FACTOR, how=how,
+                      breaks=onset("light size", c.breaks_from, g),
+                      verdict=stats.verdict(nee, c.method, c.efficiency_last), **ends)
+            for c in res.comparisons] + [
+        prose.say(NEE, nee=nee, change=res.nee_change, holds=res.nee_holds,
+                  factor=BREAK_FACTOR, **ends)]
 
 
 class LightSweep:
@@ -128,7 +142,7 @@ class LightSweep:
     analyse = staticmethod(analyse)
 
     def report(self, ctx: Context, res: LightResult) -> SweepReport:
-        xs, nee = res.xs, res.nee
+        xs, nee, words = res.xs, res.nee, sentences(res)
         figures.sweep_chart(ctx.path("light.png"), "light half edge (2 = whole ceiling), "
                            "constant power", xs,
                            {label(m): (res.relmse[m], res.seconds[m]) for m in res.methods},
@@ -156,10 +170,10 @@ class LightSweep:
             report.image(f"{NAME}/light.png", "relMSE and relMSE x time against the light "
                          "size (x axis reversed: smaller lights to the right; bands: 95% "
                          "intervals)."),
-            report.text("\n\n".join(res.sentences)),
+            report.text("\n\n".join(words)),
             report.write_table(ctx.out, f"{NAME}/light", header, rows, "Light-size sweep",
                                collapsed=True)]
-        return SweepReport(blocks, list(res.sentences), summary)
+        return SweepReport(blocks, words, summary)
 
 
 SWEEP = LightSweep()
