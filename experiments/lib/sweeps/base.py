@@ -252,15 +252,18 @@ class Context:
         d = self.settings.depth
         return Depth(max_depth, d.rr_depth, d.hide_emitters)
 
-    def declare(self, sweep: str, values, apply, methods, budget: Budget) -> Declaration:
+    def declare(self, sweep: str, values, apply, methods, budget: Budget,
+                point=lambda x: f"{x:g}") -> Declaration:
         """A sweep over ``values`` (``apply(value, scene)``: the scene at that point, a scene
         variant or a depth), every method of ``methods`` at ``budget``, :attr:`repeats` runs
-        each, against the reference of each point. Job keys ``stability/<sweep>/<x>/<method>
-        [/r<r>]`` (``key_of``), timed in the group ``stability/<sweep>``."""
+        each, against the reference of each point. Job keys ``stability/<sweep>/<point(x)>/
+        <method>[/r<r>]``, as before the engine; timed in the group ``stability/<sweep>``."""
         scene = SceneSetup(sweep, self.settings.info, (self.width, self.height),
                            self.settings.depth)
         return Declaration(NAME, tuple(parse_method(m) for m in methods), (scene,), (budget,),
-                           self.repeats, engine.Sweep(sweep, tuple(values), apply), key=key_of)
+                           self.repeats, engine.Sweep(sweep, tuple(values), apply),
+                           key=lambda decl, cell: f"{NAME}/{cell.scene}/{point(cell.point)}/"
+                                                  f"{cell.method}")
 
     def measure(self, declaration: Declaration) -> Measurements:
         """Render (what the stores lack) and measure ``declaration`` on the engine; keeps its
@@ -289,13 +292,6 @@ class Context:
             masked -= float(np.mean(floor[mask] if mask is not None else floor))
         return Run(whole, masked, level, run.cost,
                    o["max"], o["fireflies"], o["nonfinite"]), image
-
-
-def key_of(declaration: Declaration, cell: Cell) -> str:
-    """The job-key prefix of a sweep cell: ``stability/<sweep>/<x>/<method>`` (the halton
-    sweep: ``stability/halton/depth<d>/<method>``), as before the engine."""
-    point = f"depth{cell.point}" if cell.scene == "halton" else f"{cell.point:g}"
-    return f"{NAME}/{cell.scene}/{point}/{cell.method}"
 
 
 def cells(measured: Measurements, method: str):

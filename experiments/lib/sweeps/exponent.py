@@ -113,7 +113,8 @@ COMPARISON = """Exponent sweep, bsdf (lobe) vs {{ c.other }}: lobe sampling pays
 MIS = """Exponent sweep, mis against the better of cosine and bsdf: relMSE(mis) /
     min(relMSE(cosine), relMSE(bsdf)) =
     {% for x, q in points %}{{ q.text() }} at exponent {{ x | g }}
-    {%- if not loop.last %}, {% endif %}{% endfor %} (at most {{ worst | g }}; 1 would match the better strategy everywhere)."""
+    {%- if not loop.last %}, {% endif %}{% endfor %} (at most {{ worst | g }}; 1 would match
+    the better strategy everywhere)."""
 
 
 def sentences(res: ExponentResult) -> list[str]:

@@ -140,7 +140,8 @@ class HaltonSweep:
         ladder of doubling counts; a deterministic method renders once)."""
         return ctx.declare(self.name, ctx.halton_depths,
                            lambda d, scene: replace(scene, depth=ctx.depth(d)),
-                           self.methods(ctx), Budget.progressive(doubling_targets(ctx.halton_spp)))
+                           self.methods(ctx), Budget.progressive(doubling_targets(ctx.halton_spp)),
+                           point=lambda d: f"depth{d}")
 
     def measure(self, ctx: Context, measured: Measurements) -> HaltonData:
         methods = self.methods(ctx)

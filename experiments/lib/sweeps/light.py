@@ -88,7 +88,8 @@ BREAKS = """Light sweep, {{ c.method }} without NEE: relMSE exceeds {{ '%g' | fo
 
 NEE = """Light sweep, {{ nee }}: relMSE changes {{ change.text() }}x from size {{ first | g }}
     to {{ last | g }}: next-event estimation + MIS
-    {% if holds %}holds.{% else %}degrades too (more than {{ '%g' | format(factor) }}x).{% endif %}"""
+    {% if holds %}holds.{% else %}degrades too (more than {{ '%g' | format(factor) }}x).
+    {%- endif %}"""
 
 
 def sentences(res: LightResult) -> list[str]:
