@@ -18,6 +18,7 @@ from _paths import scene_path
 from experiments.lib.studies import stability
 from experiments.lib import methods as M
 from experiments.lib import metrics
+from experiments.lib.plan import job_name
 from experiments.lib import scenes as SC
 from experiments.lib import scene_probes as SP
 from experiments.lib import sweeps as SW
@@ -164,31 +165,47 @@ def test_first_where_and_ratio():
 
 # ----------------------------------------------------------------- plans
 
-def test_every_sweep_plans_points_of_one_shape_with_independent_repeats(tmp_path):
+def planned(ctx, declaration):
+    """{cell: [per repeat: [jobs]]} of a sweep's one budget, as the engine plans it."""
+    (budget,) = declaration.budgets
+    return ctx.engine.jobs(declaration, budget)
+
+
+def test_every_sweep_declares_cells_of_one_shape_with_independent_repeats(tmp_path):
     args = stability.parse(["--quick", "--repeats", "3", "--out", str(tmp_path / "r")])
     ctx = SW.Context(stability.settings_from(args))
-    plans, skipped = stability.plan(ctx, SW.SWEEPS)
-    assert set(plans) == set(SW.SWEEPS) and not skipped
-    for name, points in plans.items():
-        assert points and all(isinstance(p, SW.SweepPoint) for p in points), name
-        for p in points:
-            for method, runs in p.jobs.items():
-                assert len(runs) == 3                              # one run per repeat
+    declarations, skipped = stability.declare(ctx, SW.SWEEPS)
+    assert set(declarations) == set(SW.SWEEPS) and not skipped
+    assert declarations["grazing"] is None                      # measured, not rendered
+    for name in ("exponent", "light", "halton"):
+        decl = declarations[name]
+        assert decl.repeats == 3 and len(decl.sweep.values) >= 2, name
+        for cell, runs in planned(ctx, decl).items():
+            method = M.parse_method(cell.method)
+            # one run per repeat (a deterministic method: one run stands for every repeat)
+            assert len(runs) == (1 if method.deterministic else 3), (name, cell)
+            if not method.deterministic:
                 seeds = [run[0].seed for run in runs]
-                assert len(set(seeds)) == 3, (name, method)        # independent repeats
-    p = plans["exponent"][0]
+                assert len(set(seeds)) == 3, (name, cell)        # independent repeats
+            assert all(j.timing_group == f"stability/{name}" for run in runs for j in run)
+    jobs = planned(ctx, declarations["exponent"])
+    bsdf = next(runs for cell, runs in jobs.items() if cell.method == "bsdf" and cell.point == 1)
     # repeat 0 keeps the single run's key prefix (results stored before repeats are reused)
-    assert p.jobs["bsdf"][0][0].key.startswith("stability/exponent/1/bsdf-")
-    assert p.jobs["bsdf"][1][0].key.startswith("stability/exponent/1/bsdf/r1-")
+    assert bsdf[0][0].key.startswith("stability/exponent/1/bsdf-")
+    assert bsdf[1][0].key.startswith("stability/exponent/1/bsdf/r1-")
+    halton = planned(ctx, declarations["halton"])
+    assert {run[0].key.split("/spp")[0] for runs in halton.values() for run in runs[:1]} >= \
+        {job_name("stability/halton/depth2/uniform"),
+         job_name("stability/halton/depth8/uniform+halton:none")}
     single = stability.parse(["--quick", "--repeats", "1", "--out", str(tmp_path / "r")])
-    one = stability.plan(SW.Context(stability.settings_from(single)), ["exponent"])[0]["exponent"]
-    (job,), = one[0].jobs["bsdf"]
+    one_ctx = SW.Context(stability.settings_from(single))
+    one = planned(one_ctx, stability.declare(one_ctx, ["exponent"])[0]["exponent"])
+    (job,), = next(runs for cell, runs in one.items() if cell.method == "bsdf" and cell.point == 1)
     assert job.spp == single.spp == 4                   # one repeat: the whole --spp
-    assert job.seed == p.jobs["bsdf"][0][0].seed        # the same seed as repeat 0
-    assert job.key.rsplit("-", 1)[0] == p.jobs["bsdf"][0][0].key.rsplit("-", 1)[0]
+    assert job.seed == bsdf[0][0].seed                  # the same seed as repeat 0
+    assert job.key.rsplit("-", 1)[0] == bsdf[0][0].key.rsplit("-", 1)[0]
     # the --spp budget is split over the repeats (the same total cost for any R)
-    assert p.jobs["bsdf"][0][0].spp == round(4 / 3) and ctx.spp == 1
-    assert plans["grazing"][0].all_jobs() == []                  # measured, not rendered
+    assert bsdf[0][0].spp == round(4 / 3) and ctx.spp == 1
 
 
 # ----------------------------------------------------------------- end to end

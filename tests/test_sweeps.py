@@ -28,7 +28,7 @@ def test_registry_lists_every_sweep_with_the_whole_protocol():
     assert SWEEPS == ("exponent", "light", "grazing", "halton")
     for name, sweep in REGISTRY.items():
         assert sweep.name == name
-        for step in ("plan", "measure", "analyse", "report"):
+        for step in ("declare", "measure", "analyse", "report"):
             assert callable(getattr(sweep, step)), (name, step)
 
 
@@ -60,10 +60,11 @@ def exponent_data(cos=(1.0, 1.0, 30.0, 90.0, 270.0), noise=NOISE, mis=True):
 
 def test_exponent_sweep_reports_where_cosine_explodes():
     res = exponent.analyse(exponent_data())
+    words = exponent.sentences(res)
     cos = next(c for c in res.comparisons if c.other == "cosine")
     assert cos.explodes_from == 100 and cos.pays_from == 100 and cos.worse_at == []
     assert cos.relmse_ratio[2].lo < 30 < cos.relmse_ratio[2].hi
-    text = next(s for s in res.sentences if "vs cosine" in s)
+    text = next(s for s in words if "vs cosine" in s)
     assert "cosine sampling explodes (relMSE > 10x lobe sampling's) from exponent 100" in text
     assert "bsdf is more efficient than cosine by" in text
     assert "over 3 repeats" in text
@@ -71,14 +72,15 @@ def test_exponent_sweep_reports_where_cosine_explodes():
     uni = next(c for c in res.comparisons if c.other == "uniform")
     assert uni.pays_from == 1 and uni.explodes_from == 100
     assert res.mis is not None and res.mis[0].value == pytest.approx(1.2)
-    assert "relMSE(mis) / min(relMSE(cosine), relMSE(bsdf))" in res.sentences[-1]
+    assert "relMSE(mis) / min(relMSE(cosine), relMSE(bsdf))" in words[-1]
 
 
 def test_exponent_sweep_without_explosion_says_nowhere():
     res = exponent.analyse(exponent_data(cos=(1.0,) * 5, mis=False))
+    words = exponent.sentences(res)
     cos = next(c for c in res.comparisons if c.other == "cosine")
     assert cos.explodes_from is None and cos.pays_from is None
-    text = next(s for s in res.sentences if "vs cosine" in s)
+    text = next(s for s in words if "vs cosine" in s)
     assert "explodes (relMSE > 10x lobe sampling's) nowhere in the sweep" in text
     assert "bsdf and cosine are not distinguishable at this budget" in text
     assert res.mis is None
@@ -99,7 +101,8 @@ def test_exponent_onset_needs_the_interval_above_the_factor():
 
 def test_exponent_sweep_with_one_repeat_says_it_has_no_interval():
     res = exponent.analyse(exponent_data(noise=(1.0,)))
-    text = next(s for s in res.sentences if "vs cosine" in s)
+    words = exponent.sentences(res)
+    text = next(s for s in words if "vs cosine" in s)
     assert "from exponent 100" in text and "one run: no interval" in text
     assert "1 run gives no interval" in text
 
@@ -117,27 +120,30 @@ def light_data(growth=(1, 2, 4, 20, 200, 2000), nee=(1, 1, 1.1, 1.2, 1.3, 1.4)):
 
 def test_light_sweep_nee_wins_on_small_lights():
     res = light.analyse(light_data())
+    words = light.sentences(res)
     (c,) = res.comparisons
     # 20 / 1.2 = 16.7 > 10 at size 0.2, 4 / 1.1 = 3.6 at 0.5
     assert c.breaks_from == 0.2
     assert c.growth.value == pytest.approx(2000)
-    assert "relMSE exceeds 10x bsdf + NEE's from light size 0.2" in res.sentences[0]
-    assert "bsdf + NEE is more efficient than bsdf by" in res.sentences[0]
-    assert res.sentences[-1].endswith("next-event estimation + MIS holds.")
+    assert "relMSE exceeds 10x bsdf + NEE's from light size 0.2" in words[0]
+    assert "bsdf + NEE is more efficient than bsdf by" in words[0]
+    assert words[-1].endswith("next-event estimation + MIS holds.")
 
 
 def test_light_sweep_without_breakdown_negative_control():
     flat = (1, 1, 1, 1, 1, 1)
     res = light.analyse(light_data(growth=flat, nee=flat))
+    words = light.sentences(res)
     (c,) = res.comparisons
     assert c.breaks_from is None
-    assert "nowhere in the sweep" in res.sentences[0]
-    assert "bsdf + NEE and bsdf are not distinguishable at this budget" in res.sentences[0]
+    assert "nowhere in the sweep" in words[0]
+    assert "bsdf + NEE and bsdf are not distinguishable at this budget" in words[0]
 
 
 def test_light_sweep_says_when_nee_degrades_too():
     res = light.analyse(light_data(nee=(1, 2, 10, 30, 100, 300)))
-    assert "degrades too" in res.sentences[-1]
+    words = light.sentences(res)
+    assert "degrades too" in words[-1]
 
 
 # ----------------------------------------------------------------- grazing
@@ -155,6 +161,7 @@ def test_grazing_reports_the_wasted_fraction_and_the_efficiency_loss():
         ("bsdf", 100): graz([0, 0.01, 0.1, 0.6, 0.9], [1, 1.1, 1.5, 8, 50]),
         ("cosine", 100): graz([0, 0, 0, 0, 0], [5, 5, 5, 5, 5])}, samples=1000)
     res = grazing.analyse(data)
+    words = grazing.sentences(res)
     bsdf = next(c for c in res.curves if c.strategy == "bsdf")
     cosine = next(c for c in res.curves if c.strategy == "cosine")
     assert bsdf.half_from == 85 and bsdf.loss_from == 85
@@ -163,11 +170,11 @@ def test_grazing_reports_the_wasted_fraction_and_the_efficiency_loss():
     # negative control: nothing wasted, efficiency flat
     assert cosine.half_from is None and cosine.loss_from is None
     assert cosine.efficiency[-1].value == pytest.approx(1.0)
-    text = res.sentences[0]
+    text = words[0]
     assert text.startswith("Grazing, bsdf at exponent 100: 90% of the samples are wasted")
     assert "half are wasted from 85 degrees" in text
     assert "below half of normal incidence's from 85 degrees" in text
-    assert res.sentences[-1] == f"Grazing: 0 non-finite sample weights over {1000 * 3 * 5 * 2} samples."
+    assert words[-1] == f"Grazing: 0 non-finite sample weights over {1000 * 3 * 5 * 2} samples."
 
 
 def test_grazing_efficiency_loss_needs_the_interval_below_half():
@@ -203,8 +210,9 @@ def halton_data(none_errors):
 def test_halton_none_is_worse_than_independent_from_n_spp():
     # plain Halton: better at first, stuck at 0.05 from 16 spp on (independent 1/16 = 0.0625)
     res = halton_randomization.analyse(halton_data([0.5, 0.25, 0.12, 0.07, 0.05, 0.05, 0.05]))
+    words = halton_randomization.sentences(res)
     assert res.worse_from[2] == 32                      # 0.05 > 1/32 first at 32 spp
-    text = res.sentences[0]
+    text = words[0]
     assert "'none' is worse than independent sampling from 32 spp" in text
     assert "'none' is deterministic: its repeats are identical" in text
     assert "At 64 spp, uniform is more accurate than uniform+halton:none by" in text
@@ -215,11 +223,13 @@ def test_halton_none_is_worse_than_independent_from_n_spp():
 
 def test_halton_none_worse_only_at_low_spp_is_not_called_an_onset():
     res = halton_randomization.analyse(halton_data([2.0, 1.0, 0.01, 0.005, 0.002, 0.001, 0.0005]))
+    words = halton_randomization.sentences(res)
     assert res.worse_at[2] == [1, 2]
-    assert "worse than independent sampling at 1, 2 spp only" in res.sentences[0]
+    assert "worse than independent sampling at 1, 2 spp only" in words[0]
 
 
 def test_halton_none_never_worse_negative_control():
     res = halton_randomization.analyse(halton_data([0.5 / n for n in SPP]))
+    words = halton_randomization.sentences(res)
     assert res.worse_from[2] is None
-    assert "worse than independent sampling nowhere in the sweep" in res.sentences[0]
+    assert "worse than independent sampling nowhere in the sweep" in words[0]

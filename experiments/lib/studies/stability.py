@@ -73,9 +73,10 @@ def settings_from(args) -> StabilitySettings:
                              quick=bool(args.quick), config=QUICK if args.quick else NORMAL)
 
 
-def plan(ctx: Context, names) -> tuple[dict, dict]:
-    """The points of every sweep in ``names``, and the skipped ones with the reason."""
-    plans, skipped = {}, {}
+def declare(ctx: Context, names) -> tuple[dict, dict]:
+    """The declaration of every sweep in ``names`` (None: nothing to render), and the
+    skipped ones with the reason."""
+    declarations, skipped = {}, {}
     for name in names:
         sweep = REGISTRY[name]
         reason = check_scene(NAME, ctx.settings.info, sweep.needs, f"sweep '{name}'")
@@ -83,10 +84,10 @@ def plan(ctx: Context, names) -> tuple[dict, dict]:
             skipped[name] = reason
             continue
         try:
-            plans[name] = sweep.plan(ctx)
+            declarations[name] = sweep.declare(ctx)
         except Skip as e:
             skipped[name] = str(e)
-    return plans, skipped
+    return declarations, skipped
 
 
 def _json_safe(rows: list[dict]) -> list[dict]:
@@ -100,13 +101,13 @@ def run(args) -> None:
 
 
 def run_settings(settings: StabilitySettings) -> None:
-    """Plan, render, measure, analyse and report every sweep of ``settings``."""
+    """Declare, render and measure (the engine), analyse and report every sweep of
+    ``settings``."""
     start = time.perf_counter()
     ctx = Context(settings)
-    plans, skipped = plan(ctx, settings.sweeps)
-    points = [p for pts in plans.values() for p in pts]
-    jobs = [j for p in points for j in p.ref_jobs] + [j for p in points for j in p.all_jobs()]
-    ctx.st.run(jobs, f"{NAME}: sweeps")
+    declarations, skipped = declare(ctx, settings.sweeps)
+    measured = {name: None if decl is None else ctx.measure(decl)
+                for name, decl in declarations.items()}
     blocks = [report.text(
         f"Where each sampling method breaks down, on {os.path.basename(settings.scene)} at "
         f"{ctx.width}x{ctx.height} ({settings.depth.describe()}). Each sweep point is the "
@@ -125,7 +126,7 @@ def run_settings(settings: StabilitySettings) -> None:
             blocks.append(report.text(f"Sweep '{name}' skipped: {skipped[name]}."))
             continue
         sweep = REGISTRY[name]
-        part = sweep.report(ctx, sweep.analyse(sweep.measure(ctx, plans[name])))
+        part = sweep.report(ctx, sweep.analyse(sweep.measure(ctx, measured[name])))
         blocks += part.blocks
         notes += part.notes
         rows += part.rows
@@ -145,7 +146,7 @@ def run_settings(settings: StabilitySettings) -> None:
              "reference": f"{settings.reference_spp} spp, {settings.reference_method}",
              "intervals": f"{stats.LEVEL:.0%}, {stats.METHOD}",
              "breakdown factor": BREAK_FACTOR, "firefly threshold (MADs)": FIREFLY_MADS,
-             "render times measured on": ctx.st.timed_on(jobs)}
+             "render times measured on": ctx.timed_on()}
     report.write_section(settings.out, NAME, "Stability: where each method breaks down", ORDER,
                          table, blocks, settings.variant, time.perf_counter() - start)
     # machine-readable results (breakdown sentences, rows with intervals, outliers)

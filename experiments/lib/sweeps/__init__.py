@@ -1,7 +1,8 @@
 """The stability sweeps: where each sampling method breaks down (one module per sweep).
 
-Each sweep follows the protocol of :class:`.base.Sweep`: ``plan`` (typed
-:class:`.base.SweepPoint` jobs), ``measure`` (numbers from the store),
+Each sweep follows the protocol of :class:`.base.Sweep`: ``declare`` (a
+:class:`~..engine.Declaration`: the experiment engine plans, renders and measures it),
+``measure`` (numbers from the engine's :class:`~..engine.Measurements`),
 ``analyse`` (pure, tested on synthetic numbers in ``tests/test_sweeps.py``),
 ``report`` (charts with interval bands, tables with ``*_lo``/``*_hi``
 columns, prose). :data:`REGISTRY` lists them all; ``experiments.stability``
@@ -20,7 +21,7 @@ from __future__ import annotations
 
 from . import exponent, grazing, halton_randomization, light
 from .base import (BREAK_FACTOR, NAME, NORMAL, QUICK, Config, Context, Outliers, Skip, Sweep,
-                   SweepPoint, SweepReport)
+                   SweepReport)
 
 #: Every stability sweep by name, in report order.
 REGISTRY: dict[str, Sweep] = {s.name: s for s in (exponent.SWEEP, light.SWEEP, grazing.SWEEP,
@@ -28,4 +29,4 @@ REGISTRY: dict[str, Sweep] = {s.name: s for s in (exponent.SWEEP, light.SWEEP, g
 SWEEPS = tuple(REGISTRY)
 
 __all__ = ["BREAK_FACTOR", "NAME", "NORMAL", "QUICK", "REGISTRY", "SWEEPS", "Config", "Context",
-           "Outliers", "Skip", "Sweep", "SweepPoint", "SweepReport"]
+           "Outliers", "Skip", "Sweep", "SweepReport"]

@@ -1,20 +1,28 @@
-"""What every stability sweep shares: the protocol, the plan's shape, the context, outliers.
+"""What every stability sweep shares: the protocol, the declaration's shape, the context,
+outliers.
 
 A sweep (one module each, listed in :data:`experiments.lib.sweeps.REGISTRY`)
 is an object with four steps, data flowing one way::
 
-    plan(ctx)            -> list[SweepPoint]   render jobs as data (nothing rendered)
-    measure(ctx, points) -> measurements        numbers read from the store (per repeat)
-    analyse(measured)    -> result dataclass    pure: numbers in, numbers and sentences out
-    report(ctx, result)  -> SweepReport         charts, tables, prose
+    declare(ctx)           -> Declaration | None  what it renders, on the experiment engine
+                                                 (:mod:`..engine`; None: nothing to render)
+    measure(ctx, measured) -> measurements       numbers from the engine's Measurements
+    analyse(measured)      -> result dataclass   pure: numbers in, numbers and verdicts out
+    report(ctx, result)    -> SweepReport        charts, tables, prose (the words: each
+                                                 module's sentences(result), templates)
 
+Each sweep point is a scene variant or a depth (the declaration's :class:`~..engine.Sweep`),
+rendered per method and repeat, with the reference of that point; the engine plans,
+renders (resuming from the stores), costs with the one clock and measures.
 ``analyse`` takes and returns plain numbers, so tests feed it synthetic
-measurements whose conclusion is known (``tests/test_sweeps.py``).
+measurements whose conclusion is known (``tests/test_sweeps.py``); each module's
+``sentences(result)`` turns a result into words (:func:`..prose.say` over its templates).
 
 Every comparison is measured over R independent randomizations (``--repeats``):
 each (point, method) has R runs whose seeds derive from the repeat index
 (job key prefix ``.../r{r}``; repeat 0 keeps the prefix of a single run, so
-results stored before repeats existed are reused). Errors are means over the
+results stored before repeats existed are reused; a deterministic method renders once,
+which stands for every repeat). Errors are means over the
 repeats with a 95% interval (:mod:`experiments.lib.stats`); a breakdown or a
 difference is claimed only where the interval says so (:func:`exceeds`).
 """
@@ -26,12 +34,13 @@ from typing import Protocol
 
 import numpy as np
 
-from .. import clock, metrics, report, stats
-from ..jobs import Job
+from .. import metrics, report, stats
+from .. import engine
+from ..engine import Budget, Cell, Declaration, Engine, Measurements, SceneSetup
 from ..methods import Depth, parse_method
-from ..scenes import Needs, SceneInfo
+from ..scenes import Needs
 from ..studies.settings import StudySettings
-from ..study import Study, repeat_prefix
+from ..study import Study
 
 NAME = "stability"
 #: relMSE ratio at which a method counts as broken down against the robust one.
@@ -64,23 +73,6 @@ class StabilitySettings(StudySettings):
     config: Config            # the sweep points (NORMAL, or QUICK with --quick)
 
 
-# ------------------------------------------------------------------ the plan
-
-@dataclass(frozen=True)
-class SweepPoint:
-    """One point of a sweep: the swept value, its scene, its reference and, per method,
-    R runs (one per repeat), each a ladder of jobs whose accumulation is the run's image
-    (one job, except in progressive sweeps)."""
-    x: float
-    info: SceneInfo | None
-    ref_jobs: list
-    jobs: dict[str, list[list[Job]]]
-    extra: dict = field(default_factory=dict)     # e.g. the light's radiance, the depth
-
-    def all_jobs(self) -> list[Job]:
-        return [j for runs in self.jobs.values() for run in runs for j in run]
-
-
 class Skip(Exception):
     """The scene lacks what a sweep varies (its message: the missing parameter(s))."""
 
@@ -94,11 +86,11 @@ class SweepReport:
 
 class Sweep(Protocol):
     name: str
-    needs: Needs                      # what it needs of the scene (checked before plan)
+    needs: Needs                      # what it needs of the scene (checked before declare)
 
-    def plan(self, ctx: "Context") -> list[SweepPoint]: ...
+    def declare(self, ctx: "Context") -> Declaration | None: ...
 
-    def measure(self, ctx: "Context", points: list[SweepPoint]): ...
+    def measure(self, ctx: "Context", measured: Measurements | None): ...
 
     def analyse(self, measured): ...
 
@@ -225,6 +217,8 @@ class Context:
         self.settings = settings
         self.cfg = settings.config
         self.st = Study(settings)
+        self.engine = Engine(self.st)
+        self.jobs: list = []          # every sweep job rendered (for timed_on)
         self.out = settings.out
         self.width, self.height = settings.resolution
         self.repeats = max(1, int(settings.repeats or 1))
@@ -258,27 +252,50 @@ class Context:
         d = self.settings.depth
         return Depth(max_depth, d.rr_depth, d.hide_emitters)
 
-    def point(self, sweep: str, x, info, methods, extra=None) -> SweepPoint:
-        """A point rendered once per method and repeat at :attr:`spp` (key ``stability/<sweep>/
-        <x>/<method>[/r<r>]``), with its reference."""
-        jobs = {m: [[self.st.job(repeat_prefix(f"{NAME}/{sweep}/{x:g}/{m}", r), parse_method(m),
-                                 self.spp, info=info, timing_group=f"{NAME}/{sweep}")]
-                    for r in range(self.repeats)] for m in methods}
-        return SweepPoint(x, info, self.st.reference_jobs(info), jobs, dict(extra or {}))
+    def declare(self, sweep: str, values, apply, methods, budget: Budget,
+                point=lambda x: f"{x:g}") -> Declaration:
+        """A sweep over ``values`` (``apply(value, scene)``: the scene at that point, a scene
+        variant or a depth), every method of ``methods`` at ``budget``, :attr:`repeats` runs
+        each, against the reference of each point. Job keys ``stability/<sweep>/<point(x)>/
+        <method>[/r<r>]``, as before the engine; timed in the group ``stability/<sweep>``."""
+        scene = SceneSetup(sweep, self.settings.info, (self.width, self.height),
+                           self.settings.depth)
+        return Declaration(NAME, tuple(parse_method(m) for m in methods), (scene,), (budget,),
+                           self.repeats, engine.Sweep(sweep, tuple(values), apply),
+                           key=lambda decl, cell: f"{NAME}/{cell.scene}/{point(cell.point)}/"
+                                                  f"{cell.method}")
 
-    def read_run(self, jobs: list[Job], method: str, ref, mask=None,
+    def measure(self, declaration: Declaration) -> Measurements:
+        """Render (what the stores lack) and measure ``declaration`` on the engine; keeps its
+        jobs for :meth:`timed_on`."""
+        measured = self.engine.run(declaration)
+        self.jobs += [j for budget in declaration.budgets
+                      for reps in self.engine.jobs(declaration, budget).values()
+                      for jobs in reps for j in jobs]
+        return measured
+
+    def timed_on(self) -> str:
+        return self.st.timed_on(self.jobs)
+
+    def read_run(self, run: engine.Run, method: str, ref, mask=None,
                  floor=None) -> tuple[Run, np.ndarray]:
-        """The numbers of one run (its jobs accumulated) and its image; counts outliers.
-        ``floor``: the reference's own relMSE per pixel and channel (``Study.reference``'s
-        ``relmse_floor_map``), subtracted from both errors."""
-        image = self.st.accumulate(jobs)[-1].mean
+        """The numbers of one run (the engine's: its image and cost) and its image; counts
+        outliers. ``floor``: the reference's own relMSE per pixel and channel
+        (``Study.reference``'s ``relmse_floor_map``), subtracted from both errors."""
+        image = run.image
         o = self.outliers.add(label(method), image, ref)
         sel = mask if mask is not None else np.ones(image.shape[:2], bool)
         level = metrics.ratio(float(np.mean(image[sel])), float(np.mean(ref[sel])))
-        secs = clock.total(self.st.store.get(j.key) for j in jobs)
         whole, masked = metrics.relmse(image, ref), metrics.relmse(image, ref, mask)
         if floor is not None:
             whole -= float(np.mean(floor))
             masked -= float(np.mean(floor[mask] if mask is not None else floor))
-        return Run(whole, masked, level, secs,
+        return Run(whole, masked, level, run.cost,
                    o["max"], o["fireflies"], o["nonfinite"]), image
+
+
+def cells(measured: Measurements, method: str):
+    """(value, cell) of ``method`` at every point of a one-scene, one-budget sweep."""
+    decl = measured.declaration
+    return [(x, Cell(decl.scenes[0].name, method, decl.budgets[0].name, x))
+            for x in decl.sweep.values]

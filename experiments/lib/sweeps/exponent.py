@@ -9,15 +9,16 @@ on the interval's lower bound); and ``mis`` against the better of the two.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
-from .. import metrics, report, stats
+from .. import metrics, prose, report, stats
+from ..engine import Budget, Declaration, Measurements
 from ..methods import strategies
 from ..scenes import Needs, scene_variant
 from ..scene_probes import phong_mask
 from .. import figures
-from .base import (BREAK_FACTOR, NAME, Context, Run, SweepPoint, SweepReport, basis, below,
-                   budget, exceeds, g, mean_interval, onset, ratio, worst)
+from .base import (BREAK_FACTOR, NAME, Context, Run, SweepReport, basis, below, budget, cells,
+                   exceeds, g, mean_interval, onset, ratio, worst)
 
 
 @dataclass(frozen=True)
@@ -53,11 +54,13 @@ class ExponentResult:
     outliers: dict            # method -> (largest pixel, fireflies, NaN/Inf) per point
     comparisons: list
     mis: list | None          # Estimate per point: relMSE(mis) / min(cosine, bsdf)
-    sentences: list
+    spp: int = 0              # per repeat
+    mask_pixels: int = 0      # pixels that see a Phong surface first (0: no mask)
+    pixels: int = 0
 
 
 def analyse(data: ExponentData) -> ExponentResult:
-    """Pure: intervals, onsets and sentences from the measured numbers."""
+    """Pure: intervals and onsets from the measured numbers (the words: :func:`sentences`)."""
     xs, runs = list(data.xs), data.runs
     repeats = min(len(r) for per in runs.values() for r in per)
     err = {m: [[r.relmse_mask for r in rs] for rs in per] for m, per in runs.items()}
@@ -67,12 +70,7 @@ def analyse(data: ExponentData) -> ExponentResult:
                   for m, per in runs.items()}
     seconds = {m: [sum(v) / len(v) for v in s] for m, s in secs.items()}
     peaks = {m: [worst(rs) for rs in per] for m, per in runs.items()}
-    sentences, comparisons = [], []
-    if data.pixels:
-        sentences.append(f"{data.mask_pixels} of {data.pixels} pixels see a Phong surface "
-                         f"first; the errors are measured on them (full-image relMSE in the "
-                         f"table).")
-    how = basis(repeats)
+    comparisons = []
     if "bsdf" in runs:
         for other in [k for k in ("cosine", "uniform") if k in runs]:
             eff = [stats.efficiency_ratio(eb, sb, eo, so) for eb, sb, eo, so
@@ -84,39 +82,55 @@ def analyse(data: ExponentData) -> ExponentResult:
                            metrics.first_where(xs, [exceeds(q, BREAK_FACTOR) for q in rat]),
                            sum(r.level for r in runs[other][-1]) / len(runs[other][-1]))
             comparisons.append(c)
-            sentences.append(_comparison_sentence(c, xs, data.spp, how))
     mis = None
     if {"mis", "cosine", "bsdf"} <= set(runs):
         mis = []
         for em, ec, eb in zip(err["mis"], err["cosine"], err["bsdf"]):
             best = ec if sum(ec) <= sum(eb) else eb
             mis.append(ratio(em, best))
-        sentences.append(
-            "Exponent sweep, mis against the better of cosine and bsdf: relMSE(mis) / "
-            "min(relMSE(cosine), relMSE(bsdf)) = "
-            + ", ".join(f"{q.text()} at exponent {g(x)}" for x, q in zip(xs, mis))
-            + f" (at most {g(max(q.value for q in mis))}; 1 would match the better strategy "
-              f"everywhere).")
     return ExponentResult(xs, list(runs), repeats, relmse, relmse_all, seconds, peaks,
-                          comparisons, mis, sentences)
+                          comparisons, mis, data.spp, data.mask_pixels, data.pixels)
 
 
-def _comparison_sentence(c: Comparison, xs, spp: int, how: str) -> str:
-    other, last = c.other, c.relmse_ratio[-1]
-    level = c.level_last
-    why = (f" (the narrow lobe is rarely hit: the error hides in rare, huge samples that a "
-           f"{spp}-spp image mostly lacks)" if level < 0.9 else
-           " (a few huge samples dominate)" if level > 1.1 else "")
-    return (f"Exponent sweep, bsdf (lobe) vs {other}: lobe sampling pays off (efficiency "
-            f"1/(relMSE x time) at least 2x {other}'s) " + onset("exponent", c.pays_from, g)
-            + (f"; it is less efficient than {other} at exponent "
-               f"{', '.join(g(x) for x in c.worse_at)}" if c.worse_at else
-               f"; it is never less efficient than {other}")
-            + f". {other} sampling explodes (relMSE > {BREAK_FACTOR:g}x lobe sampling's) "
-            + onset("exponent", c.explodes_from, g)
-            + f"; at exponent {g(xs[-1])} its relMSE is {last.text()}x lobe sampling's and "
-              f"its Phong pixels average {level:.0%} of the reference{why}. At exponent "
-              f"{g(xs[-1])}, " + stats.verdict("bsdf", other, c.efficiency[-1]) + f" ({how}).")
+# ------------------------------------------------------------------ words
+
+MASK = """{{ mask_pixels }} of {{ pixels }} pixels see a Phong surface first; the errors are
+    measured on them (full-image relMSE in the table)."""
+
+COMPARISON = """Exponent sweep, bsdf (lobe) vs {{ c.other }}: lobe sampling pays off
+    (efficiency 1/(relMSE x time) at least 2x {{ c.other }}'s) {{ pays }}
+    {%- if c.worse_at %}; it is less efficient than {{ c.other }} at exponent
+    {{ c.worse_at | map('g') | join(', ') }}
+    {%- else %}; it is never less efficient than {{ c.other }}{% endif %}.
+    {{ c.other }} sampling explodes (relMSE > {{ '%g' | format(factor) }}x lobe sampling's)
+    {{ explodes }}; at exponent {{ last_x | g }} its relMSE is {{ c.relmse_ratio[-1].text() }}x
+    lobe sampling's and its Phong pixels average {{ c.level_last | pct }} of the reference
+    {%- if c.level_last < 0.9 %} (the narrow lobe is rarely hit: the error hides in rare, huge
+    samples that a {{ spp }}-spp image mostly lacks)
+    {%- elif c.level_last > 1.1 %} (a few huge samples dominate){% endif %}.
+    At exponent {{ last_x | g }}, {{ verdict }} ({{ how }})."""
+
+MIS = """Exponent sweep, mis against the better of cosine and bsdf: relMSE(mis) /
+    min(relMSE(cosine), relMSE(bsdf)) =
+    {% for x, q in points %}{{ q.text() }} at exponent {{ x | g }}
+    {%- if not loop.last %}, {% endif %}{% endfor %} (at most {{ worst | g }}; 1 would match
+    the better strategy everywhere)."""
+
+
+def sentences(res: ExponentResult) -> list[str]:
+    """The sweep's findings in words: the mask, each comparison, mis."""
+    out = [prose.say(MASK, mask_pixels=res.mask_pixels, pixels=res.pixels)] if res.pixels \
+        else []
+    how = basis(res.repeats)
+    out += [prose.say(COMPARISON, c=c, spp=res.spp, how=how, factor=BREAK_FACTOR,
+                      pays=onset("exponent", c.pays_from, g), last_x=res.xs[-1],
+                      explodes=onset("exponent", c.explodes_from, g),
+                      verdict=stats.verdict("bsdf", c.other, c.efficiency[-1]))
+            for c in res.comparisons]
+    if res.mis is not None:
+        out.append(prose.say(MIS, points=list(zip(res.xs, res.mis)),
+                             worst=max(q.value for q in res.mis)))
+    return out
 
 
 class ExponentSweep:
@@ -127,27 +141,33 @@ class ExponentSweep:
         """Every vr_path strategy (the list the plugin defines), no NEE, as in the writeup."""
         return list(strategies())
 
-    def plan(self, ctx: Context) -> list[SweepPoint]:
+    def declare(self, ctx: Context) -> Declaration:
+        """Every strategy at every exponent (a scene variant each), --spp split over the
+        repeats."""
         info = ctx.settings.info
-        return [ctx.point(self.name, n, scene_variant(info, ctx.scene_dir, f"exponent-{n:g}",
-                                                      {"exponent": float(n)}), self.methods())
-                for n in ctx.cfg.exponents]
 
-    def measure(self, ctx: Context, points: list[SweepPoint]) -> ExponentData:
+        def variant(n, scene):
+            return replace(scene, info=scene_variant(info, ctx.scene_dir, f"exponent-{n:g}",
+                                                     {"exponent": float(n)}))
+        return ctx.declare(self.name, ctx.cfg.exponents, variant, self.methods(),
+                           Budget.equal_spp(ctx.spp))
+
+    def measure(self, ctx: Context, measured: Measurements) -> ExponentData:
         mask = phong_mask(ctx.probe())
-        runs = {m: [] for m in self.methods()}
-        for p in points:
-            ref, meta = ctx.st.reference(p.ref_jobs)
-            for m, reps in p.jobs.items():
-                runs[m].append([ctx.read_run(jobs, m, ref, mask, meta["relmse_floor_map"])[0]
-                               for jobs in reps])
-        return ExponentData([p.x for p in points], runs, ctx.spp, int(mask.sum()),
-                            int(mask.size))
+        methods = self.methods()
+        runs = {m: [] for m in methods}
+        for i, x in enumerate(measured.declaration.sweep.values):
+            ref, meta = measured.reference_of(cells(measured, methods[0])[i][1])
+            for m in methods:
+                runs[m].append([ctx.read_run(run, m, ref, mask, meta["relmse_floor_map"])[0]
+                                for run in measured.final(cells(measured, m)[i][1])])
+        return ExponentData(list(measured.declaration.sweep.values), runs, ctx.spp,
+                            int(mask.sum()), int(mask.size))
 
     analyse = staticmethod(analyse)
 
     def report(self, ctx: Context, res: ExponentResult) -> SweepReport:
-        a, xs = ctx.settings, res.xs
+        a, xs, words = ctx.settings, res.xs, sentences(res)
         figures.sweep_chart(ctx.path("exponent.png"), "Phong exponent of the glossy object", xs,
                            {m: (res.relmse[m], res.seconds[m]) for m in res.methods},
                            "relMSE on the Phong pixels", "Exponent")
@@ -174,10 +194,10 @@ class ExponentSweep:
                 f"repeats with {stats.LEVEL:.0%} intervals."),
             report.image(f"{NAME}/exponent.png", "relMSE on the Phong pixels, and relMSE x "
                          "render time, against the exponent (log-log; bands: 95% intervals)."),
-            report.text("\n\n".join(res.sentences)),
+            report.text("\n\n".join(words)),
             report.write_table(ctx.out, f"{NAME}/exponent", header, rows, "Exponent sweep",
                                collapsed=True)]
-        notes = [s for s in res.sentences if s.startswith("Exponent sweep")]
+        notes = [s for s in words if s.startswith("Exponent sweep")]
         return SweepReport(blocks, notes, summary)
 
 

@@ -13,12 +13,12 @@ import math
 from dataclasses import dataclass
 
 from .. import jobs
-from .. import metrics, report, stats
+from .. import metrics, prose, report, stats
 from ..methods import strategies
 from ..scenes import Needs
 from ..scene_probes import direction_sampling_table, first_hit_sampling, phong_bsdf
 from .. import figures
-from .base import NAME, Context, SweepPoint, SweepReport, basis, below, g, onset
+from .base import NAME, Context, SweepReport, basis, below, g, onset
 
 #: Strategies whose prose is in the closing note (every strategy is in the table).
 LOBE = ("bsdf", "mis")
@@ -52,7 +52,7 @@ class GrazingResult:
     curves: list
     nonfinite: int
     samples: int              # samples over everything measured
-    sentences: list
+    scene: dict | None = None  # first hits in the scene (GrazingData.scene)
 
 
 def _efficiency(base: list, at: list):
@@ -64,7 +64,8 @@ def _efficiency(base: list, at: list):
 
 
 def analyse(data: GrazingData) -> GrazingResult:
-    """Pure: wasted fractions, efficiencies and their onsets from the per-repeat stats."""
+    """Pure: wasted fractions, efficiencies and their onsets from the per-repeat stats (the
+    words: :func:`sentences`)."""
     angles, curves, nonfinite, repeats = list(data.angles), [], 0, 1
     for (s, n), per_angle in data.stats.items():
         repeats = min(len(r) for r in per_angle)
@@ -76,24 +77,38 @@ def analyse(data: GrazingData) -> GrazingResult:
         curves.append(Curve(s, n, albedo, wasted, eff,
                             metrics.first_where(angles, [w >= 0.5 for w in wasted]),
                             metrics.first_where(angles, [below(e, 0.5) for e in eff])))
-    deg = lambda a: f"{a:g} degrees"  # noqa: E731
-    sentences = [
-        f"Grazing, {c.strategy} at exponent {g(c.exponent)}: {c.wasted[-1]:.0%} of the samples "
-        f"are wasted (zero weight) at {deg(angles[-1])}; half are wasted "
-        + onset("", c.half_from, deg) + "; efficiency falls below half of normal incidence's "
-        + onset("", c.loss_from, deg) + f" (at {deg(angles[-1])}: {c.efficiency[-1].text()}x; "
-        f"{basis(repeats)})."
-        for c in curves if c.strategy in LOBE]
-    scene = data.scene
-    if scene:
-        sentences.append(
-            f"Grazing, in the scene (exponent {g(scene['exponent'])}): "
-            f"{scene['grazing_share']:.0%} of the camera's first hits on the Phong object are "
-            f"beyond 75 degrees; lobe sampling wastes {scene['wasted_all']:.1%} of its samples "
-            f"over all hits, {scene['wasted_grazing']:.0%} over the grazing ones.")
     total = data.samples * repeats * len(angles) * len(data.stats)
-    sentences.append(f"Grazing: {nonfinite} non-finite sample weights over {total} samples.")
-    return GrazingResult(angles, repeats, curves, nonfinite, total, sentences)
+    return GrazingResult(angles, repeats, curves, nonfinite, total, data.scene)
+
+
+# ------------------------------------------------------------------ words
+
+CURVE = """Grazing, {{ c.strategy }} at exponent {{ c.exponent | g }}: {{ c.wasted[-1] | pct }}
+    of the samples are wasted (zero weight) at {{ last }}; half are wasted {{ half }};
+    efficiency falls below half of normal incidence's {{ loss }} (at {{ last }}:
+    {{ c.efficiency[-1].text() }}x; {{ how }})."""
+
+SCENE = """Grazing, in the scene (exponent {{ hits.exponent | g }}):
+    {{ hits.grazing_share | pct }} of the camera's first hits on the Phong object are beyond
+    75 degrees; lobe sampling wastes {{ hits.wasted_all | pct(1) }} of its samples over all
+    hits, {{ hits.wasted_grazing | pct }} over the grazing ones."""
+
+NONFINITE = "Grazing: {{ nonfinite }} non-finite sample weights over {{ samples }} samples."
+
+
+def degrees(angle) -> str:
+    return f"{angle:g} degrees"
+
+
+def sentences(res: GrazingResult) -> list[str]:
+    """The sweep's findings in words: the lobe strategies' curves, the scene's hits, the
+    non-finite weights."""
+    out = [prose.say(CURVE, c=c, last=degrees(res.angles[-1]), how=basis(res.repeats),
+                     half=onset("", c.half_from, degrees), loss=onset("", c.loss_from, degrees))
+           for c in res.curves if c.strategy in LOBE]
+    if res.scene:
+        out.append(prose.say(SCENE, hits=res.scene))
+    return out + [prose.say(NONFINITE, nonfinite=res.nonfinite, samples=res.samples)]
 
 
 class GrazingSweep:
@@ -103,11 +118,11 @@ class GrazingSweep:
     def strategies(self) -> list[str]:
         return list(strategies())
 
-    def plan(self, ctx: Context) -> list[SweepPoint]:
-        """One point per exponent, nothing to render (the samples are drawn in measure)."""
-        return [SweepPoint(n, ctx.settings.info, [], {}) for n in ctx.cfg.grazing_exponents]
+    def declare(self, ctx: Context) -> None:
+        """Nothing to render: the samples are drawn in :meth:`measure`, per exponent."""
+        return None
 
-    def measure(self, ctx: Context, points: list[SweepPoint]) -> GrazingData:
+    def measure(self, ctx: Context, measured=None) -> GrazingData:
         import mitsuba as mi
         cfg, seed = ctx.cfg, ctx.settings.seed
         scene = ctx.probe()
@@ -115,14 +130,14 @@ class GrazingSweep:
         params = mi.traverse(bsdf)
         scene_n = float(params["exponent"][0])
         out = {}
-        for p in points:
-            params["exponent"] = float(p.x)
+        for n in cfg.grazing_exponents:
+            params["exponent"] = float(n)
             params.update()
             for s in self.strategies():
                 # repeat 0 keeps the single run's seed; repeat r draws an independent set
                 seeds = [seed] + [jobs.derive_seed(seed, NAME, self.name, r)
                                   for r in range(1, ctx.repeats)]
-                out[(s, p.x)] = direction_sampling_table(
+                out[(s, n)] = direction_sampling_table(
                     bsdf, [math.cos(math.radians(t)) for t in cfg.angles], s,
                     ctx.grazing_samples, seeds)
         params["exponent"] = scene_n
@@ -137,6 +152,7 @@ class GrazingSweep:
     analyse = staticmethod(analyse)
 
     def report(self, ctx: Context, res: GrazingResult) -> SweepReport:
+        words = sentences(res)
         figures.grazing_chart(ctx.path("grazing.png"), res.angles,
                              {(c.strategy, c.exponent): c.wasted for c in res.curves},
                              {(c.strategy, c.exponent): c.efficiency for c in res.curves})
@@ -165,10 +181,10 @@ class GrazingSweep:
             report.image(f"{NAME}/grazing.png", "Wasted-sample fraction and efficiency "
                          "against the incidence angle (solid: bsdf, dash-dot: mis, dashed: "
                          "cosine, dotted: uniform; bands: 95% intervals)."),
-            report.text("\n\n".join(res.sentences)),
+            report.text("\n\n".join(words)),
             report.write_table(ctx.out, f"{NAME}/grazing", header, rows, "Grazing sweep",
                                collapsed=True)]
-        return SweepReport(blocks, list(res.sentences), summary)
+        return SweepReport(blocks, words, summary)
 
 
 SWEEP = GrazingSweep()

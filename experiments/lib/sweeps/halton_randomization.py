@@ -10,15 +10,15 @@ neighbour-pixel correlation of the errors (structured artifacts).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
-from .. import figures, metrics, report, stats
+from .. import figures, metrics, prose, report, stats
 from .. import samplers
-from ..methods import parse_method
+from ..engine import Budget, Declaration, Measurements
 from ..plan import doubling_targets
 from ..scenes import Needs
-from .base import (NAME, Context, SweepPoint, SweepReport, basis, exceeds, g, mean_interval,
-                   onset, ratio, repeat_prefix)
+from .base import (NAME, Context, SweepReport, basis, cells, exceeds, g, mean_interval, onset,
+                   ratio)
 
 
 @dataclass(frozen=True)
@@ -47,9 +47,11 @@ class HaltonResult:
     repeats: int
     lines: dict               # depth -> {method: Line}
     worse_from: dict          # depth -> first spp where 'none' is worse than independent
-    sentences: list
     images: dict = field(default_factory=dict)
     worse_at: dict = field(default_factory=dict)   # depth -> every such spp
+    identical: dict = field(default_factory=dict)  # depth -> 'none''s repeats are identical
+    #: depth -> {method: Estimate of relMSE(independent) / relMSE(method) at the last spp}
+    accuracy: dict = field(default_factory=dict)
 
 
 def plain(strategy: str) -> str:
@@ -57,8 +59,10 @@ def plain(strategy: str) -> str:
 
 
 def analyse(data: HaltonData) -> HaltonResult:
-    """Pure: intervals per ladder step, slopes, the onset, and sentences."""
-    s, lines, worse, worse_at, sentences, repeats = data.strategy, {}, {}, {}, [], 1
+    """Pure: intervals per ladder step, slopes, the onset, the accuracy ratios at the last
+    step (the words: :func:`sentences`)."""
+    s, lines, worse, worse_at, repeats = data.strategy, {}, {}, {}, 1
+    identical, accuracy = {}, {}
     for d, by_method in data.curves.items():
         lines[d] = {}
         for m, reps in by_method.items():
@@ -76,26 +80,40 @@ def analyse(data: HaltonData) -> HaltonResult:
         rat = [ratio(a, b) for a, b in zip(err_of[none], err_of[indep])]
         worse_at[d] = [n for n, q in zip(ln[none].spp, rat) if exceeds(q, 1.0)]
         worse[d] = worse_at[d][0] if worse_at[d] else None
+        identical[d] = repeats > 1 and len(set(err_of[none][-1])) == 1
+        accuracy[d] = {m: ratio(err_of[indep][-1], err_of[m][-1])
+                       for m in ln if m != indep}
+    return HaltonResult(s, repeats, lines, worse, dict(data.images), worse_at, identical,
+                        accuracy)
+
+
+# ------------------------------------------------------------------ words
+
+DEPTH = """Halton at max_depth {{ d }}: without randomization ('none') relMSE after {{ last }}
+    spp is {{ plain.relmse[-1].text() }} (slope {{ plain.slope | g }}),
+    {% for ln in rand %}{{ ln.method.split(':')[-1] }} {{ ln.relmse[-1].text() }} (slope
+    {{ ln.slope | g }}), {% endfor %}independent {{ indep.relmse[-1].text() }}; 'none' is
+    worse than independent sampling {{ where }} ({{ how }}
+    {%- if identical %}; 'none' is deterministic: its repeats are identical{% endif %}).
+    {% for v in verdicts %}At {{ last }} spp, {{ v }}. {% endfor %}
+    Neighbour-pixel error correlation: none {{ '%.2f' | format(plain.corr) }},
+    {% for ln in rand %}{{ ln.method.split(':')[-1] }} {{ '%.2f' | format(ln.corr) }},
+    {% endfor %}independent {{ '%.2f' | format(indep.corr) }}."""
+
+
+def sentences(res: HaltonResult) -> list[str]:
+    """One paragraph per depth: final errors and slopes, where plain Halton is worse than
+    independent sampling, the verdicts at the last spp, the neighbour correlations."""
+    out, none, indep = [], plain(res.strategy), res.strategy
+    for d, ln in res.lines.items():
         rand = [m for m in ln if m not in (none, indep)]
-        identical = repeats > 1 and len(set(err_of[none][-1])) == 1
-        last = ln[indep].spp[-1]
-        text = (f"Halton at max_depth {d}: without randomization ('none') relMSE after {last} "
-                f"spp is {ln[none].relmse[-1].text()} (slope {g(ln[none].slope)}), "
-                + ", ".join(f"{m.split(':')[-1]} {ln[m].relmse[-1].text()} (slope "
-                            f"{g(ln[m].slope)})" for m in rand)
-                + f", independent {ln[indep].relmse[-1].text()}; 'none' is worse than "
-                  f"independent sampling " + _where(worse_at[d], ln[none].spp)
-                + f" ({basis(repeats)}"
-                + ("; 'none' is deterministic: its repeats are identical" if identical else "")
-                + "). "
-                + " ".join(f"At {last} spp, " + stats.verdict(
-                    m, indep, ratio(err_of[indep][-1], err_of[m][-1]), "accurate") + "."
-                           for m in [none] + rand)
-                + f" Neighbour-pixel error correlation: none {ln[none].corr:.2f}, "
-                + ", ".join(f"{m.split(':')[-1]} {ln[m].corr:.2f}" for m in rand)
-                + f", independent {ln[indep].corr:.2f}.")
-        sentences.append(text)
-    return HaltonResult(s, repeats, lines, worse, sentences, dict(data.images), worse_at)
+        out.append(prose.say(
+            DEPTH, d=d, last=ln[indep].spp[-1], plain=ln[none], indep=ln[indep],
+            rand=[ln[m] for m in rand], where=_where(res.worse_at[d], ln[none].spp),
+            how=basis(res.repeats), identical=res.identical[d],
+            verdicts=[stats.verdict(m, indep, res.accuracy[d][m], "accurate")
+                      for m in [none] + rand]))
+    return out
 
 
 def _where(at: list, spp: list) -> str:
@@ -117,44 +135,36 @@ class HaltonSweep:
         randomizations = samplers.get("halton").randomizations
         return [strategy] + [f"{strategy}+halton:{r}" for r in randomizations]
 
-    def plan(self, ctx: Context) -> list[SweepPoint]:
-        targets = doubling_targets(ctx.halton_spp)
-        points = []
-        for d in ctx.halton_depths:
-            depth = ctx.depth(d)
-            jobs = {m: [ctx.st.ladder(repeat_prefix(f"{NAME}/halton/depth{d}/{m}", r),
-                                      parse_method(m),
-                                      targets, depth=depth, timing_group=f"{NAME}/halton")
-                        for r in range(ctx.repeats)] for m in self.methods(ctx)}
-            info = ctx.settings.info
-            points.append(SweepPoint(d, info, ctx.st.reference_jobs(info, depth), jobs,
-                                     {"depth": d}))
-        return points
+    def declare(self, ctx: Context) -> Declaration:
+        """Every method at every depth, progressive to the Halton budget per repeat (a
+        ladder of doubling counts; a deterministic method renders once)."""
+        return ctx.declare(self.name, ctx.halton_depths,
+                           lambda d, scene: replace(scene, depth=ctx.depth(d)),
+                           self.methods(ctx), Budget.progressive(doubling_targets(ctx.halton_spp)),
+                           point=lambda d: f"depth{d}")
 
-    def measure(self, ctx: Context, points: list[SweepPoint]) -> HaltonData:
+    def measure(self, ctx: Context, measured: Measurements) -> HaltonData:
+        methods = self.methods(ctx)
         curves, corr, images = {}, {}, {}
-        for p in points:
-            d = p.x
-            ref, meta = ctx.st.reference(p.ref_jobs)
+        for i, d in enumerate(measured.declaration.sweep.values):
+            ref, meta = measured.reference_of(cells(measured, methods[0])[i][1])
             curves[d], corr[d], images[d] = {}, {}, (ref, [])
-            for m, reps in p.jobs.items():
+            for m in methods:
                 curves[d][m], corr[d][m] = [], []
-                for r, jobs in enumerate(reps):
-                    accs = ctx.st.accumulate(jobs)
-                    curves[d][m].append([(a.spp, a.cost, metrics.relmse(a.mean, ref)
-                                          - meta["relmse_floor"])
-                                         for a in accs])
-                    image = accs[-1].mean
+                for r, rungs in enumerate(measured.runs[cells(measured, m)[i][1]]):
+                    curves[d][m].append([(a.spp, a.cost, a.relmse - meta["relmse_floor"])
+                                         for a in rungs])
+                    image = rungs[-1].image
                     ctx.outliers.add(m, image, ref)
                     corr[d][m].append(metrics.neighbour_correlation(image, ref))
                     if r == 0:
                         images[d][1].append((m, image))
-        return HaltonData(self.methods(ctx)[0], curves, corr, images)
+        return HaltonData(methods[0], curves, corr, images)
 
     analyse = staticmethod(analyse)
 
     def report(self, ctx: Context, res: HaltonResult) -> SweepReport:
-        h, w = ctx.height, ctx.width
+        h, w, words = ctx.height, ctx.width, sentences(res)
         side = max(4, h // 2)
         y0, x0 = (h - side) // 2, min(w - side, w // 2 + side // 4)
         depths = list(res.lines)
@@ -199,12 +209,12 @@ class HaltonSweep:
         blocks += viewers + [
             report.image(f"{NAME}/halton_crops.png", "Image crops after the last spp: "
                          "structured artifacts of plain Halton."),
-            report.text("\n\n".join(res.sentences)),
+            report.text("\n\n".join(words)),
             report.write_table(ctx.out, f"{NAME}/halton",
                                ["max_depth", "method", "spp", "repeats", "relmse", "relmse_lo",
                                 "relmse_hi", "slope_vs_spp", "neighbour_corr"], rows,
                                "Halton sweep")]
-        return SweepReport(blocks, list(res.sentences), summary)
+        return SweepReport(blocks, words, summary)
 
 
 SWEEP = HaltonSweep()

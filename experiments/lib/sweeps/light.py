@@ -8,13 +8,14 @@ the NEE method's (on the interval's lower bound).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
-from .. import metrics, report, stats
+from .. import metrics, prose, report, stats
+from ..engine import Budget, Declaration, Measurements
 from ..scenes import Needs, scene_defaults, scene_variant
 from .. import figures
-from .base import (BREAK_FACTOR, NAME, Context, Run, SweepPoint, SweepReport, basis,
-                   budget, exceeds, g, label, mean_interval, ratio, onset, worst)
+from .base import (BREAK_FACTOR, NAME, Context, Run, SweepReport, basis, budget, cells,
+                   exceeds, g, label, mean_interval, ratio, onset, worst)
 
 
 @dataclass(frozen=True)
@@ -49,20 +50,20 @@ class LightResult:
     outliers: dict            # method -> (largest pixel, fireflies, NaN/Inf) per point
     comparisons: list
     nee_change: object        # Estimate: NEE's relMSE at the last size / at the first
-    sentences: list
+    nee_holds: bool           # NEE's change is not above BREAK_FACTOR
     radiance: list = ()       # the light's radiance per point
 
 
 def analyse(data: LightData) -> LightResult:
-    """Pure: intervals, breakdown sizes and sentences from the measured numbers."""
+    """Pure: intervals and breakdown sizes from the measured numbers (the words:
+    :func:`sentences`)."""
     xs, runs, nee = list(data.xs), data.runs, data.nee
     repeats = min(len(r) for per in runs.values() for r in per)
     err = {m: [[r.relmse for r in rs] for rs in per] for m, per in runs.items()}
     secs = {m: [[r.seconds for r in rs] for rs in per] for m, per in runs.items()}
     relmse = {m: [mean_interval(v) for v in e] for m, e in err.items()}
     seconds = {m: [sum(v) / len(v) for v in s] for m, s in secs.items()}
-    how = basis(repeats)
-    comparisons, sentences = [], []
+    comparisons = []
     for m in [k for k in runs if k != nee]:
         rat = [ratio(a, b) for a, b in zip(err[m], err[nee])]
         c = LightComparison(m, rat, metrics.first_where(xs, [exceeds(q, BREAK_FACTOR)
@@ -71,20 +72,35 @@ def analyse(data: LightData) -> LightResult:
                             stats.efficiency_ratio(err[nee][-1], secs[nee][-1], err[m][-1],
                                                    secs[m][-1]))
         comparisons.append(c)
-        sentences.append(
-            f"Light sweep, {m} without NEE: relMSE exceeds {BREAK_FACTOR:g}x {label(nee)}'s "
-            + onset("light size", c.breaks_from, g)
-            + f"; it grows {c.growth.text()}x from size {g(xs[0])} to {g(xs[-1])} (at "
-              f"{g(xs[-1])}: {rat[-1].text()}x {label(nee)}). At size {g(xs[-1])}, "
-            + stats.verdict(label(nee), m, c.efficiency_last) + f" ({how}).")
     change = ratio(err[nee][-1], err[nee][0])
-    holds = not exceeds(change, BREAK_FACTOR)
-    sentences.append(f"Light sweep, {label(nee)}: relMSE changes {change.text()}x from size "
-                     f"{g(xs[0])} to {g(xs[-1])}: next-event estimation + MIS "
-                     + ("holds." if holds else f"degrades too (more than {BREAK_FACTOR:g}x)."))
     return LightResult(xs, list(runs), nee, repeats, relmse, seconds,
                        {m: [worst(rs) for rs in per] for m, per in runs.items()},
-                       comparisons, change, sentences, list(data.radiance))
+                       comparisons, change, not exceeds(change, BREAK_FACTOR),
+                       list(data.radiance))
+
+
+# ------------------------------------------------------------------ words
+
+BREAKS = """Light sweep, {{ c.method }} without NEE: relMSE exceeds {{ '%g' | format(factor) }}x
+    {{ nee }}'s {{ breaks }}; it grows {{ c.growth.text() }}x from size {{ first | g }} to
+    {{ last | g }} (at {{ last | g }}: {{ c.ratio[-1].text() }}x {{ nee }}). At size
+    {{ last | g }}, {{ verdict }} ({{ how }})."""
+
+NEE = """Light sweep, {{ nee }}: relMSE changes {{ change.text() }}x from size {{ first | g }}
+    to {{ last | g }}: next-event estimation + MIS
+    {% if holds %}holds.{% else %}degrades too (more than {{ '%g' | format(factor) }}x).
+    {%- endif %}"""
+
+
+def sentences(res: LightResult) -> list[str]:
+    """The sweep's findings in words: each method without NEE, then the NEE method."""
+    nee, how, ends = label(res.nee), basis(res.repeats), dict(first=res.xs[0], last=res.xs[-1])
+    return [prose.say(BREAKS, c=c, nee=nee, factor=BREAK_FACTOR, how=how,
+                      breaks=onset("light size", c.breaks_from, g),
+                      verdict=stats.verdict(nee, c.method, c.efficiency_last), **ends)
+            for c in res.comparisons] + [
+        prose.say(NEE, nee=nee, change=res.nee_change, holds=res.nee_holds,
+                  factor=BREAK_FACTOR, **ends)]
 
 
 class LightSweep:
@@ -95,35 +111,39 @@ class LightSweep:
         nee = ("bsdf" if "bsdf" in ctx.strategies else ctx.strategies[0]) + "+nee"
         return ctx.strategies + [nee]
 
-    def plan(self, ctx: Context) -> list[SweepPoint]:
-        info = ctx.settings.info
-        defaults = scene_defaults(info.path)
-        size0, rad0 = float(defaults["light_size"]), float(defaults["light_radiance"])
-        points = []
-        for size in ctx.cfg.light_sizes:
-            radiance = rad0 * (size0 / size) ** 2
-            variant = scene_variant(info, ctx.scene_dir, f"light-{size:g}",
-                                    {"light_size": float(size), "light_radiance": radiance})
-            points.append(ctx.point(self.name, size, variant, self.methods(ctx),
-                                    {"radiance": radiance, "size0": size0, "rad0": rad0}))
-        return points
+    def lights(self, ctx: Context) -> tuple[float, float]:
+        """The scene's light size and radiance (the sweep keeps size^2 x radiance)."""
+        defaults = scene_defaults(ctx.settings.info.path)
+        return float(defaults["light_size"]), float(defaults["light_radiance"])
 
-    def measure(self, ctx: Context, points: list[SweepPoint]) -> LightData:
-        methods = self.methods(ctx)
+    def declare(self, ctx: Context) -> Declaration:
+        """Every method at every light size (a scene variant each, constant power), --spp
+        split over the repeats."""
+        info, (size0, rad0) = ctx.settings.info, self.lights(ctx)
+
+        def variant(size, scene):
+            return replace(scene, info=scene_variant(
+                info, ctx.scene_dir, f"light-{size:g}",
+                {"light_size": float(size), "light_radiance": rad0 * (size0 / size) ** 2}))
+        return ctx.declare(self.name, ctx.cfg.light_sizes, variant, self.methods(ctx),
+                           Budget.equal_spp(ctx.spp))
+
+    def measure(self, ctx: Context, measured: Measurements) -> LightData:
+        methods, (size0, rad0) = self.methods(ctx), self.lights(ctx)
+        xs = list(measured.declaration.sweep.values)
         runs = {m: [] for m in methods}
-        for p in points:
-            ref, meta = ctx.st.reference(p.ref_jobs)
-            for m, reps in p.jobs.items():
-                runs[m].append([ctx.read_run(jobs, m, ref, floor=meta["relmse_floor_map"])[0]
-                               for jobs in reps])
-        first = points[0].extra
-        return LightData([p.x for p in points], runs, methods[-1], ctx.spp,
-                         [p.extra["radiance"] for p in points], first["size0"], first["rad0"])
+        for i in range(len(xs)):
+            ref, meta = measured.reference_of(cells(measured, methods[0])[i][1])
+            for m in methods:
+                runs[m].append([ctx.read_run(run, m, ref, floor=meta["relmse_floor_map"])[0]
+                                for run in measured.final(cells(measured, m)[i][1])])
+        return LightData(xs, runs, methods[-1], ctx.spp,
+                         [rad0 * (size0 / size) ** 2 for size in xs], size0, rad0)
 
     analyse = staticmethod(analyse)
 
     def report(self, ctx: Context, res: LightResult) -> SweepReport:
-        xs, nee = res.xs, res.nee
+        xs, nee, words = res.xs, res.nee, sentences(res)
         figures.sweep_chart(ctx.path("light.png"), "light half edge (2 = whole ceiling), "
                            "constant power", xs,
                            {label(m): (res.relmse[m], res.seconds[m]) for m in res.methods},
@@ -151,10 +171,10 @@ class LightSweep:
             report.image(f"{NAME}/light.png", "relMSE and relMSE x time against the light "
                          "size (x axis reversed: smaller lights to the right; bands: 95% "
                          "intervals)."),
-            report.text("\n\n".join(res.sentences)),
+            report.text("\n\n".join(words)),
             report.write_table(ctx.out, f"{NAME}/light", header, rows, "Light-size sweep",
                                collapsed=True)]
-        return SweepReport(blocks, list(res.sentences), summary)
+        return SweepReport(blocks, words, summary)
 
 
 SWEEP = LightSweep()
