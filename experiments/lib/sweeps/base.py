@@ -269,9 +269,7 @@ class Context:
         """Render (what the stores lack) and measure ``declaration`` on the engine; keeps its
         jobs for :meth:`timed_on`."""
         measured = self.engine.run(declaration)
-        self.jobs += [j for budget in declaration.budgets
-                      for reps in self.engine.jobs(declaration, budget).values()
-                      for jobs in reps for j in jobs]
+        self.jobs += measured.all_jobs()
         return measured
 
     def timed_on(self) -> str:
