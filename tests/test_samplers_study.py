@@ -26,7 +26,7 @@ from experiments.lib.studies.sampler_comparison_analysis import (
     BEST, BUNDLED, COMPARISON_HEADER, METRIC, NATIVE, Family, Point, onsets, order_changes,
     order_text, overtakes, ratio)
 from experiments.lib.studies.sampler_comparison_efficiency import Efficiency
-from experiments.lib.studies.sampler_comparison_plan import SCREEN_REFERENCE_SPP
+from experiments.lib.studies.sampler_comparison_plan import SCREEN_REFERENCE_SPP, plan
 from experiments.lib.studies.sampler_comparison_screen import ScreenSpace
 from experiments.lib.studies.sampler_comparison_screen_analysis import (
     SCREEN_HEADER, UNEQUAL, ScreenPoint, analyse_screen, lower_sign, lower_verdict,
@@ -565,10 +565,30 @@ TINY_SCREEN = ["--resolution", "8x4", "--spp", "4", "--depths", "2", "--repeats"
 def tiny_study(out, *argv):
     from experiments.lib import cli
     from experiments.lib.studies import sampler_comparison
+    from experiments.lib.studies.settings import StudySettings, common_fields
     from experiments.lib.study import Study
     args = cli.parse_args(sampler_comparison.build_parser(),
                           ["--out", str(out), *TINY_SCREEN, *argv])
-    return Study(args), sampler_comparison.settings_of(args)
+    return Study(StudySettings(**common_fields(args))), sampler_comparison.settings_of(args)
+
+
+def planned(st, cfg, p):
+    """The pass ``p``'s jobs as the engine plans them (None: the pass is switched off)."""
+    from experiments.lib.engine import Engine
+    declared = p.declare(st, cfg)
+    return None if declared is None else plan(Engine(st), declared)
+
+
+def by_label(planned_pass, scene: str = "depth2") -> dict:
+    """``{method name: [repeat: [job per count]]}`` of one scene of a planned pass."""
+    decl, out = planned_pass.declaration, {}
+    for budget in decl.budgets:
+        for cell, reps in planned_pass.cells[budget.name].items():
+            if cell.scene == scene:
+                mine = out.setdefault(cell.method, [[] for _ in reps])
+                for r, jobs in enumerate(reps):
+                    mine[r] += jobs
+    return out
 
 
 def test_the_screen_pass_plans_exactly_the_jobs_it_needs(tmp_path):
@@ -576,8 +596,9 @@ def test_the_screen_pass_plans_exactly_the_jobs_it_needs(tmp_path):
     sc = cfg.screen
     assert (sc.resolution, sc.counts, sc.depths, sc.repeats, sc.reference_spp) == \
         ((8, 8), (1, 2), (2,), 2, 16)
-    plan = ScreenSpace().plan(st, cfg)
-    ladders = plan.ladders[2]
+    plan = planned(st, cfg, ScreenSpace())
+    ladders = {label: by_label(plan)[m.name] for label, m in
+               zip(sc.samplers, plan.declaration.methods)}
     assert {s: len(reps) for s, reps in ladders.items()} == {
         "independent": 2, "zsobol:owen": 2, "zsobol:none": 1}       # deterministic: one run
     ladder_jobs = [j for reps in ladders.values() for rep in reps for j in rep]
@@ -588,8 +609,13 @@ def test_the_screen_pass_plans_exactly_the_jobs_it_needs(tmp_path):
             for j in rep:
                 assert (j.width, j.height, j.max_depth) == (8, 8, 2)
                 assert j.method.name == ("bsdf+nee" if s == "independent" else f"bsdf+nee+{s}")
-                assert j.key.startswith("samplers/screen-8x8-depth2/")
-    refs = plan.refs[2]
+                assert j.key.startswith(f"samplers/screen-8x8-depth2/{s.replace(':', '-')}/"
+                                        f"spp0000{j.spp}")
+                assert j.timing_group == "samplers/screen/depth2"
+    # the key names the repeat as it always did (the seed derives from it)
+    assert [j.key.split("-")[2] for j in ladders["independent"][1]] == [
+        "depth2/independent/spp00001/r1", "depth2/independent/spp00002/r1"]
+    (_, refs), = plan.refs.items()
     # the reference store's chunks (their size set by the film) give at least the 16 asked
     from experiments.lib import references
     chunk = references.chunk_spp_for(8, 8, SCREEN_REFERENCE_SPP)
@@ -598,15 +624,18 @@ def test_the_screen_pass_plans_exactly_the_jobs_it_needs(tmp_path):
     assert {j.method.name for j in refs} == {"path"}
     assert {(j.width, j.height) for j in refs} == {(8, 8)}
     jobs = ScreenSpace().jobs(plan)
-    assert jobs[:len(refs)] == refs and sorted(j.key for j in jobs[len(refs):]) == \
-        sorted(j.key for j in ladder_jobs)
+    assert sorted(j.key for j in jobs) == sorted(j.key for j in ladder_jobs)
+    # interleaved: the first repeat of every label at one count before the next count
+    assert [(j.spp, j.key.split("/")[2]) for j in jobs[:6]] == [
+        (n, s.replace(":", "-")) for n in (1, 2) for s in sc.samplers]
     # the efficiency pass's jobs do not depend on the screen options
     st2, cfg2 = tiny_study(tmp_path, "--screen-counts", "4,16", "--screen-repeats", "5")
-    keys = [j.key for j in Efficiency().jobs(Efficiency().plan(st, cfg))]
-    assert keys == [j.key for j in Efficiency().jobs(Efficiency().plan(st2, cfg2))]
+    keys = [j.key for j in Efficiency().jobs(planned(st, cfg, Efficiency()))]
+    assert keys == [j.key for j in Efficiency().jobs(planned(st2, cfg2, Efficiency()))]
+    assert all(k.startswith("samplers/depth2/") for k in keys)
     # negative controls: switched off, no pass; --max-depth replaces its depths too
     st3, cfg3 = tiny_study(tmp_path, "--screen-space", "off")
-    assert ScreenSpace().plan(st3, cfg3) is None and ScreenSpace().jobs(None) == []
+    assert planned(st3, cfg3, ScreenSpace()) is None
     st4, cfg4 = tiny_study(tmp_path, "--max-depth", "3")
     assert cfg4.screen.depths == (3,) and cfg4.depths == (3,)
 
@@ -624,29 +653,33 @@ def test_bad_screen_options_name_the_valid_choices(tmp_path, capsys):
 def test_the_lab_plans_the_same_screen_jobs(tmp_path):
     """The lab's error images are the sampler study's renders (first repeat): the same
     keys, so it finds them in the store; with another seed it would not (control)."""
+    from experiments.lib.engine import Engine
     from experiments.lib.studies import lab
     st, cfg = tiny_study(tmp_path)
-    study = {j.key for j in ScreenSpace().jobs(ScreenSpace().plan(st, cfg))}
+    study = planned(st, cfg, ScreenSpace())
+    keys = {j.key for j in study.renders()} | {j.key for c in study.refs.values() for j in c}
     config = lab.Config(screen_resolution=(8, 8), screen_counts=(2,),
                         screen_samplers=("independent", "zsobol:owen"),
                         screen_reference_spp=16)
-    mine = lab.plan_screen(st, config, cfg.screen.reference)
-    keys = {j.key for j in mine.refs} | {j.key for reps in mine.ladders.values()
-                                         for j in reps[0]}
-    assert len(keys) == 8 + 2 and keys <= study
+    mine = lab.plan_screen(Engine(st), config, cfg.screen.reference)
+    ours = {j.key for j in mine.renders()} | {j.key for c in mine.refs.values() for j in c}
+    assert len(ours) == 8 + 2 and ours <= keys
     other, _ = tiny_study(tmp_path, "--seed", "7")
-    moved = lab.plan_screen(other, config, cfg.screen.reference)
-    assert not {j.key for reps in moved.ladders.values() for j in reps[0]} & study
+    moved = lab.plan_screen(Engine(other), config, cfg.screen.reference)
+    assert not {j.key for j in moved.renders()} & keys
 
 
 def test_the_screen_pass_resumes_from_the_store(tmp_path):
+    from experiments.lib.engine import Engine
     st, cfg = tiny_study(tmp_path)
-    p = ScreenSpace()
-    plan = p.plan(st, cfg)
+    p, engine = ScreenSpace(), Engine(st)
+    plan = planned(st, cfg, p)
+    refs = engine.references(plan.declaration)
     jobs = p.jobs(plan)
     assert st.run(jobs) == len({j.key for j in jobs})
     assert st.run(jobs) == 0                                # a rerun renders nothing
-    result = p.analyse(p.measure(st, cfg, plan))
+    result = p.analyse(p.measure(st, cfg, plan, engine.measure(plan.declaration, plan.cells,
+                                                               refs)))
     assert len(result.rows) == 3 * 2
     rows = {(r.sampler, r.requested): r for r in result.rows}
     assert rows[("zsobol:none", 2)].repeats == 2            # its one run stands for both
