@@ -31,6 +31,7 @@ from experiments.lib.studies.sampler_comparison_screen import ScreenSpace
 from experiments.lib.studies.sampler_comparison_screen_analysis import (
     SCREEN_HEADER, UNEQUAL, ScreenPoint, analyse_screen, lower_sign, lower_verdict,
     screen_pairs)
+from experiments.lib.studies.sampler_comparison_words import conclusions, screen_conclusions
 
 PIXELS = 100
 #: Relative scatter of the repeats around their mean (mean exactly 1).
@@ -121,7 +122,7 @@ def test_the_better_sampler_reads_more_efficient():
     assert c.ratio.value == pytest.approx(2.0) and c.ratio.excludes(1.0)
     assert c.short_verdict() == "bund is more efficient"
     assert c.verdict.startswith("bund is more efficient than nat by 2 (95% CI")
-    prose = " ".join(better.conclusions[2])
+    prose = " ".join(conclusions(better)[2])
     assert "bund is more efficient than nat by 2 (95% CI" in prose
     # the runner-up is the best native sampler: said once, not twice
     assert "runner-up, nat (also the best native sampler)" in prose
@@ -132,7 +133,7 @@ def test_the_better_sampler_reads_more_efficient():
     assert c.ratio.value == pytest.approx(0.5)
     assert c.short_verdict() == "nat is more efficient"
     assert c.verdict.startswith("nat is more efficient than bund by 2 (95% CI")
-    assert "bund is more efficient" not in " ".join(worse.conclusions[2])
+    assert "bund is more efficient" not in " ".join(conclusions(worse)[2])
 
 
 def test_a_tie_is_not_distinguishable():
@@ -140,7 +141,7 @@ def test_a_tie_is_not_distinguishable():
     c, = of(tie, BUNDLED)
     assert c.ratio.value == pytest.approx(1.0)
     assert c.short_verdict() == "not distinguishable"
-    assert "nat and bund are not distinguishable at this budget" in tie.conclusions[2][0]
+    assert "nat and bund are not distinguishable at this budget" in conclusions(tie)[2][0]
     # 3% apart with a 20% scatter: still no verdict; 2x apart with it: a verdict
     wide = (0.8, 1.0, 1.2)
     assert of(analyse(three(0.2 / 1.03, 0.2, wide), FAMILIES), BUNDLED)[0] \
@@ -154,8 +155,8 @@ def test_one_repeat_gives_no_interval_and_no_verdict():
     assert not any(r.relative_efficiency.known for r in one.rows if r.sampler != "independent")
     c, = of(one, BUNDLED)
     assert c.short_verdict() == "not distinguishable" and "1 run" in c.cells()[5]
-    assert "no interval" in one.conclusions[2][0]
-    assert "is more efficient than" not in " ".join(one.conclusions[2])
+    assert "no interval" in conclusions(one)[2][0]
+    assert "is more efficient than" not in " ".join(conclusions(one)[2])
 
 
 # ------------------------------------------------------------------ which pair
@@ -182,7 +183,7 @@ def test_each_bundled_family_meets_the_best_native_sampler():
     assert {(c.a, c.b) for c in of(a, NATIVE)} == {
         (f, n) for f in ("halton:owen", "mine") for n in ("independent", "stratified")}
     assert of(a, BUNDLED)[1].short_verdict() == "orthogonal is more efficient"
-    assert a.conclusions[2][1].startswith("Against the best native sampler, orthogonal: "
+    assert conclusions(a)[2][1].startswith("Against the best native sampler, orthogonal: "
                                           "orthogonal is more efficient than mine by 1.5")
     assert a.best[2].sampler == "halton:owen"
 
@@ -262,7 +263,7 @@ def test_the_table_and_the_sentences_report_the_crossing():
     assert cells["order changes at spp"] == "16, 64"
     assert cells["verdict"] == "halton:owen is more efficient"
     assert cells["efficiency A / B"] == stats.g(c.ratio.value) == "4"
-    assert "halton:owen overtakes orthogonal from 64 spp" in a.conclusions[8][-1]
+    assert "halton:owen overtakes orthogonal from 64 spp" in conclusions(a)[8][-1]
 
 
 # ------------------------------------------------------------------ the conclusion's shape
@@ -287,14 +288,14 @@ def test_conclusions_are_short_and_come_from_the_table():
                         "halton:owen": IS_BUNDLED, "zsobol": IS_BUNDLED, "mine": IS_BUNDLED})
     a = sampler_comparison_analysis.analyse(points, PIXELS, families)
     for d in (2, 8):
-        assert 1 <= len(a.conclusions[d]) <= 3
-        for sentence in a.conclusions[d]:
+        assert 1 <= len(conclusions(a)[d]) <= 3
+        for sentence in conclusions(a)[d]:
             assert len(sentence.split()) <= 80, sentence
         mine = [c for c in a.comparisons if c.depth == d]
         assert len([c for c in mine if c.role == BUNDLED]) == 3      # one per family
         for c in mine:                    # each verdict in the prose is the table's
             if c.role in (BEST, BUNDLED):
-                assert c.verdict in " ".join(a.conclusions[d])
+                assert c.verdict in " ".join(conclusions(a)[d])
     best = a.best[2]
     top = max(a.rows, key=lambda r: (r.depth == 2, r.relative_efficiency.value))
     assert (best.sampler, best.spp, best.requested) == (top.sampler, top.spp, top.requested)
@@ -406,7 +407,7 @@ def test_lower_flip_reads_as_better_and_swapped_the_other_way():
     assert lower_sign(c.flip) == 1 and c.verdicts()[0] == "bund lower FLIP"
     assert lower_verdict("bund", "nat", c.flip, "mean FLIP").startswith(
         "bund's mean FLIP is lower than nat's: 0.7 (95% CI")
-    assert "bund lower at 1-16 spp, ratio 0.7" in better.conclusions[2][0]
+    assert "bund lower at 1-16 spp, ratio 0.7" in screen_conclusions(better)[2][0]
     # negative control: the same numbers swapped
     worse = screen_analysis({"independent": screen(0.2, 0.049), "nat": screen(0.07, 0.049),
                              "bund": screen(0.1, 0.049)})
@@ -414,7 +415,7 @@ def test_lower_flip_reads_as_better_and_swapped_the_other_way():
     assert c.flip.value == pytest.approx(1 / 0.7) and c.verdicts()[0] == "nat lower FLIP"
     assert lower_verdict("bund", "nat", c.flip, "mean FLIP").startswith(
         "bund's mean FLIP is higher than nat's")
-    assert "bund higher at 1-16 spp" in worse.conclusions[2][0]
+    assert "bund higher at 1-16 spp" in screen_conclusions(worse)[2][0]
 
 
 def test_a_flip_tie_is_not_distinguishable():
@@ -424,7 +425,7 @@ def test_a_flip_tie_is_not_distinguishable():
         if c.b == "nat":
             assert c.flip.value == pytest.approx(1.0) and c.verdicts()[0] == \
                 "not distinguishable"
-    assert "bund not distinguishable at 1-16 spp" in tie.conclusions[2][0]
+    assert "bund not distinguishable at 1-16 spp" in screen_conclusions(tie)[2][0]
     assert "are not distinguishable in mean FLIP (ratio 1" in lower_verdict(
         "bund", "nat", tie.comparisons[-1].flip, "mean FLIP")
     # 3% apart within a 20% scatter: a tie; 20% apart with it: a verdict
@@ -452,11 +453,11 @@ def test_a_bluer_error_is_found_where_it_is_below_every_native():
     assert {c.verdicts()[1] for c in at4} == {"bund bluer"}
     assert {c.verdicts()[1] for c in a.comparisons if c.requested != 4} == \
         {"not distinguishable"}
-    assert "bund at 4 spp, share 0.049" in a.conclusions[2][1]
+    assert "bund at 4 spp, share 0.049" in screen_conclusions(a)[2][1]
     # negative control: bluer than one native but not the other is not "every native"
     a = screen_analysis({"independent": screen(0.2, 0.049), "nat": screen(0.1, 0.037),
                          "bund": bund})
-    assert "bund at no count" in a.conclusions[2][1]
+    assert "bund at no count" in screen_conclusions(a)[2][1]
     rows = {(r.sampler, r.requested): r for r in a.rows}
     assert rows[("bund", 4)].share.value == pytest.approx(0.037)
     assert rows[("bund", 4)].share.lo < 0.037 < rows[("bund", 4)].share.hi
@@ -476,9 +477,9 @@ def test_flip_is_compared_only_at_equal_counts():
     # MSE per sample and time per sample alike: equally efficient
     assert c.verdicts() == (UNEQUAL, "bund bluer", "not distinguishable")
     assert c.cells()[2] == "16 / 25"
-    assert "bund at 1, 4, 16 spp" in a.conclusions[2][1]
+    assert "bund at 1, 4, 16 spp" in screen_conclusions(a)[2][1]
     # the sentence's native is the lowest FLIP among those that render 16 for 16
-    assert "lowest at 16 spp (independent)" in a.conclusions[2][0]
+    assert "lowest at 16 spp (independent)" in screen_conclusions(a)[2][0]
     same = next(c for c in a.comparisons if (c.a, c.b, c.requested) == ("bund", "nat", 4))
     assert same.equal and same.verdicts()[0] == "nat lower FLIP"
 
@@ -494,7 +495,7 @@ def test_the_screen_efficiency_uses_mse():
     assert c.efficiency.value == pytest.approx(2.0) and c.verdicts()[2] == \
         "bund more efficient"
     assert "against the most efficient native sampler at 16 spp (nat): bund more " \
-           "efficient at 1-16 spp" in a.conclusions[2][2]
+           "efficient at 1-16 spp" in screen_conclusions(a)[2][2]
     relmse = ratio(pts["bund"][-1].error, pts["nat"][-1].error, "relmse")   # control
     assert relmse.value == pytest.approx(0.4) and relmse.excludes(1.0)
 
@@ -538,12 +539,12 @@ def test_screen_conclusions_are_short_and_from_the_table():
                          "halton:owen": IS_BUNDLED, "zsobol:owen": IS_BUNDLED, "mine": IS_BUNDLED})
     a = analyse_screen({2: pts, 8: pts}, PIXELS, families, 0.0487)
     for d in (2, 8):
-        assert 1 <= len(a.conclusions[d]) <= 3
-        for sentence in a.conclusions[d]:
+        assert 1 <= len(screen_conclusions(a)[d]) <= 3
+        for sentence in screen_conclusions(a)[d]:
             assert len(sentence.split()) <= 80, sentence
-        assert "(multijitter)" in a.conclusions[d][0]          # the lowest native FLIP
-        assert "zsobol:owen lower at 1-16 spp" in a.conclusions[d][0]
-        assert "zsobol:owen at 1, 2, 4, 8, 16 spp" in a.conclusions[d][1]
+        assert "(multijitter)" in screen_conclusions(a)[d][0]          # the lowest native FLIP
+        assert "zsobol:owen lower at 1-16 spp" in screen_conclusions(a)[d][0]
+        assert "zsobol:owen at 1, 2, 4, 8, 16 spp" in screen_conclusions(a)[d][1]
     assert len(a.rows) == 2 * len(pts) * len(counts)
     assert len(a.comparisons) == 2 * (3 * 5 + 3) * len(counts)
     cells = dict(zip(SCREEN_HEADER, next(c for c in a.comparisons if (

@@ -19,6 +19,7 @@ from experiments.lib.study import Study
 from experiments.lib.studies.sampler_comparison_analysis import (
     BASELINE, COMPARISON_HEADER, METRIC, METRIC_NAMES, Analysis, Point, Row, analyse,
     families)
+from experiments.lib.studies import sampler_comparison_words as words
 from experiments.lib.studies.sampler_comparison_plan import (
     NAME, PassReport, Planned, Settings, declare, interleaved)
 
@@ -96,6 +97,7 @@ class Efficiency:
     def report(self, st: Study, cfg: Settings, planned: Planned, measured: Measured,
                result: Analysis) -> PassReport:
         out, blocks, metric = st.out, [], METRIC_NAMES[METRIC]
+        conclusions = words.conclusions(result)
         for d, by_sampler in measured.points.items():
             bands = {s: ([p.spp for p in pts], [sum(p.seconds) / len(p.seconds) for p in pts],
                          [p.expected(METRIC) for p in pts])
@@ -142,10 +144,10 @@ class Efficiency:
                 f"the largest count, its {stats.LEVEL:.0%} interval, "
                 f"the verdict (only where the interval excludes 1) and the counts where the "
                 f"order changes along the ladder"),
-                report.text("\n\n".join(result.conclusions[d]))]
+                report.text("\n\n".join(conclusions[d]))]
         summary = {
             "rows": [r.record() for r in result.rows],
-            "conclusion": {d: s for d, s in result.conclusions.items()},
+            "conclusion": {d: s for d, s in conclusions.items()},
             "comparisons": [c.record() for c in result.comparisons],
             "best": {d: r.sampler for d, r in result.best.items()},
             "best_at": {d: {"sampler": r.sampler, "spp": r.spp, "requested_spp": r.requested}

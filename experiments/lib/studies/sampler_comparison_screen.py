@@ -21,6 +21,7 @@ from experiments.lib.jobs import Job
 from experiments.lib.study import Study
 from experiments.lib.studies.sampler_comparison_analysis import families
 from experiments.lib.studies.sampler_comparison_efficiency import interval_header, point
+from experiments.lib.studies import sampler_comparison_words as words
 from experiments.lib.studies.sampler_comparison_plan import (
     NAME, PassReport, Planned, Settings, declare_screen, default_screen_labels, interleaved)
 from experiments.lib.studies.sampler_comparison_screen_analysis import (
@@ -94,6 +95,7 @@ class ScreenSpace:
     def report(self, st: Study, cfg: Settings, planned: Planned, measured: ScreenMeasured,
                result: ScreenAnalysis) -> PassReport:
         sc, out = cfg.screen, st.out
+        conclusions = words.screen_conclusions(result)
         width, height = sc.resolution
         blocks = [report.text(screen_introduction(cfg, measured))]
         for d, by_sampler in measured.points.items():
@@ -132,7 +134,7 @@ class ScreenSpace:
                                    f"ratios A / B with {stats.LEVEL:.0%} intervals; a verdict "
                                    f"only where the interval excludes 1, in FLIP only "
                                    f"between equal counts rendered"),
-                report.text("\n\n".join(result.conclusions[d]))]
+                report.text("\n\n".join(conclusions[d]))]
         header = (["max_depth", "sampler", "spp rendered", "spp requested", "repeats"]
                   + interval_header("mean FLIP") + interval_header("low-frequency share")
                   + interval_header("MSE") + ["µs / sample"])
@@ -157,7 +159,7 @@ class ScreenSpace:
             "spectrum_floor": {d: f["spectrum_floor"] for d, f in measured.floors.items()},
             "rows": [r.record() for r in result.rows],
             "comparisons": [c.record() for c in result.comparisons],
-            "conclusion": result.conclusions}}
+            "conclusion": conclusions}}
         return PassReport(blocks, summary, self.jobs(planned))
 
 
