@@ -26,11 +26,12 @@ from experiments.lib.studies.sampler_comparison_analysis import (
     BEST, BUNDLED, COMPARISON_HEADER, METRIC, NATIVE, Family, Point, onsets, order_changes,
     order_text, overtakes, ratio)
 from experiments.lib.studies.sampler_comparison_efficiency import Efficiency
-from experiments.lib.studies.sampler_comparison_plan import SCREEN_REFERENCE_SPP
+from experiments.lib.studies.sampler_comparison_plan import SCREEN_REFERENCE_SPP, plan
 from experiments.lib.studies.sampler_comparison_screen import ScreenSpace
 from experiments.lib.studies.sampler_comparison_screen_analysis import (
     SCREEN_HEADER, UNEQUAL, ScreenPoint, analyse_screen, lower_sign, lower_verdict,
     screen_pairs)
+from experiments.lib.studies.sampler_comparison_words import conclusions, screen_conclusions
 
 PIXELS = 100
 #: Relative scatter of the repeats around their mean (mean exactly 1).
@@ -121,7 +122,7 @@ def test_the_better_sampler_reads_more_efficient():
     assert c.ratio.value == pytest.approx(2.0) and c.ratio.excludes(1.0)
     assert c.short_verdict() == "bund is more efficient"
     assert c.verdict.startswith("bund is more efficient than nat by 2 (95% CI")
-    prose = " ".join(better.conclusions[2])
+    prose = " ".join(conclusions(better)[2])
     assert "bund is more efficient than nat by 2 (95% CI" in prose
     # the runner-up is the best native sampler: said once, not twice
     assert "runner-up, nat (also the best native sampler)" in prose
@@ -132,7 +133,7 @@ def test_the_better_sampler_reads_more_efficient():
     assert c.ratio.value == pytest.approx(0.5)
     assert c.short_verdict() == "nat is more efficient"
     assert c.verdict.startswith("nat is more efficient than bund by 2 (95% CI")
-    assert "bund is more efficient" not in " ".join(worse.conclusions[2])
+    assert "bund is more efficient" not in " ".join(conclusions(worse)[2])
 
 
 def test_a_tie_is_not_distinguishable():
@@ -140,7 +141,7 @@ def test_a_tie_is_not_distinguishable():
     c, = of(tie, BUNDLED)
     assert c.ratio.value == pytest.approx(1.0)
     assert c.short_verdict() == "not distinguishable"
-    assert "nat and bund are not distinguishable at this budget" in tie.conclusions[2][0]
+    assert "nat and bund are not distinguishable at this budget" in conclusions(tie)[2][0]
     # 3% apart with a 20% scatter: still no verdict; 2x apart with it: a verdict
     wide = (0.8, 1.0, 1.2)
     assert of(analyse(three(0.2 / 1.03, 0.2, wide), FAMILIES), BUNDLED)[0] \
@@ -154,8 +155,8 @@ def test_one_repeat_gives_no_interval_and_no_verdict():
     assert not any(r.relative_efficiency.known for r in one.rows if r.sampler != "independent")
     c, = of(one, BUNDLED)
     assert c.short_verdict() == "not distinguishable" and "1 run" in c.cells()[5]
-    assert "no interval" in one.conclusions[2][0]
-    assert "is more efficient than" not in " ".join(one.conclusions[2])
+    assert "no interval" in conclusions(one)[2][0]
+    assert "is more efficient than" not in " ".join(conclusions(one)[2])
 
 
 # ------------------------------------------------------------------ which pair
@@ -182,7 +183,7 @@ def test_each_bundled_family_meets_the_best_native_sampler():
     assert {(c.a, c.b) for c in of(a, NATIVE)} == {
         (f, n) for f in ("halton:owen", "mine") for n in ("independent", "stratified")}
     assert of(a, BUNDLED)[1].short_verdict() == "orthogonal is more efficient"
-    assert a.conclusions[2][1].startswith("Against the best native sampler, orthogonal: "
+    assert conclusions(a)[2][1].startswith("Against the best native sampler, orthogonal: "
                                           "orthogonal is more efficient than mine by 1.5")
     assert a.best[2].sampler == "halton:owen"
 
@@ -262,7 +263,7 @@ def test_the_table_and_the_sentences_report_the_crossing():
     assert cells["order changes at spp"] == "16, 64"
     assert cells["verdict"] == "halton:owen is more efficient"
     assert cells["efficiency A / B"] == stats.g(c.ratio.value) == "4"
-    assert "halton:owen overtakes orthogonal from 64 spp" in a.conclusions[8][-1]
+    assert "halton:owen overtakes orthogonal from 64 spp" in conclusions(a)[8][-1]
 
 
 # ------------------------------------------------------------------ the conclusion's shape
@@ -287,14 +288,14 @@ def test_conclusions_are_short_and_come_from_the_table():
                         "halton:owen": IS_BUNDLED, "zsobol": IS_BUNDLED, "mine": IS_BUNDLED})
     a = sampler_comparison_analysis.analyse(points, PIXELS, families)
     for d in (2, 8):
-        assert 1 <= len(a.conclusions[d]) <= 3
-        for sentence in a.conclusions[d]:
+        assert 1 <= len(conclusions(a)[d]) <= 3
+        for sentence in conclusions(a)[d]:
             assert len(sentence.split()) <= 80, sentence
         mine = [c for c in a.comparisons if c.depth == d]
         assert len([c for c in mine if c.role == BUNDLED]) == 3      # one per family
         for c in mine:                    # each verdict in the prose is the table's
             if c.role in (BEST, BUNDLED):
-                assert c.verdict in " ".join(a.conclusions[d])
+                assert c.verdict in " ".join(conclusions(a)[d])
     best = a.best[2]
     top = max(a.rows, key=lambda r: (r.depth == 2, r.relative_efficiency.value))
     assert (best.sampler, best.spp, best.requested) == (top.sampler, top.spp, top.requested)
@@ -406,7 +407,7 @@ def test_lower_flip_reads_as_better_and_swapped_the_other_way():
     assert lower_sign(c.flip) == 1 and c.verdicts()[0] == "bund lower FLIP"
     assert lower_verdict("bund", "nat", c.flip, "mean FLIP").startswith(
         "bund's mean FLIP is lower than nat's: 0.7 (95% CI")
-    assert "bund lower at 1-16 spp, ratio 0.7" in better.conclusions[2][0]
+    assert "bund lower at 1-16 spp, ratio 0.7" in screen_conclusions(better)[2][0]
     # negative control: the same numbers swapped
     worse = screen_analysis({"independent": screen(0.2, 0.049), "nat": screen(0.07, 0.049),
                              "bund": screen(0.1, 0.049)})
@@ -414,7 +415,7 @@ def test_lower_flip_reads_as_better_and_swapped_the_other_way():
     assert c.flip.value == pytest.approx(1 / 0.7) and c.verdicts()[0] == "nat lower FLIP"
     assert lower_verdict("bund", "nat", c.flip, "mean FLIP").startswith(
         "bund's mean FLIP is higher than nat's")
-    assert "bund higher at 1-16 spp" in worse.conclusions[2][0]
+    assert "bund higher at 1-16 spp" in screen_conclusions(worse)[2][0]
 
 
 def test_a_flip_tie_is_not_distinguishable():
@@ -424,7 +425,7 @@ def test_a_flip_tie_is_not_distinguishable():
         if c.b == "nat":
             assert c.flip.value == pytest.approx(1.0) and c.verdicts()[0] == \
                 "not distinguishable"
-    assert "bund not distinguishable at 1-16 spp" in tie.conclusions[2][0]
+    assert "bund not distinguishable at 1-16 spp" in screen_conclusions(tie)[2][0]
     assert "are not distinguishable in mean FLIP (ratio 1" in lower_verdict(
         "bund", "nat", tie.comparisons[-1].flip, "mean FLIP")
     # 3% apart within a 20% scatter: a tie; 20% apart with it: a verdict
@@ -452,11 +453,11 @@ def test_a_bluer_error_is_found_where_it_is_below_every_native():
     assert {c.verdicts()[1] for c in at4} == {"bund bluer"}
     assert {c.verdicts()[1] for c in a.comparisons if c.requested != 4} == \
         {"not distinguishable"}
-    assert "bund at 4 spp, share 0.049" in a.conclusions[2][1]
+    assert "bund at 4 spp, share 0.049" in screen_conclusions(a)[2][1]
     # negative control: bluer than one native but not the other is not "every native"
     a = screen_analysis({"independent": screen(0.2, 0.049), "nat": screen(0.1, 0.037),
                          "bund": bund})
-    assert "bund at no count" in a.conclusions[2][1]
+    assert "bund at no count" in screen_conclusions(a)[2][1]
     rows = {(r.sampler, r.requested): r for r in a.rows}
     assert rows[("bund", 4)].share.value == pytest.approx(0.037)
     assert rows[("bund", 4)].share.lo < 0.037 < rows[("bund", 4)].share.hi
@@ -476,9 +477,9 @@ def test_flip_is_compared_only_at_equal_counts():
     # MSE per sample and time per sample alike: equally efficient
     assert c.verdicts() == (UNEQUAL, "bund bluer", "not distinguishable")
     assert c.cells()[2] == "16 / 25"
-    assert "bund at 1, 4, 16 spp" in a.conclusions[2][1]
+    assert "bund at 1, 4, 16 spp" in screen_conclusions(a)[2][1]
     # the sentence's native is the lowest FLIP among those that render 16 for 16
-    assert "lowest at 16 spp (independent)" in a.conclusions[2][0]
+    assert "lowest at 16 spp (independent)" in screen_conclusions(a)[2][0]
     same = next(c for c in a.comparisons if (c.a, c.b, c.requested) == ("bund", "nat", 4))
     assert same.equal and same.verdicts()[0] == "nat lower FLIP"
 
@@ -494,7 +495,7 @@ def test_the_screen_efficiency_uses_mse():
     assert c.efficiency.value == pytest.approx(2.0) and c.verdicts()[2] == \
         "bund more efficient"
     assert "against the most efficient native sampler at 16 spp (nat): bund more " \
-           "efficient at 1-16 spp" in a.conclusions[2][2]
+           "efficient at 1-16 spp" in screen_conclusions(a)[2][2]
     relmse = ratio(pts["bund"][-1].error, pts["nat"][-1].error, "relmse")   # control
     assert relmse.value == pytest.approx(0.4) and relmse.excludes(1.0)
 
@@ -538,12 +539,12 @@ def test_screen_conclusions_are_short_and_from_the_table():
                          "halton:owen": IS_BUNDLED, "zsobol:owen": IS_BUNDLED, "mine": IS_BUNDLED})
     a = analyse_screen({2: pts, 8: pts}, PIXELS, families, 0.0487)
     for d in (2, 8):
-        assert 1 <= len(a.conclusions[d]) <= 3
-        for sentence in a.conclusions[d]:
+        assert 1 <= len(screen_conclusions(a)[d]) <= 3
+        for sentence in screen_conclusions(a)[d]:
             assert len(sentence.split()) <= 80, sentence
-        assert "(multijitter)" in a.conclusions[d][0]          # the lowest native FLIP
-        assert "zsobol:owen lower at 1-16 spp" in a.conclusions[d][0]
-        assert "zsobol:owen at 1, 2, 4, 8, 16 spp" in a.conclusions[d][1]
+        assert "(multijitter)" in screen_conclusions(a)[d][0]          # the lowest native FLIP
+        assert "zsobol:owen lower at 1-16 spp" in screen_conclusions(a)[d][0]
+        assert "zsobol:owen at 1, 2, 4, 8, 16 spp" in screen_conclusions(a)[d][1]
     assert len(a.rows) == 2 * len(pts) * len(counts)
     assert len(a.comparisons) == 2 * (3 * 5 + 3) * len(counts)
     cells = dict(zip(SCREEN_HEADER, next(c for c in a.comparisons if (
@@ -565,10 +566,30 @@ TINY_SCREEN = ["--resolution", "8x4", "--spp", "4", "--depths", "2", "--repeats"
 def tiny_study(out, *argv):
     from experiments.lib import cli
     from experiments.lib.studies import sampler_comparison
+    from experiments.lib.studies.settings import StudySettings, common_fields
     from experiments.lib.study import Study
     args = cli.parse_args(sampler_comparison.build_parser(),
                           ["--out", str(out), *TINY_SCREEN, *argv])
-    return Study(args), sampler_comparison.settings_of(args)
+    return Study(StudySettings(**common_fields(args))), sampler_comparison.settings_of(args)
+
+
+def planned(st, cfg, p):
+    """The pass ``p``'s jobs as the engine plans them (None: the pass is switched off)."""
+    from experiments.lib.engine import Engine
+    declared = p.declare(st, cfg)
+    return None if declared is None else plan(Engine(st), declared)
+
+
+def by_label(planned_pass, scene: str = "depth2") -> dict:
+    """``{method name: [repeat: [job per count]]}`` of one scene of a planned pass."""
+    decl, out = planned_pass.declaration, {}
+    for budget in decl.budgets:
+        for cell, reps in planned_pass.cells[budget.name].items():
+            if cell.scene == scene:
+                mine = out.setdefault(cell.method, [[] for _ in reps])
+                for r, jobs in enumerate(reps):
+                    mine[r] += jobs
+    return out
 
 
 def test_the_screen_pass_plans_exactly_the_jobs_it_needs(tmp_path):
@@ -576,8 +597,9 @@ def test_the_screen_pass_plans_exactly_the_jobs_it_needs(tmp_path):
     sc = cfg.screen
     assert (sc.resolution, sc.counts, sc.depths, sc.repeats, sc.reference_spp) == \
         ((8, 8), (1, 2), (2,), 2, 16)
-    plan = ScreenSpace().plan(st, cfg)
-    ladders = plan.ladders[2]
+    plan = planned(st, cfg, ScreenSpace())
+    ladders = {label: by_label(plan)[m.name] for label, m in
+               zip(sc.samplers, plan.declaration.methods)}
     assert {s: len(reps) for s, reps in ladders.items()} == {
         "independent": 2, "zsobol:owen": 2, "zsobol:none": 1}       # deterministic: one run
     ladder_jobs = [j for reps in ladders.values() for rep in reps for j in rep]
@@ -588,8 +610,13 @@ def test_the_screen_pass_plans_exactly_the_jobs_it_needs(tmp_path):
             for j in rep:
                 assert (j.width, j.height, j.max_depth) == (8, 8, 2)
                 assert j.method.name == ("bsdf+nee" if s == "independent" else f"bsdf+nee+{s}")
-                assert j.key.startswith("samplers/screen-8x8-depth2/")
-    refs = plan.refs[2]
+                assert j.key.startswith(f"samplers/screen-8x8-depth2/{s.replace(':', '-')}/"
+                                        f"spp0000{j.spp}")
+                assert j.timing_group == "samplers/screen/depth2"
+    # the key names the repeat as it always did (the seed derives from it)
+    assert [j.key.split("-")[2] for j in ladders["independent"][1]] == [
+        "depth2/independent/spp00001/r1", "depth2/independent/spp00002/r1"]
+    (_, refs), = plan.refs.items()
     # the reference store's chunks (their size set by the film) give at least the 16 asked
     from experiments.lib import references
     chunk = references.chunk_spp_for(8, 8, SCREEN_REFERENCE_SPP)
@@ -598,15 +625,18 @@ def test_the_screen_pass_plans_exactly_the_jobs_it_needs(tmp_path):
     assert {j.method.name for j in refs} == {"path"}
     assert {(j.width, j.height) for j in refs} == {(8, 8)}
     jobs = ScreenSpace().jobs(plan)
-    assert jobs[:len(refs)] == refs and sorted(j.key for j in jobs[len(refs):]) == \
-        sorted(j.key for j in ladder_jobs)
+    assert sorted(j.key for j in jobs) == sorted(j.key for j in ladder_jobs)
+    # interleaved: the first repeat of every label at one count before the next count
+    assert [(j.spp, j.key.split("/")[2]) for j in jobs[:6]] == [
+        (n, s.replace(":", "-")) for n in (1, 2) for s in sc.samplers]
     # the efficiency pass's jobs do not depend on the screen options
     st2, cfg2 = tiny_study(tmp_path, "--screen-counts", "4,16", "--screen-repeats", "5")
-    keys = [j.key for j in Efficiency().jobs(Efficiency().plan(st, cfg))]
-    assert keys == [j.key for j in Efficiency().jobs(Efficiency().plan(st2, cfg2))]
+    keys = [j.key for j in Efficiency().jobs(planned(st, cfg, Efficiency()))]
+    assert keys == [j.key for j in Efficiency().jobs(planned(st2, cfg2, Efficiency()))]
+    assert all(k.startswith("samplers/depth2/") for k in keys)
     # negative controls: switched off, no pass; --max-depth replaces its depths too
     st3, cfg3 = tiny_study(tmp_path, "--screen-space", "off")
-    assert ScreenSpace().plan(st3, cfg3) is None and ScreenSpace().jobs(None) == []
+    assert planned(st3, cfg3, ScreenSpace()) is None
     st4, cfg4 = tiny_study(tmp_path, "--max-depth", "3")
     assert cfg4.screen.depths == (3,) and cfg4.depths == (3,)
 
@@ -624,29 +654,33 @@ def test_bad_screen_options_name_the_valid_choices(tmp_path, capsys):
 def test_the_lab_plans_the_same_screen_jobs(tmp_path):
     """The lab's error images are the sampler study's renders (first repeat): the same
     keys, so it finds them in the store; with another seed it would not (control)."""
+    from experiments.lib.engine import Engine
     from experiments.lib.studies import lab
     st, cfg = tiny_study(tmp_path)
-    study = {j.key for j in ScreenSpace().jobs(ScreenSpace().plan(st, cfg))}
+    study = planned(st, cfg, ScreenSpace())
+    keys = {j.key for j in study.renders()} | {j.key for c in study.refs.values() for j in c}
     config = lab.Config(screen_resolution=(8, 8), screen_counts=(2,),
                         screen_samplers=("independent", "zsobol:owen"),
                         screen_reference_spp=16)
-    mine = lab.plan_screen(st, config, cfg.screen.reference)
-    keys = {j.key for j in mine.refs} | {j.key for reps in mine.ladders.values()
-                                         for j in reps[0]}
-    assert len(keys) == 8 + 2 and keys <= study
+    mine = lab.plan_screen(Engine(st), config, cfg.screen.reference)
+    ours = {j.key for j in mine.renders()} | {j.key for c in mine.refs.values() for j in c}
+    assert len(ours) == 8 + 2 and ours <= keys
     other, _ = tiny_study(tmp_path, "--seed", "7")
-    moved = lab.plan_screen(other, config, cfg.screen.reference)
-    assert not {j.key for reps in moved.ladders.values() for j in reps[0]} & study
+    moved = lab.plan_screen(Engine(other), config, cfg.screen.reference)
+    assert not {j.key for j in moved.renders()} & keys
 
 
 def test_the_screen_pass_resumes_from_the_store(tmp_path):
+    from experiments.lib.engine import Engine
     st, cfg = tiny_study(tmp_path)
-    p = ScreenSpace()
-    plan = p.plan(st, cfg)
+    p, engine = ScreenSpace(), Engine(st)
+    plan = planned(st, cfg, p)
+    refs = engine.references(plan.declaration)
     jobs = p.jobs(plan)
     assert st.run(jobs) == len({j.key for j in jobs})
     assert st.run(jobs) == 0                                # a rerun renders nothing
-    result = p.analyse(p.measure(st, cfg, plan))
+    result = p.analyse(p.measure(st, cfg, plan, engine.measure(plan.declaration, plan.cells,
+                                                               refs)))
     assert len(result.rows) == 3 * 2
     rows = {(r.sampler, r.requested): r for r in result.rows}
     assert rows[("zsobol:none", 2)].repeats == 2            # its one run stands for both

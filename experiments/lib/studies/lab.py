@@ -15,9 +15,9 @@ sentences computed from it) -> report. Finished panels are cached under
 OUT/lab/cache, so a rerun (or an interrupted run, rerun) only computes what is
 missing. Screen-space error (:mod:`experiments.lib.screen_space`): each sampler's error
 image (render minus reference, luminance) and its power spectrum at 4 and 16 spp side by
-side, from the sampler study's screen-space renders (the first repeat): the lab plans the
-same jobs, so it reads them from the job store where the sampler study made them and
-renders (and stores) only the missing ones.
+side, from the sampler study's screen-space renders (the first repeat): the lab declares the
+same screen-space pass on the experiment engine (one repeat), so it reads them from the
+job store where the sampler study made them and renders (and stores) only the missing ones.
 
     python -m experiments.lab --help
 """
@@ -31,6 +31,7 @@ import numpy as np
 
 from experiments.lib import cli, figures, files, lab_figures, lab_points, lab_warps, report
 from experiments.lib import screen_space
+from experiments.lib.engine import Cell, Engine
 from experiments.lib.methods import Method, parse_method, strategies as registered_strategies
 from experiments.lib.study import Study
 from experiments.lib.studies.settings import StudySettings, common_fields
@@ -304,12 +305,6 @@ def report_points(out: str, cfg: Config, m: PointsMeasured,
 # ------------------------------------------------------------- screen space
 
 @dataclasses.dataclass(frozen=True)
-class ScreenPlan:
-    refs: list                   # the reference's jobs
-    ladders: dict                # {label: [[job per count]]} (one repeat)
-
-
-@dataclasses.dataclass(frozen=True)
 class ScreenMeasured:
     labels: list
     counts: tuple
@@ -322,44 +317,48 @@ class ScreenMeasured:
     total: int
 
 
-def plan_screen(st: Study, cfg: Config, reference) -> ScreenPlan:
-    """The sampler study's screen-space jobs at ``cfg``'s settings, first repeat only (the
-    same jobs: :func:`.sampler_comparison_plan.screen_ladders`)."""
-    labels = cfg.screen_labels()
-    depth = cfg.screen_depth
+def plan_screen(engine: Engine, cfg: Config, reference) -> sampler_comparison_plan.Planned:
+    """The sampler study's screen-space declaration at ``cfg``'s settings, one repeat (the
+    same jobs as the study's first repeat: :func:`.sampler_comparison_plan.declare_screen`)."""
+    st, labels, depth = engine.study, cfg.screen_labels(), cfg.screen_depth
     screen = sampler_comparison_plan.ScreenSettings(
         tuple(cfg.screen_resolution), tuple(cfg.screen_counts), (depth,), tuple(labels), 1,
         cfg.screen_reference_spp, reference)
     study = sampler_comparison_plan.Settings(
         parse_method(sampler_comparison_plan.BASE), (depth,), (), tuple(labels), st.depth,
         st.info.path, (st.width, st.height), screen)
-    return ScreenPlan(
-        sampler_comparison_plan.screen_reference_jobs(st, screen, study.at(depth)),
-        sampler_comparison_plan.screen_ladders(st, study, screen, depth, labels,
-                                               screen.counts, 1))
+    return sampler_comparison_plan.plan(
+        engine, sampler_comparison_plan.declare_screen(study, screen, st.info))
 
 
-def measure_screen(st: Study, cfg: Config, planned: ScreenPlan) -> ScreenMeasured:
-    """Render what the store lacks, then each render's error field and spectrum."""
-    jobs = planned.refs + [j for reps in planned.ladders.values() for j in reps[0]]
-    found = sum(st.store.has(j.key) for j in jobs)
-    st.run(jobs, f"{NAME}: screen-space renders")
-    ref, _ = st.reference(planned.refs)
-    floor = screen_floor(st, planned.refs)
+def measure_screen(engine: Engine, cfg: Config,
+                   planned: sampler_comparison_plan.Planned) -> ScreenMeasured:
+    """Render what the stores lack (the engine), then each render's error field and
+    spectrum."""
+    st, decl = engine.study, planned.declaration
+    refs, renders = [j for chunks in planned.refs.values() for j in chunks], planned.renders()
+    found = sum(st.store.has(j.key) for j in refs + renders)
+    references = engine.references(decl)
+    st.run(renders, f"{NAME}: screen-space renders")
+    measured = engine.measure(decl, planned.cells, references)
+    (scene, ref_jobs), = planned.refs.items()
+    ref = references[scene][0]
+    floor = screen_floor(st, ref_jobs)
     fields, spectra, radial, shares, rendered = {}, {}, {}, {}, {}
-    for label, reps in planned.ladders.items():
-        for job, count in zip(reps[0], cfg.screen_counts):
-            result = st.store.get(job.key)
-            field = screen_space.error_field(result.image.astype(float), ref)
+    labels = cfg.screen_labels()
+    for label, method in zip(labels, decl.methods):
+        for budget, count in zip(decl.budgets, cfg.screen_counts):
+            run = measured.runs[Cell(scene[0], method.name, budget.name)][0][-1]
+            field = screen_space.error_field(run.image, ref)
             power = screen_space.periodogram(field)
             key = (label, count)
             fields[key] = field
             spectra[key] = screen_space.normalized(power, floor)
             radial[key] = screen_space.spectrum(spectra[key])
             shares[key] = screen_space.low_share(power, floor)
-            rendered[key] = result.spp
-    return ScreenMeasured(list(planned.ladders), tuple(cfg.screen_counts), fields, spectra,
-                          radial, shares, rendered, found, len(jobs))
+            rendered[key] = run.spp
+    return ScreenMeasured(labels, tuple(cfg.screen_counts), fields, spectra, radial, shares,
+                          rendered, found, len(refs) + len(renders))
 
 
 def screen_source(m: ScreenMeasured) -> str:
@@ -446,8 +445,8 @@ def run(args) -> None:
     points = measure_points(plan_points(cfg), os.path.join(out_dir, "cache", "points"))
     point_found = analyse_points(points, cfg.counts[0])
     point_seconds = time.perf_counter() - start - warp_seconds
-    st = Study(StudySettings(**common_fields(args)))
-    screen = measure_screen(st, cfg, plan_screen(st, cfg, settings.reference))
+    engine = Engine(Study(StudySettings(**common_fields(args))))
+    screen = measure_screen(engine, cfg, plan_screen(engine, cfg, settings.reference))
     screen_seconds = time.perf_counter() - start - warp_seconds - point_seconds
     blocks = ([report.text(GUIDE)] + report_warps(out, cfg, warps, warp_found)
               + report_points(out, cfg, points, point_found)

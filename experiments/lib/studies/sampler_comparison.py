@@ -25,10 +25,11 @@ the reference's own white noise subtracted), and MSE efficiency; a conclusion ta
 depth (each bundled sampler's best against every native one and the other bundled ones, per
 count) and three sentences computed from it.
 
-The study is a list of measurement passes (:data:`PASSES`), each plan -> measure -> pure
-analysis -> report: its settings and plan (:mod:`.sampler_comparison_plan`), the efficiency
-pass (:mod:`.sampler_comparison_efficiency`, analysed by :mod:`.sampler_comparison_analysis`)
-and the screen-space pass (:mod:`.sampler_comparison_screen`, analysed by
+The study is a list of measurement passes (:data:`PASSES`), each a declaration on the
+experiment engine (:mod:`experiments.lib.engine`, which plans, renders, costs and measures)
+-> pure analysis -> report: its settings and declarations (:mod:`.sampler_comparison_plan`),
+the efficiency pass (:mod:`.sampler_comparison_efficiency`, analysed by
+:mod:`.sampler_comparison_analysis`) and the screen-space pass (:mod:`.sampler_comparison_screen`, analysed by
 :mod:`.sampler_comparison_screen_analysis`). This module is the entry point: the command
 line, :func:`settings_of` (the one place that reads it), the report's introduction and
 settings, and the registration of the study as ``samplers``.
@@ -40,8 +41,10 @@ from __future__ import annotations
 import os
 import time
 
-from experiments.lib import cli, clock, files, plan, report, samplers, stats
+from experiments.lib import cli, clock, files, report, samplers, stats
+from experiments.lib.engine import Engine
 from experiments.lib.methods import Method
+from experiments.lib.plan import doubling_targets
 from experiments.lib.study import Study
 from experiments.lib.studies.settings import StudySettings, common_fields
 from experiments.lib.studies import StudySpec, register_study
@@ -49,7 +52,7 @@ from experiments.lib.studies.sampler_comparison_analysis import BASELINE, METRIC
 from experiments.lib.studies.sampler_comparison_efficiency import Efficiency
 from experiments.lib.studies.sampler_comparison_plan import (
     BASE, NAME, SCREEN_COUNTS, SCREEN_DEPTHS, SCREEN_NATIVES, SCREEN_REFERENCE_SPP,
-    SCREEN_REPEATS, SCREEN_RESOLUTION, ScreenSettings, Settings, default_screen_labels)
+    SCREEN_REPEATS, SCREEN_RESOLUTION, ScreenSettings, Settings, default_screen_labels, plan)
 from experiments.lib.studies.sampler_comparison_screen import ScreenSpace
 
 TITLE = "Samplers: the bundled samplers against Mitsuba's own"
@@ -162,7 +165,7 @@ def settings_of(args) -> Settings:
         tuple(one or args.screen_depths), tuple(args.screen_samplers), args.screen_repeats,
         args.screen_reference_spp, args.reference_method)
     return Settings(args.base, tuple(one or args.depths),
-                    tuple(plan.doubling_targets(args.spp, args.ladder_factor)),
+                    tuple(doubling_targets(args.spp, args.ladder_factor)),
                     tuple(samplers.labels()), args.depth, args.scene, tuple(args.resolution),
                     screen)
 
@@ -214,12 +217,14 @@ def screen_settings_text(sc: ScreenSettings | None) -> str:
 def run(args) -> None:
     start = time.perf_counter()
     st, cfg = Study(StudySettings(**common_fields(args))), settings_of(args)
-    planned = [(p, p.plan(st, cfg)) for p in PASSES]
-    planned = [(p, pl) for p, pl in planned if pl is not None]      # passes switched off
+    engine = Engine(st)
+    planned = [(p, plan(engine, declared)) for p in PASSES
+               if (declared := p.declare(st, cfg)) is not None]       # passes switched off
+    references = [engine.references(pl.declaration) for _, pl in planned]
     st.run([j for p, pl in planned for j in p.jobs(pl)], f"{NAME}: renders")
     blocks, summary, timed = [report.text(introduction(st, cfg))], {}, []
-    for p, pl in planned:
-        measured = p.measure(st, cfg, pl)
+    for (p, pl), refs in zip(planned, references):
+        measured = p.measure(st, cfg, pl, engine.measure(pl.declaration, pl.cells, refs))
         reported = p.report(st, cfg, pl, measured, p.analyse(measured))
         blocks += reported.blocks
         summary.update(reported.summary)

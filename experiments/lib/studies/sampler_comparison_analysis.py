@@ -1,4 +1,4 @@
-"""The sampler study's analysis: numbers in, numbers and sentences out (no rendering, no files).
+"""The sampler study's analysis: numbers in, numbers and verdicts out (no rendering, no files).
 
 Every sampler label (:func:`experiments.lib.samplers.labels`) renders every count of the
 ladder R times with independent randomizations; :class:`Point` holds one count's numbers per
@@ -16,8 +16,10 @@ errors (the floors under them). :func:`analyse`, a pure function of those number
   the runner-up; each bundled sampler family's best label against the best native sampler
   (Mitsuba's own, :attr:`SamplerSpec.native`), and against every other native sampler,
   each with its ratio, interval, verdict and the counts where the order changes;
-- at most three sentences per depth computed from those rows (:func:`sentences`), and the
-  most efficient label per depth with the count it was chosen at.
+- the most efficient label per depth with the count it was chosen at.
+
+The sentences made from the conclusion table are the report layer's
+(:mod:`.sampler_comparison_words`).
 
 The screen-space pass's analysis is :mod:`.sampler_comparison_screen_analysis`.
 
@@ -304,49 +306,6 @@ def comparisons(rows: list[Row], points: dict, kinds: dict[str, Family]) -> list
     return out
 
 
-def _overtake_text(c: Comparison) -> str:
-    winner, loser, n = c.overtakes
-    last = c.changes[-1][0]
-    return (f"{winner} overtakes {loser} at the largest count ({n} spp)" if n == last else
-            f"{winner} overtakes {loser} from {n} spp")
-
-
-def sentences(table_rows: list[Comparison], limit: int = 3) -> list[str]:
-    """At most three sentences about one depth, computed from its conclusion table alone:
-    the winner, the bundled samplers against the best native one, and where the order
-    between a bundled and a native sampler changes along the ladder."""
-    out = []
-    best = next((c for c in table_rows if c.role == BEST), None)
-    bundled = [c for c in table_rows if c.role == BUNDLED]
-    same = [c for c in bundled if best is not None and {c.a, c.b} == {best.a, best.b}]
-    if best is not None:
-        runner = (f"{best.b} (also the best native sampler)"
-                  if same and same[0].b == best.b else best.b)
-        out.append(f"At max_depth {best.depth} and {best.spp} spp, {best.a} is the most "
-                   f"efficient sampler by {METRIC_NAMES[METRIC]}; against the runner-up, "
-                   f"{runner}: {best.verdict}.")
-    rest = [c for c in bundled if c not in same]
-    if rest:
-        out.append(f"Against the best native sampler, {rest[0].b}: "
-                   + "; ".join(c.verdict for c in rest) + ".")
-    ladder = [c for c in table_rows if c.role in (BUNDLED, NATIVE)]
-    moves = [c for c in ladder if c.overtakes]
-    flips = [c for c in ladder if c.onsets]
-    if moves:
-        more = f" and {len(moves) - 3} more (table)" if len(moves) > 3 else ""
-        out.append("Along the ladder, " + "; ".join(map(_overtake_text, moves[:3]))
-                   + f"{more}.")
-    elif flips:
-        out.append(f"Along the ladder the order changes without a lasting winner in "
-                   f"{len(flips)} comparison(s) (table).")
-    elif bundled:
-        first = bundled[0].changes
-        span = f" ({first[0][0]}-{first[-1][0]} spp)" if first else ""
-        out.append(f"No order between a bundled and a native sampler changes along the "
-                   f"ladder{span}.")
-    return out[:limit]
-
-
 # ------------------------------------------------------------ everything at once
 
 @dataclass(frozen=True)
@@ -354,7 +313,6 @@ class Analysis:
     rows: list                  # Row per depth and label
     curves: dict                # {depth: {label: [(spp, Estimate)]}}
     comparisons: list           # Comparison rows of every depth
-    conclusions: dict           # {depth: [sentence]}
     best: dict                  # {depth: Row of the most efficient label}
 
 
@@ -365,5 +323,4 @@ def analyse(points: dict[int, dict[str, list[Point]]], pixels: int,
     comps = comparisons(rows, points, kinds)
     depths = sorted(points)
     return Analysis(rows, curves(points), comps,
-                    {d: sentences([c for c in comps if c.depth == d]) for d in depths},
                     {d: _best([r for r in rows if r.depth == d]) for d in depths})

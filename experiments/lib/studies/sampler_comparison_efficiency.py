@@ -1,8 +1,8 @@
 """The sampler study's efficiency pass: every label over the ladder, at every depth.
 
-Plan (the references and every label's ladders, interleaved so that drifting machine load
-affects every sampler alike), measure (per-repeat render times and errors against each
-depth's reference), the pure analysis (:mod:`.sampler_comparison_analysis`) and the report:
+Declared on the engine (:func:`.sampler_comparison_plan.declare`; renders interleaved so
+that drifting machine load affects every sampler alike), measured (the engine's per-repeat
+costs and errors against each depth's reference, as :class:`Point` values), the pure analysis (:mod:`.sampler_comparison_analysis`) and the report:
 the error and efficiency charts, the viewer, the table of every label, the efficiency along
 the ladder and each depth's conclusion table and sentences.
 """
@@ -12,20 +12,16 @@ import math
 import os
 from dataclasses import dataclass
 
-from experiments.lib import figures, metrics, report, stats
+from experiments.lib import figures, report, stats
+from experiments.lib.engine import Cell, Declaration, Measurements
 from experiments.lib.jobs import Job
 from experiments.lib.study import Study
 from experiments.lib.studies.sampler_comparison_analysis import (
     BASELINE, COMPARISON_HEADER, METRIC, METRIC_NAMES, Analysis, Point, Row, analyse,
     families)
+from experiments.lib.studies import sampler_comparison_words as words
 from experiments.lib.studies.sampler_comparison_plan import (
-    NAME, PassReport, Settings, ladder_job, method, rungs, timing)
-
-
-@dataclass(frozen=True)
-class LadderPlan:
-    refs: dict                    # {depth: reference jobs}
-    ladders: dict                 # {depth: {label: [repeat: [jobs of the ladder]]}}
+    NAME, PassReport, Planned, Settings, declare, interleaved)
 
 
 @dataclass(frozen=True)
@@ -34,6 +30,8 @@ class Measured:
     floors: dict                  # {depth: the reference's metadata}
     pixels: int
     kinds: dict                   # {label: Family}
+    images: dict                  # {depth: {label: the first repeat's image at the last count}}
+    references: dict              # {depth: the reference image}
 
 
 def interval_header(name: str) -> list[str]:
@@ -68,53 +66,38 @@ class Efficiency:
     """Errors and render times of every label over the ladder, at every depth."""
     name = "efficiency"
 
-    def plan(self, st: Study, cfg: Settings) -> LadderPlan:
-        refs, ladders = {}, {}
-        for d in cfg.depths:
-            depth = cfg.at(d)
-            refs[d] = st.reference_jobs(depth=depth)
-            ladders[d] = {s: [[ladder_job(st, cfg, f"{NAME}/depth{d}", d, s, t, r,
-                                          (st.width, st.height), f"{NAME}/depth{d}")
-                               for t in cfg.targets]
-                              for r in range(st.repeats_of(method(cfg.base, s)))]
-                          for s in cfg.samplers}
-        return LadderPlan(refs, ladders)
+    def declare(self, st: Study, cfg: Settings) -> Declaration:
+        return declare(cfg, st.info, st.repeats)
 
-    def jobs(self, planned: LadderPlan) -> list[Job]:
-        """References first, then per depth and repeat every label at one spp before the
-        next spp (so that drifting machine load affects every sampler alike)."""
-        jobs = [j for r in planned.refs.values() for j in r]
-        for by_sampler in planned.ladders.values():
-            for r in range(max(len(reps) for reps in by_sampler.values())):
-                for i in range(len(next(iter(by_sampler.values()))[0])):
-                    jobs += [reps[r][i] for reps in by_sampler.values() if r < len(reps)]
-        return jobs
+    def jobs(self, planned: Planned) -> list[Job]:
+        """Per depth and repeat every label at one spp before the next spp (so that
+        drifting machine load affects every sampler alike)."""
+        return interleaved(planned)
 
-    def measure(self, st: Study, cfg: Settings, planned: LadderPlan) -> Measured:
-        """Per-repeat times and errors against each depth's reference; a deterministic
-        label's one run stands for every repeat (:meth:`Study.per_repeat`)."""
-        points, floors = {}, {}
-        for d, by_sampler in planned.ladders.items():
-            ref, meta = st.reference(planned.refs[d])
-            floors[d] = meta
-            points[d] = {}
-            for s, reps in by_sampler.items():
-                pts = []
-                for target, results, images in rungs(st, reps):
-                    pts.append(Point(
-                        results[0].spp, st.per_repeat(timing(st, r) for r in results),
-                        st.per_repeat(metrics.mse(im, ref) for im in images),
-                        st.per_repeat(metrics.relmse(im, ref) for im in images), target.spp,
-                        meta["mse_floor"], meta["relmse_floor"]))
-                points[d][s] = pts
-        return Measured(points, floors, st.width * st.height, families(cfg.samplers))
+    def measure(self, st: Study, cfg: Settings, planned: Planned,
+                measured: Measurements) -> Measured:
+        """Per-repeat costs and errors against each depth's reference (the engine's runs; a
+        deterministic label's one run stands for every repeat)."""
+        points, floors, images, refs = {}, {}, {}, {}
+        decl = planned.declaration
+        for d, scene in zip(cfg.depths, decl.scenes):
+            refs[d], floors[d] = measured.references[(scene.name, None)]
+            points[d], images[d] = {}, {}
+            for s, m in zip(cfg.samplers, decl.methods):
+                cells = [Cell(scene.name, m.name, b.name) for b in decl.budgets]
+                points[d][s] = [point(measured.final(c), b.spp, floors[d])
+                                for c, b in zip(cells, decl.budgets)]
+                images[d][s] = measured.runs[cells[-1]][0][-1].image
+        return Measured(points, floors, st.width * st.height, families(cfg.samplers), images,
+                        refs)
 
     def analyse(self, measured: Measured) -> Analysis:
         return analyse(measured.points, measured.pixels, measured.kinds)
 
-    def report(self, st: Study, cfg: Settings, planned: LadderPlan, measured: Measured,
+    def report(self, st: Study, cfg: Settings, planned: Planned, measured: Measured,
                result: Analysis) -> PassReport:
         out, blocks, metric = st.out, [], METRIC_NAMES[METRIC]
+        conclusions = words.conclusions(result)
         for d, by_sampler in measured.points.items():
             bands = {s: ([p.spp for p in pts], [sum(p.seconds) / len(p.seconds) for p in pts],
                          [p.expected(METRIC) for p in pts])
@@ -140,7 +123,7 @@ class Efficiency:
                     f"this budget (at every count an error is below the reference's own "
                     f"noise, only a bound), so no chart of them is drawn; a better reference "
                     f"(--reference-spp) or more repeats cure it."))
-            blocks.append(comparison_viewer(st, cfg, planned, d))
+            blocks.append(comparison_viewer(st, cfg, measured, d))
         blocks += [
             report.write_table(out, f"{NAME}/samplers", TABLE_HEADER, table_rows(result.rows),
                                f"Samplers with {cfg.base} at the largest sample count "
@@ -161,10 +144,10 @@ class Efficiency:
                 f"the largest count, its {stats.LEVEL:.0%} interval, "
                 f"the verdict (only where the interval excludes 1) and the counts where the "
                 f"order changes along the ladder"),
-                report.text("\n\n".join(result.conclusions[d]))]
+                report.text("\n\n".join(conclusions[d]))]
         summary = {
             "rows": [r.record() for r in result.rows],
-            "conclusion": {d: s for d, s in result.conclusions.items()},
+            "conclusion": {d: s for d, s in conclusions.items()},
             "comparisons": [c.record() for c in result.comparisons],
             "best": {d: r.sampler for d, r in result.best.items()},
             "best_at": {d: {"sampler": r.sampler, "spp": r.spp, "requested_spp": r.requested}
@@ -175,12 +158,18 @@ class Efficiency:
         return PassReport(blocks, summary, self.jobs(planned))
 
 
-def comparison_viewer(st: Study, cfg: Settings, planned: LadderPlan, d: int) -> dict:
+def point(runs: list, requested: int, meta: dict) -> Point:
+    """A label at one count: its runs' spp rendered, costs (the clock) and errors, per
+    repeat, with the reference's floors."""
+    return Point(runs[0].spp, tuple(r.cost for r in runs), tuple(r.mse for r in runs),
+                 tuple(r.relmse for r in runs), requested, meta["mse_floor"],
+                 meta["relmse_floor"])
+
+
+def comparison_viewer(st: Study, cfg: Settings, measured: Measured, d: int) -> dict:
     """Viewer block: every label's image at the largest count of the ladder, at max_depth d
     (the first repeat)."""
-    ref, _ = st.reference(planned.refs[d])
-    images = [(s, st.store.get(reps[0][-1].key).image.astype(float))
-              for s, reps in planned.ladders[d].items()]
-    return report.viewer(st.out, f"Samplers at max_depth {d}, {cfg.targets[-1]} spp", images,
-                         ref, f"{cfg.base} with each sampler at max_depth {d} after the "
+    return report.viewer(st.out, f"Samplers at max_depth {d}, {cfg.targets[-1]} spp",
+                         list(measured.images[d].items()), measured.references[d],
+                         f"{cfg.base} with each sampler at max_depth {d} after the "
                          f"largest sample count (first repeat), against the reference.")

@@ -1,22 +1,30 @@
-"""The sampler study's settings and plan: what a run measures, and the jobs it renders.
+"""The sampler study's settings and declarations: what a run measures, as the engine plans it.
 
 :class:`Settings` (and the screen-space pass's :class:`ScreenSettings`), built once from the
-command line by :func:`.sampler_comparison.settings_of`; the jobs of a ladder
-(:func:`ladder_job`, named ``samplers/...``, their seeds derived from the name), the
-screen-space pass's reference and ladders (which the lab plans too, so that it finds them in
-the store), and the :class:`Pass` protocol every measurement pass follows: plan -> measure
--> pure analysis -> report.
+command line by :func:`.sampler_comparison.settings_of`; the two passes as declarations on
+the experiment engine (:mod:`experiments.lib.engine`): :func:`declare` (the efficiency
+pass: every label at every depth, each count of the ladder an equal-spp budget, a fresh
+render) and :func:`declare_screen` (the screen-space pass, which the lab declares too, so
+that it finds the same jobs in the store). Their ``key`` functions give the jobs the names
+(hence the seeds) they always had: ``samplers/depthD/LABEL/sppNNNNN[/rR]`` and
+``samplers/screen-WxH-depthD/LABEL/sppNNNNN[/rR]``. :class:`Planned` is a declaration's jobs
+(:meth:`.engine.Engine.jobs` per budget) and reference chunks; :func:`interleaved` orders
+the renders so that drifting machine load affects every sampler alike; the
+:class:`Pass` protocol every measurement pass follows: declare -> measure (the engine) ->
+pure analysis -> report.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Protocol
 
-from experiments.lib import clock, samplers
+from experiments.lib import samplers
+from experiments.lib.engine import Budget, Cell, Declaration, Engine, Measurements, SceneSetup
 from experiments.lib.jobs import Job
 from experiments.lib.methods import Depth, Method, parse_method
 from experiments.lib.methods import method_name as _method_name
-from experiments.lib.study import Study, repeat_prefix
+from experiments.lib.scenes import SceneInfo
+from experiments.lib.study import Study
 
 #: The study's registered name: its report section, ``run_all --samplers``, its job keys.
 NAME = "samplers"
@@ -78,21 +86,81 @@ def method(base: Method, sampler: str) -> Method:
     return parse_method(_method_name(base, sampler))
 
 
-def ladder_job(st: Study, cfg: Settings, root: str, d: int, label: str, count: int,
-               repeat: int, resolution: tuple, group: str) -> Job:
-    """Repeat ``repeat`` of ``label`` at ``count`` spp and max_depth ``d``, a fresh render,
-    named ``root/label/sppNNNNN[/rR]`` (its seed derives from the name)."""
-    return st.job(repeat_prefix(f"{root}/{label}/spp{count:05d}", repeat),
-                  method(cfg.base, label), count, depth=cfg.at(d), resolution=resolution,
-                  timing_group=group)
+def _declaration(name: str, root, cfg: Settings, labels, scenes, counts,
+                 repeats: int) -> Declaration:
+    """Every label (a method: ``cfg.base`` driven by it) on ``scenes``, each count an
+    equal-spp budget named ``sppNNNNN``; jobs named ``root(scene)/LABEL/sppNNNNN``."""
+    methods = tuple(method(cfg.base, s) for s in labels)
+    label_of = {m.name: s for m, s in zip(methods, labels)}
+    if len(label_of) != len(methods):
+        raise ValueError(f"sampler labels {', '.join(labels)} name one method twice")
+    return Declaration(
+        name, methods, tuple(scenes),
+        tuple(Budget.equal_spp(n, name=f"spp{n:05d}") for n in counts), repeats,
+        key=lambda declaration, cell: f"{root(cell.scene)}/{label_of[cell.method]}/"
+                                      f"{cell.budget}")
 
 
-def timing(st: Study, result) -> float:
-    """Render time compared: the one clock (:func:`.clock.cost`)."""
-    return clock.cost(result)
+def declare(cfg: Settings, info: SceneInfo, repeats: int) -> Declaration:
+    """The efficiency pass: every label at every depth (a scene ``depthD`` each, the
+    timing group ``samplers/depthD``), every count of the ladder a fresh render, against
+    the study's reference (--reference-spp of --reference-method)."""
+    scenes = [SceneSetup(f"depth{d}", info, tuple(cfg.resolution), cfg.at(d))
+              for d in cfg.depths]
+    return _declaration(NAME, lambda scene: f"{NAME}/{scene}", cfg, cfg.samplers, scenes,
+                        cfg.targets, repeats)
 
 
-# ------------------------------------------------------------------ passes
+def declare_screen(cfg: Settings, sc: ScreenSettings, info: SceneInfo) -> Declaration:
+    """The screen-space pass at ``sc`` (the lab declares it too, at one repeat), named by its resolution (``samplers/screen-128x128-depth2/...``, the timing group
+    ``samplers/screen/depth2``), against ``sc.reference_spp`` of ``sc.reference``."""
+    width, height = sc.resolution
+    scenes = [SceneSetup(f"depth{d}", info, tuple(sc.resolution), cfg.at(d))
+              for d in sc.depths]
+    declared = _declaration(
+        f"{NAME}/screen", lambda scene: f"{NAME}/screen-{width}x{height}-{scene}", cfg,
+        sc.samplers, scenes, sc.counts, sc.repeats)
+    return replace(declared, reference_spp=sc.reference_spp, reference_method=sc.reference,
+                   reference_typical_spp=SCREEN_REFERENCE_SPP)
+
+
+@dataclass(frozen=True)
+class Planned:
+    """A declaration's jobs: ``cells`` ``{budget: {cell: [repeat: [job]]}}``
+    (:meth:`.engine.Engine.jobs`; one repeat for a deterministic label) and ``refs``
+    ``{(scene, point): reference chunks}`` (:meth:`.engine.Engine.reference_jobs`)."""
+    declaration: Declaration
+    cells: dict
+    refs: dict
+
+    def renders(self) -> list[Job]:
+        return [j for by_cell in self.cells.values() for reps in by_cell.values()
+                for jobs in reps for j in jobs]
+
+
+def plan(engine: Engine, declaration: Declaration) -> Planned:
+    return Planned(declaration, {b.name: engine.jobs(declaration, b)
+                                 for b in declaration.budgets},
+                   engine.reference_jobs(declaration))
+
+
+def interleaved(planned: Planned, group: int = 0) -> list[Job]:
+    """The renders per scene, in groups of ``group`` labels (0: all; a process keeps that
+    many methods warm), per repeat every label of the group at one count before the next
+    count (so that drifting machine load affects every sampler alike)."""
+    decl, jobs = planned.declaration, []
+    names = [m.name for m in decl.methods]
+    size = group or len(names)
+    for scene in decl.scenes:
+        for g in range(0, len(names), size):
+            mine = names[g:g + size]
+            for r in range(decl.repeats):
+                for budget in decl.budgets:
+                    for m in mine:
+                        reps = planned.cells[budget.name][Cell(scene.name, m, budget.name)]
+                        jobs += reps[r] if r < len(reps) else []
+    return jobs
+
 
 @dataclass
 class PassReport:
@@ -102,41 +170,18 @@ class PassReport:
 
 
 class Pass(Protocol):
-    """One measurement pass: plan -> measure -> analyse (pure) -> report."""
+    """One measurement pass: declare -> render and measure (the engine) -> analyse (pure)
+    -> report."""
     name: str
 
-    def plan(self, st: Study, cfg: Settings): ...
+    def declare(self, st: Study, cfg: Settings) -> Declaration | None: ...
 
-    def jobs(self, planned) -> list[Job]: ...
+    def jobs(self, planned: Planned) -> list[Job]: ...
 
-    def measure(self, st: Study, cfg: Settings, planned): ...
+    def measure(self, st: Study, cfg: Settings, planned: Planned,
+                measurements: Measurements): ...
 
     def analyse(self, measured): ...
 
-    def report(self, st: Study, cfg: Settings, planned, measured, result) -> PassReport: ...
-
-
-def rungs(st: Study, reps: list):
-    """Per rung of a label's ladders (``reps``: one ladder per repeat): its job in the first
-    repeat, the stored results of every repeat and their images (float64)."""
-    for i, target in enumerate(reps[0]):
-        results = [st.store.get(rep[i].key) for rep in reps]
-        yield target, results, [r.image.astype(float) for r in results]
-
-
-def screen_reference_jobs(st: Study, sc: ScreenSettings, depth: Depth) -> list[Job]:
-    """The pass's reference: ``sc.reference_spp`` of ``sc.reference`` at its resolution."""
-    return st.reference_jobs(st.info, depth, resolution=sc.resolution, spp=sc.reference_spp,
-                             method=sc.reference, typical_spp=SCREEN_REFERENCE_SPP)
-
-
-def screen_ladders(st: Study, cfg: Settings, sc: ScreenSettings, d: int, labels,
-                   counts, repeats: int) -> dict:
-    """``{label: [repeat: [job per count]]}`` (one repeat for a deterministic label), named
-    by the pass's resolution (``samplers/screen-128x128-depth2/...``), so that the lab,
-    planning the same jobs, finds them in the store."""
-    root = "{}/screen-{}x{}-depth{}".format(NAME, *sc.resolution, d)
-    return {s: [[ladder_job(st, cfg, root, d, s, t, r, sc.resolution, f"{NAME}/screen/depth{d}")
-                 for t in counts]
-                for r in range(1 if method(cfg.base, s).deterministic else repeats)]
-            for s in labels}
+    def report(self, st: Study, cfg: Settings, planned: Planned, measured,
+               result) -> PassReport: ...

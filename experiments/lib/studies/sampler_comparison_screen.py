@@ -1,9 +1,10 @@
 """The sampler study's screen-space pass: FLIP, the error's power spectrum and MSE efficiency.
 
 On a larger image (:class:`.sampler_comparison_plan.ScreenSettings`), at every count of a
-short ladder: plan (the pass's reference and ladders, grouped so that a process keeps their
-methods warm), measure (per repeat: mean FLIP, the error's periodogram and its low-frequency
-share with the reference's floor subtracted, MSE, relMSE and render time), the pure analysis
+short ladder: declared on the engine (:func:`.sampler_comparison_plan.declare_screen`;
+renders grouped so that a process keeps their methods warm), measured from the engine's
+runs (per repeat: mean FLIP, the error's periodogram and its low-frequency share with the
+reference's floor subtracted, MSE, relMSE and cost), the pure analysis
 (:mod:`.sampler_comparison_screen_analysis`) and the report: the FLIP and spectrum charts,
 each depth's conclusion table and sentences, the table of every label and count.
 """
@@ -15,21 +16,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from experiments.lib import execute, figures, metrics, report, screen_space, stats
+from experiments.lib.engine import Cell, Declaration, Measurements
 from experiments.lib.jobs import Job
 from experiments.lib.study import Study
-from experiments.lib.studies.sampler_comparison_analysis import Point, families
-from experiments.lib.studies.sampler_comparison_efficiency import interval_header
+from experiments.lib.studies.sampler_comparison_analysis import families
+from experiments.lib.studies.sampler_comparison_efficiency import interval_header, point
+from experiments.lib.studies import sampler_comparison_words as words
 from experiments.lib.studies.sampler_comparison_plan import (
-    NAME, PassReport, Settings, default_screen_labels, rungs, screen_ladders,
-    screen_reference_jobs, timing)
+    NAME, PassReport, Planned, Settings, declare_screen, default_screen_labels, interleaved)
 from experiments.lib.studies.sampler_comparison_screen_analysis import (
     SCREEN_HEADER, ScreenAnalysis, ScreenPoint, ScreenRow, analyse_screen)
-
-
-@dataclass(frozen=True)
-class ScreenPlan:
-    refs: dict                    # {depth: reference jobs at the pass's resolution}
-    ladders: dict                 # {depth: {label: [repeat: [job per count]]}}
 
 
 @dataclass(frozen=True)
@@ -59,59 +55,34 @@ class ScreenSpace:
     (:class:`ScreenSettings`), at every count of a short ladder."""
     name = "screen"
 
-    def plan(self, st: Study, cfg: Settings) -> ScreenPlan | None:
-        sc = cfg.screen
-        if sc is None:
-            return None
-        return ScreenPlan({d: screen_reference_jobs(st, sc, cfg.at(d)) for d in sc.depths},
-                          {d: screen_ladders(st, cfg, sc, d, sc.samplers, sc.counts,
-                                             sc.repeats) for d in sc.depths})
+    def declare(self, st: Study, cfg: Settings) -> Declaration | None:
+        return None if cfg.screen is None else declare_screen(cfg, cfg.screen, st.info)
 
-    def jobs(self, planned: ScreenPlan | None) -> list[Job]:
-        """References first; then per depth, in groups of labels no larger than the methods
-        a process keeps warm (:data:`.execute.VIEW_CACHE`), per repeat every label of
-        the group at one count before the next count."""
-        if planned is None:
-            return []
-        jobs = [j for r in planned.refs.values() for j in r]
-        for by_sampler in planned.ladders.values():
-            labels = list(by_sampler)
-            for g in range(0, len(labels), execute.VIEW_CACHE):
-                group = {s: by_sampler[s] for s in labels[g:g + execute.VIEW_CACHE]}
-                for r in range(max(len(reps) for reps in group.values())):
-                    for i in range(len(next(iter(group.values()))[0])):
-                        jobs += [reps[r][i] for reps in group.values() if r < len(reps)]
-        return jobs
+    def jobs(self, planned: Planned) -> list[Job]:
+        """Per depth, in groups of labels no larger than the methods a process keeps warm
+        (:data:`.execute.VIEW_CACHE`), per repeat every label of the group at one count
+        before the next count."""
+        return interleaved(planned, execute.VIEW_CACHE)
 
-    def measure(self, st: Study, cfg: Settings, planned: ScreenPlan) -> ScreenMeasured:
+    def measure(self, st: Study, cfg: Settings, planned: Planned,
+                measurements: Measurements) -> ScreenMeasured:
         """Per repeat: FLIP, the error's periodogram (its low-frequency share, the
-        reference's floor subtracted), MSE, relMSE and render time; spectra averaged over
-        the repeats."""
-        sc = cfg.screen
+        reference's floor subtracted), MSE, relMSE and cost (the engine's runs); spectra
+        averaged over the repeats rendered."""
+        sc, decl = cfg.screen, planned.declaration
         points, floors = {}, {}
-        for d, by_sampler in planned.ladders.items():
-            ref, meta = st.reference(planned.refs[d])
-            floor = screen_floor(st, planned.refs[d])
+        for d, scene in zip(sc.depths, decl.scenes):
+            ref, meta = measurements.references[(scene.name, None)]
+            floor = screen_floor(st, planned.refs[(scene.name, None)])
             floors[d] = dict(meta, spectrum_floor=floor)
             points[d] = {}
-            for s, reps in by_sampler.items():
+            for s, m in zip(sc.samplers, decl.methods):
                 pts = []
-                for target, results, images in rungs(st, reps):
-                    powers = [screen_space.periodogram(screen_space.error_field(im, ref))
-                              for im in images]
-                    freqs, power = screen_space.spectrum(
-                        screen_space.normalized(np.mean(powers, axis=0), floor))
-                    error = Point(
-                        results[0].spp, _replicate((timing(st, r) for r in results), sc.repeats),
-                        _replicate((metrics.mse(im, ref) for im in images), sc.repeats),
-                        _replicate((metrics.relmse(im, ref) for im in images), sc.repeats),
-                        target.spp, meta["mse_floor"], meta["relmse_floor"])
-                    pts.append(ScreenPoint(
-                        results[0].spp,
-                        _replicate((metrics.flip_mean(im, ref) for im in images), sc.repeats),
-                        _replicate((screen_space.low_share(p, floor) for p in powers), sc.repeats),
-                        error, tuple(float(f) for f in freqs), tuple(float(v) for v in power),
-                        target.spp))
+                for budget in decl.budgets:
+                    cell = Cell(scene.name, m.name, budget.name)
+                    runs = measurements.final(cell)
+                    rendered = runs[:len(planned.cells[budget.name][cell])]
+                    pts.append(screen_point(runs, rendered, ref, floor, meta, budget.spp))
                 points[d][s] = pts
         width, height = sc.resolution
         return ScreenMeasured(points, floors, width * height, families(sc.samplers),
@@ -121,9 +92,10 @@ class ScreenSpace:
         return analyse_screen(measured.points, measured.pixels, measured.kinds,
                                  measured.white)
 
-    def report(self, st: Study, cfg: Settings, planned: ScreenPlan, measured: ScreenMeasured,
+    def report(self, st: Study, cfg: Settings, planned: Planned, measured: ScreenMeasured,
                result: ScreenAnalysis) -> PassReport:
         sc, out = cfg.screen, st.out
+        conclusions = words.screen_conclusions(result)
         width, height = sc.resolution
         blocks = [report.text(screen_introduction(cfg, measured))]
         for d, by_sampler in measured.points.items():
@@ -162,7 +134,7 @@ class ScreenSpace:
                                    f"ratios A / B with {stats.LEVEL:.0%} intervals; a verdict "
                                    f"only where the interval excludes 1, in FLIP only "
                                    f"between equal counts rendered"),
-                report.text("\n\n".join(result.conclusions[d]))]
+                report.text("\n\n".join(conclusions[d]))]
         header = (["max_depth", "sampler", "spp rendered", "spp requested", "repeats"]
                   + interval_header("mean FLIP") + interval_header("low-frequency share")
                   + interval_header("MSE") + ["µs / sample"])
@@ -187,9 +159,26 @@ class ScreenSpace:
             "spectrum_floor": {d: f["spectrum_floor"] for d, f in measured.floors.items()},
             "rows": [r.record() for r in result.rows],
             "comparisons": [c.record() for c in result.comparisons],
-            "conclusion": result.conclusions}}
-        return PassReport(blocks, summary, self.jobs(planned)[sum(
-            len(r) for r in planned.refs.values()):])
+            "conclusion": conclusions}}
+        return PassReport(blocks, summary, self.jobs(planned))
+
+
+def screen_point(runs: list, rendered: list, ref, floor: float, meta: dict,
+                 requested: int) -> ScreenPoint:
+    """A label at one count: FLIP and the low-frequency share of each render (``rendered``:
+    the distinct runs, one for a deterministic label, standing for every repeat of
+    ``runs``), their mean spectrum, and the :class:`Point` of errors and costs."""
+    repeats = len(runs)
+    powers = [screen_space.periodogram(screen_space.error_field(r.image, ref))
+              for r in rendered]
+    freqs, power = screen_space.spectrum(screen_space.normalized(np.mean(powers, axis=0),
+                                                                 floor))
+    return ScreenPoint(
+        runs[0].spp,
+        _replicate((metrics.flip_mean(r.image, ref) for r in rendered), repeats),
+        _replicate((screen_space.low_share(p, floor) for p in powers), repeats),
+        point(runs, requested, meta), tuple(float(f) for f in freqs),
+        tuple(float(v) for v in power), requested)
 
 
 def spectrum_counts(counts) -> list[int]:

@@ -1,4 +1,4 @@
-"""The sampler study's screen-space analysis: numbers in, numbers and sentences out.
+"""The sampler study's screen-space analysis: numbers in, numbers and verdicts out.
 
 The screen-space pass (:func:`analyse_screen`): :class:`ScreenPoint` holds a label's
 mean FLIP, low-frequency share of the error spectrum (:mod:`experiments.lib.screen_space`)
@@ -6,8 +6,8 @@ and MSE per repeat at one count; the result is a :class:`ScreenRow` per label an
 :class:`ScreenComparison` per pair and count (each bundled family's lowest-FLIP label
 against every native label and the other families': mean FLIP A / B, share A / B and MSE
 efficiency A / B, each with its interval and a verdict only where the interval excludes
-1, FLIP only between equal counts rendered) and at most three sentences per depth computed
-from them (:func:`screen_sentences`).
+1, FLIP only between equal counts rendered); the sentences made from them are the report
+layer's (:func:`.sampler_comparison_words.screen_sentences`).
 
 Every label renders every count of a short ladder R times at a resolution with a spectrum
 worth the name (128x128 by default). Per count: the mean FLIP against the reference, the
@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 from experiments.lib import stats
 from experiments.lib.studies.sampler_comparison_analysis import (
-    WORDS, Family, Point, order_text, ratio, sign)
+    Family, Point, ratio, sign)
 
 
 @dataclass(frozen=True)
@@ -224,86 +224,11 @@ def screen_comparisons(points: dict, kinds: dict[str, Family]) -> list[ScreenCom
     return out
 
 
-def _along(changes, words: dict) -> str:
-    """:func:`order_text` without its '(no change)'."""
-    return order_text(changes, words).removesuffix(" (no change)")
-
-
-def _fit(parts: list[str], head: str, tail: str = ".", limit: int = 80) -> str:
-    """``head`` + the parts joined by '; ' + ``tail``, leaving out the last parts (said to
-    be in the table) where the sentence would pass ``limit`` words."""
-    for n in range(len(parts), 0, -1):
-        more = "" if n == len(parts) else "; the others in the table"
-        text = head + "; ".join(parts[:n]) + more + tail
-        if len(text.split()) <= limit:
-            return text
-    return head + "see the table" + tail
-
-
-def screen_sentences(depth: int, comps: list[ScreenComparison], rows: list[ScreenRow],
-                     kinds: dict[str, Family], white: float) -> list[str]:
-    """At most three sentences about one depth, from its comparisons and rows alone: each
-    bundled family's best against the best native sampler in mean FLIP along the ladder;
-    the counts at which its error is bluer than every native sampler's; and its MSE
-    efficiency against the most efficient native sampler."""
-    mine = [c for c in comps if c.depth == depth]
-    at = [r for r in rows if r.depth == depth]
-    if not mine:
-        return []
-    top = max(r.requested for r in at)
-    last = [r for r in at if r.requested == top]
-    natives = [r for r in last if kinds[r.sampler].native]
-    if not natives:
-        return []
-    families = list(dict.fromkeys(c.a for c in mine if kinds[c.a].name != kinds[c.b].name
-                                  and kinds[c.b].native))
-
-    def ladder(a, b):
-        return [c for c in mine if (c.a, c.b) == (a, b)]
-
-    # the lowest FLIP among the natives that render the count asked for
-    best = min([r for r in natives if r.spp == r.requested] or natives,
-               key=lambda r: r.flip.value).sampler
-    parts = []
-    for a in families:
-        cs = ladder(a, best)
-        changes = [(c.spp[0], c.signs[0], c.flip) for c in cs]
-        parts.append(f"{a} {_along(changes, FLIP_WORDS)}, ratio {cs[-1].flip.text()} at "
-                     f"{cs[-1].spp[0]} spp")
-    out = [_fit(parts, f"By mean FLIP at max_depth {depth}, against the native sampler "
-                       f"lowest at {top} spp ({best}): ")]
-    parts = []
-    for a in families:
-        against = [c for c in mine if c.a == a and kinds[c.b].native]
-        counts = sorted({c.requested for c in against})
-        bluer = [n for n in counts
-                 if all(c.signs[1] > 0 for c in against if c.requested == n)]
-        share = next(r.share for r in last if r.sampler == a)
-        parts.append((f"{a} at {', '.join(map(str, bluer))} spp" if bluer else
-                      f"{a} at no count") + f", share {share.text()} at {top} spp")
-    lo, hi = min(r.share.value for r in natives), max(r.share.value for r in natives)
-    out.append(_fit(parts, f"Error bluer than every native sampler's (low-frequency share, "
-                           f"white noise {white:.3f}; natives {stats.g(lo)}-{stats.g(hi)} "
-                           f"at {top} spp): "))
-    known = [r for r in natives if not r.mse.bound and r.mse.value > 0]
-    if known:
-        # Veach's efficiency 1 / (MSE x time per pixel) of each native label
-        eff = max(known, key=lambda r: 1 / (r.mse.value * r.us_per_sample * r.spp)).sampler
-        parts = []
-        for a in families:
-            cs = ladder(a, eff)
-            changes = [(c.spp[0], sign(c.efficiency), c.efficiency) for c in cs]
-            parts.append(f"{a} {_along(changes, WORDS)}")
-        out.append(_fit(parts, f"In MSE efficiency against the most efficient native "
-                               f"sampler at {top} spp ({eff}): "))
-    return out[:3]
-
-
 @dataclass(frozen=True)
 class ScreenAnalysis:
     rows: list                  # ScreenRow per depth, label and count
     comparisons: list           # ScreenComparison per depth, pair and count
-    conclusions: dict           # {depth: [sentence]}
+    kinds: dict                 # {label: Family}
     white: float                # the low-frequency share of white noise on this grid
 
 
@@ -312,5 +237,4 @@ def analyse_screen(points: dict[int, dict[str, list[ScreenPoint]]], pixels: int,
     """The screen-space pass's report, from the numbers alone."""
     rows = screen_rows(points, pixels)
     comps = screen_comparisons(points, kinds)
-    return ScreenAnalysis(rows, comps, {d: screen_sentences(d, comps, rows, kinds, white)
-                                        for d in sorted(points)}, white)
+    return ScreenAnalysis(rows, comps, kinds, white)
