@@ -23,6 +23,7 @@ from experiments.lib import clock
 from experiments.lib.engine import Budget, Cell, Declaration, Engine, SceneSetup
 from experiments.lib.methods import Depth, parse_method
 from experiments.lib.scenes import read_scene
+from experiments.lib.store import ReplayError
 from experiments.lib.studies.settings import StudySettings
 from experiments.lib.study import Study
 
@@ -105,7 +106,7 @@ def test_replayed_counts_are_the_earlier_runs(local, tmp_path):
     assert {r[0].spp for c, runs in unreplayed.runs.items() if c.budget == "equal-time"
             for r in runs} == {1}
     other = Declaration("engine-other", METHODS, SCENES[:1], tiny.budgets)
-    with pytest.raises(KeyError, match="no job 'engine-other/cbox/bsdf_nee/equal-time'"):
+    with pytest.raises(ReplayError, match="no job 'engine-other/cbox/bsdf_nee/equal-time'"):
         Engine(make_study(tmp_path / "missing", replay=out)).run(other)
 
 
@@ -186,3 +187,22 @@ def test_a_ladder_accumulates_its_stretches(tmp_path):
     assert [r.spp for r in runs] == [1, 2, 4]
     assert runs[0].cost < runs[1].cost < runs[2].cost
     assert runs[0].variance is None and runs[2].variance.shape == (8, 16, 3)
+
+
+def test_a_replay_without_a_store_or_without_the_job_ends_with_one_line(tmp_path):
+    """--replay-counts on the command line: a folder without store/ is refused by the parser
+    (exit 2), and an earlier run that lacks a replayed job ends the run with one line."""
+    import subprocess
+    import sys
+    from _paths import ROOT
+    base = [sys.executable, "-m", "experiments.convergence", "--resolution", "8x4", "--spp",
+            "2", "--reference-spp", "8", "--repeats", "1", "--methods", "path", "--out"]
+    bad = subprocess.run(base + [str(tmp_path / "a"), "--replay-counts", str(tmp_path)],
+                         cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert bad.returncode == 2 and "has no store/ folder" in bad.stderr, bad.stderr
+    (tmp_path / "empty" / "store").mkdir(parents=True)
+    missing = subprocess.run(base + [str(tmp_path / "b"), "--replay-counts",
+                                     str(tmp_path / "empty")],
+                             cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert missing.returncode == 2, missing.stderr
+    assert missing.stderr.strip().splitlines()[-1].startswith("error: --replay-counts")

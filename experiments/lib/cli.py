@@ -19,6 +19,7 @@ from integrators.choices import JIT_VARIANT_PREFIXES
 
 from . import extensions
 from . import plan
+from .store import STORE_DIR, ReplayError
 from .methods import DEFAULT_METHODS, Method, grammar, parse_method
 from .scenes import (BUILTIN_SCENES, builtin_scene, effective_depth, load_scene,
                      read_scene)
@@ -259,6 +260,10 @@ def parse_args(parser: Parser, argv=None) -> argparse.Namespace:
     problem = _check_out(args.out)
     if problem:
         parser.error(problem)
+    if args.replay_counts is not None and not os.path.isdir(
+            os.path.join(args.replay_counts, STORE_DIR)):
+        parser.error(f"--replay-counts '{args.replay_counts}' has no {STORE_DIR}/ folder: give "
+                     f"the --out of an earlier run")
     _set_variant(parser, args.variant)
     mi.set_log_level(mi.LogLevel.Error)   # not the samplers' "rounding to N" per render
     args.executor = open_executor(parser, args)     # before anything is written
@@ -324,6 +329,9 @@ def main_wrapper(main):
     signal.signal(signal.SIGTERM, handler)
     try:
         main()
+    except ReplayError as e:
+        print(f"error: {e}", file=sys.stderr)
+        sys.exit(2)
     except KeyboardInterrupt:
         print("\ninterrupted: finished files are kept; run the same command again to resume",
               file=sys.stderr)

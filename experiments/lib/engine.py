@@ -32,7 +32,7 @@ from .jobs import accumulate
 from .methods import Depth, Method
 from .scenes import SceneInfo
 from .plan import job_name
-from .store import STORE_DIR, JobStore
+from .store import STORE_DIR, JobStore, ReplayError
 from .study import Study, repeat_prefix
 
 
@@ -257,8 +257,9 @@ class Engine:
             self._replay = JobStore(os.path.join(self.study.replay_counts, STORE_DIR)).counts()
         name = job_name(repeat_prefix(declaration.key(declaration, cell), 0))
         if name not in self._replay:
-            raise KeyError(f"--replay-counts {self.study.replay_counts}: no job '{name}' in "
-                           f"its store, so its equal-time count cannot be replayed")
+            raise ReplayError(f"--replay-counts {self.study.replay_counts}: no job '{name}' in "
+                              f"its store, so its equal-time count cannot be replayed (that run "
+                              f"did not render this method or budget)")
         return self._replay[name]
 
     # ---------------------------------------------------------------- run

@@ -27,6 +27,10 @@ STORE_DIR = "store"
 READ_CACHE_BYTES = 64 * 2**20
 
 
+class ReplayError(LookupError):
+    """An earlier run (``--replay-counts``) lacks a job whose count this run replays."""
+
+
 class JobStore:
     """One atomically written ``.npz`` entry per finished job, named by the job's key."""
 
