@@ -206,3 +206,18 @@ def test_a_replay_without_a_store_or_without_the_job_ends_with_one_line(tmp_path
                              cwd=ROOT, capture_output=True, text=True, timeout=600)
     assert missing.returncode == 2, missing.stderr
     assert missing.stderr.strip().splitlines()[-1].startswith("error: --replay-counts")
+
+
+def test_errors_and_efficiencies_are_measured_above_the_references_floor():
+    """Measurements.error and .efficiency subtract the reference's own expected error (its
+    floor): with a floor of 0.01, relMSEs of 0.02 and 0.03 are excesses of 0.01 and 0.02, an
+    efficiency of 2 at equal cost (negative control: 1.5 without the floor)."""
+    from experiments.lib.engine import Measurements, Run
+    declared = Declaration("floor", ("a", "b"), ("s",), (Budget.equal_spp(4),), 3)
+    spread = (0.99, 1.0, 1.01)
+    runs = {Cell("s", m, "equal-spp"): [[Run(4, 1.0, 0.0, 0.01 + e * x, None)] for x in spread]
+            for m, e in (("a", 0.01), ("b", 0.02))}
+    measured = Measurements(declared, runs, {("s", None): (None, {"relmse_floor": 0.01})})
+    ratio = measured.efficiency(Cell("s", "a", "equal-spp"), Cell("s", "b", "equal-spp"))
+    assert ratio.value == pytest.approx(2.0, rel=1e-3) and ratio.lo > 1.5
+    assert measured.error(Cell("s", "a", "equal-spp")).value == pytest.approx(0.01, rel=1e-3)

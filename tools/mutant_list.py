@@ -144,6 +144,19 @@ MUTANTS = [
            "one integrator kept per method across jobs (a learning method starts its second "
            "job trained)",
            ("tests/test_clock.py",)),
+    Mutant("engine-efficiency-floor", "experiments/lib/engine.py",
+           "        ea, eb = ([getattr(r[rung], metric) - self.floor(c, metric) for r in self.runs[c]]",
+           "        ea, eb = ([getattr(r[rung], metric) - 0.0 for r in self.runs[c]]",
+           "the engine's efficiency forgets the reference's floor: a method near the "
+           "reference's noise looks no better than one far above it",
+           ("tests/test_engine.py",)),
+    Mutant("engine-equal-time-floor", "experiments/lib/engine.py",
+           "            spp = 2 ** max(0, round(math.log2(max(spp, 1.0))))",
+           "            spp = 2 ** max(0, int(math.log2(max(spp, 1.0))))",
+           "an equal-time count rounded down to a power of two instead of to the nearest "
+           "(cheap methods get up to half their budget)",
+           ("tests/test_suite.py::test_equal_time_count_is_the_budgets_power_of_two",
+            "tests/test_engine.py")),
     Mutant("key-forgets-seed", "experiments/lib/plan.py",
            "    digest = hashlib.sha256(json.dumps([fields, variant, plugins_version()],",
            "    digest = hashlib.sha256(json.dumps([{k: v for k, v in fields.items() "
