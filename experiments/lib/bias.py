@@ -44,8 +44,8 @@ probability of about 90%), from the measured means and variances.
 Size. The caller gives the per-comparison levels, e.g. from :func:`sidak` over every
 comparison of its family. Heavy-tailed estimators (uniform or cosine sampling of a narrow
 lobe, a BSDF-sampled small light) have no t-test of nominal size: their variance estimates
-fall short in most seeds. :func:`tail_share` flags them: the per-sample variances of a
-side's two independent halves disagree (F test) in far more blocks than the level allows.
+fall short in most seeds. :func:`tail_share` flags them: one pixel of one render holds
+most of a block's squared deviations in many blocks.
 """
 from __future__ import annotations
 
@@ -366,21 +366,25 @@ def side_of_halves(halves, samples, varying: np.ndarray, block: int = BLOCK,
     return Side(combine(parts, samples), parts)
 
 
-def tail_share(side: Side, samples, alpha: float) -> float:
-    """Share of the blocks and channels whose two halves' per-sample variances (each
-    half's variance of its mean times its ``samples``) differ at level ``alpha`` (F test
-    at the blocks' dof). About ``alpha`` for an estimator whose variance estimates hold
-    (light tails, one per-sample variance at every count: ``independent`` sampler); far
-    more where rare large values rule them (heavy tails: the t tests lose their size)."""
-    h0, h1 = side.halves
-    used = side.full.pixels > 0
+def tail_share(halves, varying: np.ndarray, block: int = BLOCK, dominance: float = 0.5) -> float:
+    """Share of the blocks and channels where one pixel of one render holds more than
+    ``dominance`` of the squared deviations from the renders' mean over the block (in either
+    set of ``halves``). About 0 for light tails (a block has ``block^2 (renders - 1)`` terms
+    of like size); high where rare large values rule the variance estimates (heavy tails:
+    most renders miss them, the estimate falls short and the t tests lose their size)."""
+    used = _block_sum(varying.astype(np.float64), block) > 0
     if not used.any():
         return 0.0
-    ratio = (h0.var * samples[0]) / np.maximum(h1.var * samples[1], 1e-300)
-    cdf = stats.f.cdf(ratio, h0.dof, h1.dof)
-    p = 2.0 * np.minimum(cdf, 1.0 - cdf)
-    both = (h0.var > 0) & (h1.var > 0) & used
-    return float(np.sum((p <= alpha) & both) / np.sum(used))
+    ruled = np.zeros(used.shape, bool)
+    for images in halves:
+        images = np.where(varying, np.asarray(images, dtype=np.float64), 0.0)
+        sq = np.square(images - images.mean(axis=0))
+        total = _block_sum(sq.sum(axis=0), block)
+        *_, h, w, c = sq.shape
+        top = sq.reshape(sq.shape[0], h // block, block, w // block, block, c).max(
+            axis=(0, 2, 4))
+        ruled |= (total > 0) & (top > dominance * total)
+    return float(np.sum(ruled & used) / np.sum(used))
 
 
 def compare(a: Side, b: Side, varying: np.ndarray, alpha_blocks: float, alpha_pooled: float,
