@@ -163,4 +163,18 @@ MUTANTS = [
            "if k != \"seed\"}, variant, plugins_version()],",
            "a store key that forgets the seed (two repeats would share one entry)",
            ("tests/test_experiments.py::test_job_keys_change_with_everything_the_image_depends_on",)),
+    # ------------------------------------------------------------ the bias test
+    Mutant("welch-one-side", "experiments/lib/bias.py",
+           "    se2 = np.maximum(va + vb, 1e-300)\n",
+           "    se2 = np.maximum(va, 1e-300)\n",
+           "Welch's variance of the difference without the reference's share (a noisy "
+           "reference makes unbiased methods look biased)",
+           ("tests/test_unbiased.py::test_agreement_has_its_size_and_power_on_synthetic_renders",
+            "tests/test_suite_bias.py")),
+    Mutant("bias-sidak-missing", "experiments/lib/studies/suite_bias.py",
+           "    return bias.sidak(1.0 - LEVEL, max(1, cells))",
+           "    return 1.0 - LEVEL",
+           "the run's bias tests each at 1%, the Sidak correction over the run's cells not "
+           "applied (about one false 'biased' per 100 cells)",
+           ("tests/test_suite_bias.py",)),
 ]

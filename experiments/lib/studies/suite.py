@@ -41,6 +41,7 @@ from experiments.lib import scenes
 from experiments.lib.methods import parse_method, strategies
 from experiments.lib.studies import StudySpec, register_study
 from experiments.lib.studies import suite_analysis
+from experiments.lib.studies import suite_bias
 from experiments.lib.studies import suite_plan
 from experiments.lib.studies import suite_report
 from experiments.lib.study import Study
@@ -340,13 +341,16 @@ def run_suite(cfg: suite_plan.Settings) -> dict:
     wall, cpu = time.perf_counter(), time.process_time()
     numbers, results, viewers, ref_images, measured = {}, {}, {}, {}, {}
     failed = {sp.name: sp.error for sp in plans if sp.error}
+    alpha = suite_bias.cell_level(len(suite_plan.live_cells([sp for sp in plans
+                                                              if not sp.error])))
     for sp in plans:          # the final numbers with FLIP, each scene's viewer at once
         if sp.error:          # (its FLIPs are still in metrics' cache)
             continue
         ref_images[sp.name] = ref = suite_plan.reference_of(refs, sp, None)
         measured[sp.name] = suite_plan.measurements(engine, sp, ref)
-        numbers[sp.name] = suite_plan.measure_scene(cfg, engine.study, sp, measured[sp.name],
-                                                    ref, flip=True)
+        numbers[sp.name] = suite_plan.measure_scene(
+            cfg, engine.study, sp, measured[sp.name], ref, True,
+            suite_bias.reference_chunks(refs, sp.ref), alpha)
         results[sp.name] = suite_analysis.analyse_scene(numbers[sp.name])
         viewers[sp.name] = suite_report.viewer_block(cfg, sp, measured[sp.name],
                                                      results[sp.name], ref)

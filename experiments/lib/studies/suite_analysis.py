@@ -65,6 +65,7 @@ class Cell:
     ns_per_sample: tuple      # per repeat
     overhead: float = 0.0     # fitted seconds per render call
     deterministic: bool = False
+    block_bias: object = None     # the bias test against the reference (suite_bias.CellBias)
 
 
 @dataclass(frozen=True)
@@ -87,6 +88,8 @@ class SceneNumbers:
     hypothesis: str = ""
     exact: float | None = None
     failed: dict = field(default_factory=dict)    # {method: error}
+    calibration: str = ""     # the method that renders the reference (its bias test is
+    #                           the test's own negative control)
 
 
 # ------------------------------------------------------------------ ratios with bounds
@@ -277,6 +280,12 @@ class CellResult:
     spp: dict                 # {budget: spp rendered}
     bias: Bias | None = None
     overhead: float = 0.0     # seconds per render call besides the samples
+    block_bias: object = None     # suite_bias.CellBias, or None where not tested
+
+    @property
+    def biased(self) -> bool:
+        """Flagged by the bias test (never a winner nor tied for best)."""
+        return self.block_bias is not None and self.block_bias.status == "biased"
 
 
 @dataclass(frozen=True)
@@ -290,6 +299,9 @@ class SceneResult:
     floor_share: float        # the reference's own relMSE over the smallest measured
     floor_known: bool
     failed: dict
+    power: float | None = None    # smallest bias detected ~90%: the calibration cell's
+    power_method: str = ""        # the calibration method (or the cell with the best power)
+    calibration: str = ""         # the reference's own method
 
     @property
     def reference_adequate(self) -> bool:
@@ -326,21 +338,40 @@ def analyse_scene(numbers: SceneNumbers) -> SceneResult:
         return efficiency(cells[a].runs[budget], cells[b].runs[budget], floor.relmse)
 
     relative = {b: {m: compare(m, base, b) for m in cells} for b in BUDGETS}
-    ranking = rank(relative[BUDGETS[0]], compare)
+    flagged = {m for m, c in cells.items()
+               if c.block_bias is not None and c.block_bias.status == "biased"}
+    ranking = rank({m: r for m, r in relative[BUDGETS[0]].items() if m not in flagged},
+                   compare)
     verdict = hypothesis(numbers.favours, numbers.over, relative[BUDGETS[0]], compare)
     level = BIAS_LEVEL ** (1 / max(1, len(cells)))
     results = {m: CellResult(
         m, {b: _errors(c.runs[b], floor) for b in BUDGETS}, {b: relative[b][m] for b in BUDGETS},
         stats.mean_interval(c.ns_per_sample), {b: c.runs[b].spp for b in BUDGETS},
-        bias(c, numbers.exact, level) if numbers.exact is not None else None, c.overhead)
-        for m, c in cells.items()}
+        bias(c, numbers.exact, level) if numbers.exact is not None else None, c.overhead,
+        c.block_bias) for m, c in cells.items()}
     a, b = TIMED_PAIR
     time_ratio = (stats.ratio_interval([list(cells[a].ns_per_sample)],
                                        [list(cells[b].ns_per_sample)])
                   if a in cells and b in cells else None)
     share = floor_share(numbers)
+    power, power_method = scene_power(cells, numbers.calibration)
     return SceneResult(numbers.name, base, results, ranking, verdict, time_ratio, share,
-                       floor.known, dict(numbers.failed))
+                       floor.known, dict(numbers.failed), power, power_method,
+                       numbers.calibration)
+
+
+def scene_power(cells: dict, calibration: str) -> tuple:
+    """(smallest uniform relative bias the scene's bias test detects ~90% of the time, the
+    cell it is measured on): the calibration cell's (the reference's own method, a negative
+    control whose variance is the test's), else the best of the tested cells'."""
+    tested = {m: c.block_bias.detectable for m, c in cells.items()
+              if c.block_bias is not None and math.isfinite(c.block_bias.detectable)}
+    if calibration in tested:
+        return tested[calibration], calibration
+    if tested:
+        best = min(tested, key=tested.get)
+        return tested[best], best
+    return None, ""
 
 
 def geometric_means(results: list[SceneResult]) -> dict:

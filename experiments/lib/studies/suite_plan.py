@@ -26,7 +26,7 @@ from .. import scenes
 from ..engine import Budget, Cell, Declaration, Engine, Measurements, SceneSetup
 from ..methods import Depth, Method
 from ..study import Study
-from . import suite_analysis
+from . import suite_analysis, suite_bias
 
 NAME = "suite"
 ORDER = 50
@@ -318,9 +318,12 @@ def _runs(cfg: Settings, runs: list, ref: references.Reference, b: list[float],
 
 
 def measure_scene(cfg: Settings, st: Study, sp: ScenePlan, measured: Measurements,
-                  ref: references.Reference, flip: bool) -> suite_analysis.SceneNumbers:
+                  ref: references.Reference, flip: bool, chunks: np.ndarray | None = None,
+                  alpha: float | None = None) -> suite_analysis.SceneNumbers:
     """The numbers of one scene from the engine's ``measured`` (FLIP only when ``flip``: it
-    costs the most). Time per sample per repeat: the cost (:func:`.clock.cost`, in the
+    costs the most); with a level ``alpha`` per cell, each cell's bias test
+    (:func:`.suite_bias.check_cell`) against the reference's ``chunks`` (None: the user's
+    EXR). Time per sample per repeat: the cost (:func:`.clock.cost`, in the
     engine's runs) of the repeat's renders at both budgets over their samples."""
     cells, rej_floors = {}, []
     methods = {m.name: m for m in sp.declaration.methods}
@@ -336,8 +339,15 @@ def measure_scene(cfg: Settings, st: Study, sp: ScenePlan, measured: Measurement
             runs[key], fl = _runs(cfg, finals[budget], ref, b, mode)
             rej_floors.append(fl)
         px = sp.width * sp.height
+        tested = None
+        if alpha is not None:
+            box = suite_bias.box_filter(sp.path)
+            tested = suite_bias.check_cell(
+                methods[name], [[(x.image, x.spp) for x in finals[budget]] for budget in
+                                (SPP, TIME)], chunks, box, box, cfg.reference_method, alpha)
         cells[name] = suite_analysis.Cell(name, runs, tuple(x / px * 1e9 for x in b),
-                                          overhead(st, sp, name), methods[name].deterministic)
+                                          overhead(st, sp, name), methods[name].deterministic,
+                                          tested)
     floor = suite_analysis.Floor(ref.relmse_floor or 0.0,
                                  float(np.mean(rej_floors)) if rej_floors else 0.0,
                                  ref.mse_floor or 0.0, ref.floor_known)
@@ -348,7 +358,8 @@ def measure_scene(cfg: Settings, st: Study, sp: ScenePlan, measured: Measurement
         exact = header.exact
     return suite_analysis.SceneNumbers(sp.name, cells, floor, cfg.baseline.name,
                           header.favours if header else (), header.over if header else (),
-                          header.hypothesis if header else "", exact, failed)
+                          header.hypothesis if header else "", exact, failed,
+                          cfg.reference_method.name if sp.user_ref is None else "")
 
 
 def needed_spp(numbers: suite_analysis.SceneNumbers, spp: int, cap: int) -> int:

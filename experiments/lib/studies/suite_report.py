@@ -10,7 +10,9 @@ import numpy as np
 
 from .. import figures, files, metrics, prose, report, stats
 from ..execute import VIEW_CACHE
-from . import suite_analysis
+from . import suite_analysis, suite_bias
+from .suite_bias_report import (BLOCK_HEADER, bias_finding, bias_words, block_bias_rows,
+                                names)
 from .suite_plan import NAME, ORDER, TIME, TITLE
 
 g = stats.g
@@ -58,14 +60,6 @@ TIES = ("On {{ scene }}, {{ names }} cannot be told apart at equal time (best es
         "{{ base }} itself{% endif %}).")
 HYPOTHESIS = "Its hypothesis {{ words }}: {{ why }}."
 TIME_RATIO = "vr_path {{ a }} takes {{ ratio.text() }} of {{ b }}'s time per sample."
-
-
-def names(methods, limit: int = 4) -> str:
-    """'a', 'a and b', 'a, b and c', at most ``limit`` named ('... and 2 more')."""
-    methods = list(methods)
-    if len(methods) > limit:
-        return ", ".join(methods[:limit]) + f" and {len(methods) - limit} more"
-    return prose.and_join(methods) if methods else "none"
 
 
 def verdict_text(v: suite_analysis.Verdict) -> str:
@@ -133,6 +127,9 @@ def findings(results: list, failed_scenes: dict) -> list[str]:
         out.append(f"Bias check ({', '.join(scenes_checked)}): " + (
             "the exact value lies inside every method's interval." if not outside else
             "the exact value lies outside the interval of " + "; ".join(outside) + "."))
+    tested = bias_finding(results)
+    if tested:
+        out.append(tested)
     noisy = [r.name for r in results if not r.reference_adequate]
     if noisy:
         out.append(f"The reference is too noisy for a full comparison on {', '.join(noisy)} "
@@ -158,12 +155,13 @@ def matrix(results: dict, methods: list[str]) -> tuple[list, list, list, list]:
                 continue
             ratio = c.relative["equal_time"]
             v.append(ratio.value if ratio.side in ("", ">", "<") else math.nan)
+            flag = "BIASED\n" if c.biased else ""
             if ratio.side == "" and ratio.est.known:
-                t.append(f"{g(ratio.value)}\n{g(ratio.est.lo)}-{g(ratio.est.hi)}")
+                t.append(f"{flag}{g(ratio.value)}\n{g(ratio.est.lo)}-{g(ratio.est.hi)}")
             else:
-                t.append(ratio.short())
+                t.append(flag + ratio.short())
             k.append(2 if r.ranking.winner == m else 1 if m in r.ranking.ties else 0)
-            row.append(ratio.short())
+            row.append(("BIASED " if c.biased else "") + ratio.short())
         values.append(v), texts.append(t), marks.append(k), rows.append(row)
     return values, texts, marks, rows
 
@@ -191,7 +189,9 @@ def cell_rows(results: dict) -> tuple[list[list], list[dict]]:
                                    e[key].fields(key).items()},
                                 **{f"{k}_bound": e[k].bound for k in suite_analysis.METRICS},
                                 **c.ns_per_sample.fields("ns_per_sample"),
-                                "per_call_seconds": c.overhead, **rel.fields("efficiency")})
+                                "per_call_seconds": c.overhead, **rel.fields("efficiency"),
+                                **(c.block_bias.fields() if c.block_bias is not None else
+                                   {"biased": None})})
     return rows, records
 
 
@@ -254,9 +254,14 @@ def viewer_block(cfg, sp, measured, r: suite_analysis.SceneResult, ref) -> dict:
     notes = [f"{r.cells[m].spp['equal_time']} spp · relMSE "
              f"{r.cells[m].errors['equal_time']['relmse'].text()} · x"
              f"{r.cells[m].relative['equal_time'].short()} over {r.baseline}" for m, _ in images]
-    return report.viewer(cfg.out, f"{sp.name}: equal time", images, ref.image,
+    maps = [(f"{m}: biased blocks", suite_bias.flag_overlay(image, r.cells[m].block_bias.flagged))
+            for m, image in images if r.cells[m].biased]
+    notes += [f"the blocks where the bias test flags {label.split(':')[0]} (red)"
+              for label, _ in maps]
+    return report.viewer(cfg.out, f"{sp.name}: equal time", images + maps, ref.image,
                          f"{sp.name} at equal time ({cfg.time_budget:g} s of samples each; "
-                         f"first repeat shown) and its reference: {ref.describe()}.", notes)
+                         f"first repeat shown) and its reference: {ref.describe()}."
+                         + (" Red: the blocks the bias test flags." if maps else ""), notes)
 
 
 # ------------------------------------------------------------------ the section
@@ -329,7 +334,8 @@ def write(cfg, st, plans, numbers, refs, results, viewers, measured, failed, clo
             report.image(f"{NAME}/matrix.png", f"Scene x method: equal-time efficiency "
                          f"1/(relMSE x time) over {cfg.baseline} with its {stats.LEVEL:.0%} "
                          f"interval; thick outline: the scene's winner, thin: the methods it "
-                         f"cannot be told from; '>x'/'<x': a bound (an error below the "
+                         f"cannot be told from; BIASED: flagged by the bias test (never a "
+                         f"winner nor tied); '>x'/'<x': a bound (an error below the "
                          f"reference's noise). PDF: {NAME}/matrix.pdf"),
             report.write_table(out, f"{NAME}/matrix", ["scene"] + methods, rows,
                                f"Equal-time efficiency over {cfg.baseline}: value "
@@ -351,6 +357,18 @@ def write(cfg, st, plans, numbers, refs, results, viewers, measured, failed, clo
                 "with its interval from the pixels' spread, at a level that makes the "
                 f"scene's check {suite_analysis.BIAS_LEVEL:.0%} family-wise (Sidak over its "
                 f"methods)"))
+        tested = block_bias_rows(results)
+        if tested:
+            blocks.append(report.write_table(
+                out, f"{NAME}/bias_test", BLOCK_HEADER, tested,
+                f"Bias test of every cell: its renders at both budgets against the reference's "
+                f"chunks, Welch's t per block and channel and a pooled test per channel, "
+                f"levels {suite_bias.LEVEL:.0%} family-wise over the run (Sidak); variance "
+                f"from the pixels (independent sampler, box filter) or the renders; "
+                f"'detectable bias': the smallest uniform bias found about 90% of the time; "
+                f"'ruled by one sample': the share of blocks whose variance one pixel of one "
+                f"render holds the most of (above {suite_bias.TAILS_SHARE:.0%}: heavy tails, "
+                f"untestable)"))
         rows, records = cell_rows(results)
         blocks.append(report.write_table(out, f"{NAME}/cells", CELL_HEADER, rows,
                                          "Every cell at both budgets, with intervals",
@@ -365,6 +383,8 @@ def write(cfg, st, plans, numbers, refs, results, viewers, measured, failed, clo
             f"{', '.join(r.bounds()) or 'none'}."]
         if sp.header_note:
             extra.append(f"Note: {sp.header_note}.")
+        if bias_words(r):
+            extra.append(bias_words(r))
         blocks += [report.text(lead + " ".join(sentences(r) + extra)),
                    viewers[name], crop_block(cfg, sp, measured[name], r, ref)]
     fails = [[n, "(scene)", e] for n, e in failed.items()]
@@ -384,7 +404,10 @@ def write(cfg, st, plans, numbers, refs, results, viewers, measured, failed, clo
                     "reference_spp": refs[n].spp, "reference_floor_share": r.floor_share,
                     "reference_adequate": r.reference_adequate,
                     **(r.time_ratio.fields("time_ratio") if r.time_ratio else {}),
-                    "failed": r.failed} for n, r in results.items()],
+                    "failed": r.failed, "bias_power": r.power,
+                    "bias_power_method": r.power_method,
+                    "biased": [m for m, c in r.cells.items() if c.biased]}
+                   for n, r in results.items()],
         "cells": cell_rows(results)[1] if results else [],
         "failed_scenes": failed,
         "timing": {k: {"wall": v[0], "cpu": v[1]} for k, v in

@@ -1,0 +1,154 @@
+"""The suite's bias test: every cell's renders against its scene's reference chunks.
+
+Per cell (scene x method), the method's repeats at both budgets are one side of
+:mod:`experiments.lib.bias` (its two independent halves: the equal-spp repeats and the
+equal-time repeats, combined by their samples), the reference's chunks the other (halves:
+even and odd chunks). Both tests (per 8x8 block and channel, Welch's t with both sides'
+variances; pooled over the image per channel) run at levels that make the whole run one
+family at :data:`LEVEL` (Sidak over its cells; within a cell half the level to the blocks
+and half to the pooled test, each Sidak over its comparisons).
+
+Variance: the pixels' spread over the renders (``pixels``) where the pixels of a render are
+independent (the ``independent`` sampler and a ``box`` filter); otherwise the spread of the
+block means over the renders (``renders``: valid for any randomized sampler, few dof).
+Untestable, with the reason: a deterministic sampler, a user's EXR reference (no chunks),
+fewer than 2 renders per half (4 in all), renders of unequal sample counts within a budget,
+or heavy tails (:func:`.bias.tail_share` above :data:`TAILS_SHARE`: one pixel of one render
+rules the variance estimate of many blocks, the test's size is void).
+
+The result is data (:class:`CellBias`); the words are the report's (:mod:`.suite_report`).
+"""
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import bias, samplers, scenes
+
+#: Family-wise level of one run's bias tests (every cell of every scene).
+LEVEL = 0.99
+#: A cell where one pixel of one render rules the variance of more than this share of its
+#: blocks (:func:`.bias.tail_share`) is untestable (heavy tails).
+TAILS_SHARE = 0.05
+#: Fewest renders per half of a side.
+MIN_PER_HALF = 2
+#: Why a cell is untestable (keys of summary.json's ``biased_reason``).
+REASONS = ("deterministic", "user_reference", "too_few_renders", "unequal_counts",
+           "heavy_tails")
+
+
+@dataclass(frozen=True)
+class CellBias:
+    """The bias test of one cell, as data."""
+    status: str                     # biased | unbiased | untestable
+    reason: str = ""                # untestable: one of REASONS
+    variance: str = ""              # pixels | renders
+    detectable: float = float("nan")   # smallest uniform relative bias found ~90% of runs
+    delta: tuple = ()               # pooled relative difference per channel
+    p_blocks: float = float("nan")  # smallest per-block p
+    p_pooled: float = float("nan")
+    alpha_blocks: float = float("nan")
+    alpha_pooled: float = float("nan")
+    flagged: np.ndarray | None = None     # (blocks_y, blocks_x) bool
+    flagged_blocks: int = 0
+    tail_share: float = float("nan")
+    block: int = bias.BLOCK
+
+    @property
+    def biased(self):
+        """summary.json's value: True, False or "untestable"."""
+        return "untestable" if self.status == "untestable" else self.status == "biased"
+
+    def fields(self) -> dict:
+        return {"biased": self.biased, "biased_reason": self.reason,
+                "bias_variance": self.variance, "bias_detectable": self.detectable,
+                "bias_delta": list(self.delta), "bias_p_blocks": self.p_blocks,
+                "bias_p_pooled": self.p_pooled, "bias_alpha_blocks": self.alpha_blocks,
+                "bias_alpha_pooled": self.alpha_pooled, "bias_flagged_blocks":
+                    self.flagged_blocks, "bias_tail_share": self.tail_share}
+
+
+def cell_level(cells: int) -> float:
+    """The per-cell level that makes ``cells`` cells one family at :data:`LEVEL`."""
+    return bias.sidak(1.0 - LEVEL, max(1, cells))
+
+
+@functools.lru_cache(maxsize=64)
+def box_filter(path: str) -> bool:
+    """Whether every reconstruction filter of the scene file is a ``box`` (Mitsuba's
+    default, with none given, is a Gaussian)."""
+    try:
+        state = scenes.parse(path)
+    except ValueError:
+        return False
+    kinds = [n.props.plugin_name() for n in state.nodes
+             if n.type == scenes.mi.ObjectType.ReconstructionFilter]
+    return bool(kinds) and all(k == "box" for k in kinds)
+
+
+def variance_kind(method, box: bool) -> str:
+    """``pixels`` for the independent sampler under a box filter, else ``renders``."""
+    return "pixels" if box and method.sampler == samplers.DEFAULT else "renders"
+
+
+def reference_chunks(refs, spec) -> np.ndarray | None:
+    """(chunks, H, W, C) images of every cached chunk of a reference (None: none)."""
+    if spec is None:
+        return None
+    n = refs.cached(spec)
+    jobs = refs.plan(spec, n * spec.chunk)[:n]
+    return np.stack([np.asarray(refs.store.get(j.key).image, np.float64) for j in jobs]) \
+        if jobs else None
+
+
+def untestable(reason: str, variance: str = "") -> CellBias:
+    return CellBias("untestable", reason, variance)
+
+
+def check_cell(method, budgets: list, chunks: np.ndarray | None, box: bool, ref_box: bool,
+              reference_method, alpha: float) -> CellBias:
+    """The bias test of a cell: ``budgets`` its renders per budget (lists of (image, spp)),
+    ``chunks`` the reference's chunk images (None: a user's EXR), ``alpha`` the cell's
+    level (:func:`cell_level`)."""
+    kind = variance_kind(method, box)
+    if method.deterministic:
+        return untestable("deterministic", kind)
+    if chunks is None:
+        return untestable("user_reference", kind)
+    if len(budgets) < 2 or min(len(b) for b in budgets) < MIN_PER_HALF \
+            or len(chunks) < 2 * MIN_PER_HALF:
+        return untestable("too_few_renders", kind)
+    if any(len({spp for _, spp in b}) > 1 for b in budgets):
+        return untestable("unequal_counts", kind)
+    halves = [bias.padded(np.stack([img for img, _ in b])) for b in budgets[:2]]
+    samples = [len(b) * b[0][1] for b in budgets[:2]]
+    ref = bias.padded(chunks)
+    varying = bias.varying_pixels(bias.Renders(np.concatenate(halves)), bias.Renders(ref))
+    side = bias.side_of_halves(halves, samples, varying, variance=kind)
+    other = bias.side_of_renders(ref, varying, variance=variance_kind(reference_method, ref_box))
+    blocks_y, blocks_x, channels = side.full.mean.shape
+    alpha_blocks = bias.sidak(alpha / 2, blocks_y * blocks_x * channels)
+    alpha_pooled = bias.sidak(alpha / 2, channels)
+    tails = bias.tail_share(halves, varying)
+    agreement = bias.compare(side, other, varying, alpha_blocks, alpha_pooled)
+    base = dict(variance=kind, detectable=float(agreement.detectable),
+                delta=tuple(float(x) for x in agreement.delta),
+                p_blocks=float(agreement.p_blocks.min()),
+                p_pooled=float(agreement.p_pooled.min()), alpha_blocks=alpha_blocks,
+                alpha_pooled=alpha_pooled, flagged=agreement.flagged,
+                flagged_blocks=int(agreement.flagged.sum()), tail_share=tails)
+    if tails > TAILS_SHARE:
+        return CellBias("untestable", "heavy_tails", **base)
+    return CellBias("unbiased" if agreement.passed else "biased", **base)
+
+
+def flag_overlay(image: np.ndarray, flagged: np.ndarray, block: int = bias.BLOCK) -> np.ndarray:
+    """The image (H, W, 3) with its flagged blocks tinted red (the viewer's bias map)."""
+    h, w = image.shape[:2]
+    mask = np.kron(flagged, np.ones((block, block)))[:h, :w].astype(bool)
+    out = np.array(image, dtype=np.float64)
+    level = float(np.mean(out)) or 1.0
+    out[mask] = 0.5 * out[mask] + 0.5 * np.array([2.0 * level, 0.0, 0.0])
+    return out

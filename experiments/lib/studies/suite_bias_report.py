@@ -1,0 +1,88 @@
+"""The words and the table of the suite's bias test (:mod:`.suite_bias`): the findings
+box's sentence, each scene's power sentence, the per-cell table."""
+from __future__ import annotations
+
+import math
+
+from .. import prose
+from . import suite_analysis, suite_bias
+
+
+def names(methods, limit: int = 4) -> str:
+    """'a', 'a and b', 'a, b and c', at most ``limit`` named ('... and 2 more')."""
+    methods = list(methods)
+    if len(methods) > limit:
+        return ", ".join(methods[:limit]) + f" and {len(methods) - limit} more"
+    return prose.and_join(methods) if methods else "none"
+
+
+UNTESTABLE = {"deterministic": "a deterministic sampler (no independent renders)",
+              "user_reference": "a user's EXR reference (no chunks, its variance unknown)",
+              "too_few_renders": "too few renders (fewer than 2 per budget)",
+              "unequal_counts": "renders of unequal sample counts within a budget",
+              "heavy_tails": "heavy tails (one sample rules the variance of many "
+                             "blocks: the test's size is void)"}
+BIAS_FINDING = (
+    "Bias test (every cell against its scene's reference, per {{ block }}x{{ block }} block "
+    "and channel and pooled over the image, Welch, {{ level | pct }} family-wise over the run): "
+    "{% if flagged %}BIASED: {{ flagged | join('; ') }}{% else %}no method flagged{% endif %}"
+    "{% if untestable %}; untestable: {{ untestable }}{% endif %}"
+    "{% if powers %}; smallest bias detected 90% of the time: {{ powers | join(', ') }}"
+    "{% endif %}.")
+POWER = ("Its bias test detects a uniform bias of {{ power }} about 90% of the time "
+         "(measured on {{ method }}{% if calibration %}, the reference's own method: the "
+         "test's negative control{% endif %}){% if flagged %}; flagged as biased: "
+         "{{ flagged | join(', ') }}{% endif %}.")
+
+
+def pct2(x: float) -> str:
+    return f"{x:.2%}" if math.isfinite(x) else "no bias up to 100%"
+
+
+def bias_words(r: suite_analysis.SceneResult) -> str:
+    """The scene's bias-test sentence ('' where nothing was tested)."""
+    if r.power is None:
+        return ""
+    flagged = [m for m, c in r.cells.items() if c.biased]
+    return prose.say(POWER, power=pct2(r.power), method=r.power_method,
+                     calibration=r.power_method == r.calibration, flagged=flagged)
+
+
+def bias_finding(results: list) -> str:
+    """The findings box's bias-test sentence ('' where no cell was tested)."""
+    tested = [(r.name, m, c.block_bias) for r in results for m, c in r.cells.items()
+              if c.block_bias is not None]
+    if not tested:
+        return ""
+    flagged = [f"{m} on {n} (pooled difference {max(b.delta, key=abs):+.2%}, "
+               f"{b.flagged_blocks} blocks)" for n, m, b in tested if b.status == "biased"]
+    untestable = [f"{m} on {n}: {UNTESTABLE[b.reason]}" for n, m, b in tested
+                  if b.status == "untestable"]
+    powers = [f"{r.name} {pct2(r.power)}" for r in results if r.power is not None]
+    return prose.say(BIAS_FINDING, block=tested[0][2].block, level=suite_bias.LEVEL,
+                     flagged=flagged, untestable=names(untestable, 6) if untestable else "",
+                     powers=powers)
+
+
+BLOCK_HEADER = ["scene", "method", "biased", "why untestable", "variance",
+                "detectable bias", "pooled difference", "smallest block p", "block level",
+                "pooled p", "pooled level", "flagged blocks", "ruled by one sample"]
+
+
+def block_bias_rows(results: dict) -> list[list]:
+    """The bias test of every tested cell."""
+    rows = []
+    for name, r in results.items():
+        for m, c in r.cells.items():
+            b = c.block_bias
+            if b is None:
+                continue
+            finite = b.status != "untestable" or b.reason == "heavy_tails"
+            rows.append([name, m, {True: "YES", False: "no"}.get(b.biased, "untestable"),
+                         b.reason, b.variance, pct2(b.detectable) if finite else "-",
+                         (f"{max(b.delta, key=abs):+.3%}" if b.delta else "-"),
+                         f"{b.p_blocks:.2g}" if finite else "-", f"{b.alpha_blocks:.2g}",
+                         f"{b.p_pooled:.2g}" if finite else "-", f"{b.alpha_pooled:.2g}",
+                         b.flagged_blocks, "-" if math.isnan(b.tail_share) else
+                         f"{b.tail_share:.1%}"])
+    return rows

@@ -1,0 +1,127 @@
+"""The suite's bias test (experiments/lib/studies/suite_bias.py over experiments/lib/bias.py).
+
+Synthetic renders of known law at the default budget of the suite (a 48x36 film; the method
+side 3 renders at 16 spp and 3 at 64 spp, the reference 8 chunks of 128 spp; per-sample
+standard deviation equal to the pixel's mean): a 2% bias is found in at least 18 of 20 seeds,
+and no unbiased cell is flagged in 20 seeds at the run's level (99% family-wise over the 9 x 15
+cells of a default run). The suite's ranking never names a flagged method; untestable cells
+say why. Real scenes: tests/test_suite_bias_plugins.py.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from experiments.lib import bias
+from experiments.lib.studies import suite_analysis as A
+from experiments.lib.studies import suite_bias
+
+W, H, C = 48, 36, 3
+#: The default run: 9 bundled scenes x 15 methods, one family.
+ALPHA = suite_bias.cell_level(9 * 15)
+SEEDS = 20
+
+
+@dataclass(frozen=True)
+class FakeMethod:
+    name: str = "mine"
+    sampler: str = "independent"
+    deterministic: bool = False
+
+
+def renders(rng, mu, k, spp, factor=1.0):
+    """k renders of spp samples per pixel: normal means, per-sample sd = mu."""
+    return factor * (mu + mu / math.sqrt(spp) * rng.standard_normal((k, H, W, C)))
+
+
+def cell(rng, factor=1.0, method=FakeMethod(), box=True):
+    mu = rng.uniform(0.05, 1.0, (H, W, C))
+    budgets = [[(x, 16) for x in renders(rng, mu, 3, 16, factor)],
+               [(x, 64) for x in renders(rng, mu, 3, 64, factor)]]
+    chunks = renders(rng, mu, 8, 128)
+    return suite_bias.check_cell(method, budgets, chunks, box, box, FakeMethod("path"), ALPHA)
+
+
+def test_a_2_percent_bias_is_found_in_90_percent_of_seeds_and_no_unbiased_cell_is_flagged():
+    found = flagged = 0
+    for seed in range(SEEDS):
+        biased = cell(np.random.default_rng(seed), 1.02)
+        right = cell(np.random.default_rng(1000 + seed))
+        assert right.status != "untestable" and biased.status != "untestable", right.reason
+        found += biased.biased is True
+        flagged += right.biased is True
+        assert right.detectable < 0.02, right.detectable
+    assert found >= 0.9 * SEEDS, found
+    assert flagged == 0, flagged
+
+
+def test_a_mean_preserving_bias_is_found_by_its_blocks():
+    """Energy moved from the left half of the image to the right: the image mean kept."""
+    rng = np.random.default_rng(5)
+    mu = rng.uniform(0.2, 1.0, (H, W, C))
+    shift = np.where(np.arange(W) < W // 2, 0.9, 1.1)[None, :, None]
+    budgets = [[(x * shift, 16) for x in renders(rng, mu, 3, 16)],
+               [(x * shift, 64) for x in renders(rng, mu, 3, 64)]]
+    got = suite_bias.check_cell(FakeMethod(), budgets, renders(rng, mu, 8, 128), True, True,
+                                FakeMethod("path"), ALPHA)
+    assert got.biased is True and got.flagged_blocks > 0
+    assert got.flagged.shape == (math.ceil(H / 8), W // 8)
+
+
+@pytest.mark.parametrize("case, reason", [
+    ("deterministic", "deterministic"), ("user", "user_reference"),
+    ("one repeat", "too_few_renders"), ("heavy", "heavy_tails")])
+def test_untestable_cells_say_why(case, reason):
+    rng = np.random.default_rng(3)
+    mu = rng.uniform(0.2, 1.0, (H, W, C))
+    budgets = [[(x, 16) for x in renders(rng, mu, 3, 16)],
+               [(x, 64) for x in renders(rng, mu, 3, 64)]]
+    chunks = renders(rng, mu, 8, 128)
+    method = FakeMethod(deterministic=case == "deterministic")
+    if case == "user":
+        chunks = None
+    if case == "one repeat":
+        budgets = [b[:1] for b in budgets]
+    if case == "heavy":          # rare large values: most renders miss them
+        def rare(k, spp):
+            hits = rng.binomial(spp, 0.002, (k, H, W, C))
+            return mu * hits / (0.002 * spp)
+        budgets = [[(x, 16) for x in rare(3, 16)], [(x, 64) for x in rare(3, 64)]]
+    got = suite_bias.check_cell(method, budgets, chunks, True, True, FakeMethod("path"), ALPHA)
+    assert got.biased == "untestable" and got.reason == reason
+
+
+def test_variance_from_the_renders_for_a_qmc_sampler_or_a_wide_filter():
+    rng = np.random.default_rng(4)
+    assert cell(rng, method=FakeMethod(sampler="halton")).variance == "renders"
+    assert cell(rng, box=False).variance == "renders"
+    assert cell(rng).variance == "pixels"
+
+
+def test_the_run_is_one_family_at_99_percent():
+    assert suite_bias.cell_level(1) == pytest.approx(0.01)
+    assert (1 - suite_bias.cell_level(135)) ** 135 == pytest.approx(0.99)
+
+
+def test_a_flagged_method_is_never_the_winner_nor_tied():
+    def runs(err):
+        return A.Runs(16, (err,) * 3, (err,) * 3, (err,) * 3, (1.0,) * 3)
+    flagged = suite_bias.CellBias("biased", detectable=0.01)
+    clean = suite_bias.CellBias("unbiased", detectable=0.01)
+    cells = {"path": A.Cell("path", {b: runs(1.0) for b in A.BUDGETS}, (1.0,) * 3,
+                            block_bias=clean),
+             "fast": A.Cell("fast", {b: runs(0.01) for b in A.BUDGETS}, (1.0,) * 3,
+                            block_bias=flagged)}
+    result = A.analyse_scene(A.SceneNumbers("s", cells, A.Floor(0, 0, 0), "path",
+                                            calibration="path"))
+    assert result.ranking.winner == "path" and "fast" not in result.ranking.ties
+    assert result.cells["fast"].biased and result.power == 0.01
+    assert result.power_method == "path"
+
+
+def test_padding_leaves_partial_blocks_out_of_nothing():
+    images = bias.padded(np.ones((2, 36, 48, 3)))
+    assert images.shape == (2, 40, 48, 3) and images[:, 36:].sum() == 0
