@@ -144,3 +144,25 @@ def test_analysis_is_one_family_and_counts_per_strategy():
         ("a", "fail", "pass"), ("b", "pass", "fail")]
     assert found.undecided[0].albedo.reason == "wide"
     assert math.isclose(found.rows[1].mass.ratio, 1.1)
+
+
+def test_report_words_and_table_say_what_the_checks_found(tmp_path):
+    from experiments.lib.studies import lab_checks_report
+    rows = [dict(r, bsdf="phong n=10", incidence_deg=60.0) for r in [
+        {"strategy": "a", "samples": 10 ** 6, "drawn": 1.0, "mass": m, "mass_error": 0.0,
+         "pdf_ratio": 1.0, "pdf_ratio_se": 0.0, "albedo": w, "albedo_se": se,
+         "albedo_quadrature": 1.0, "albedo_error": 0.0, "weight_skewness": 0.0}
+        for m, w, se in [(1.0, 1.0, 1e-3), (1.1, 0.909, 1e-3), (1.0, 1.0, 0.05)]]]
+    found = lab_mass.analyse(rows)
+    words = lab_checks_report.sentences(found)
+    assert words[0].startswith("1 of 3 panels fail the mass or albedo check at 1%")
+    assert "a on phong n=10 at 60 deg (mass/share 1.1" in words[0]
+    assert words[1].startswith("1 of 3 panels cannot decide one check (an interval wider")
+    assert all(len(s.split()) <= 80 for s in words)
+    blocks = lab_checks_report.report_checks(str(tmp_path), found, [0.5, 0.5, 1e-9], 1e-4)
+    table = blocks[0]
+    assert [r[-1] for r in table["rows"]] == ["pass", "fail", "fail"]
+    assert table["rows"][2][9] == "cannot decide (wide)"
+    good = lab_mass.analyse(rows[:1])
+    assert lab_checks_report.sentences(good)[0].startswith("Every one of the 1 panels passes")
+    assert lab_checks_report.sentences(good)[1].startswith("Every check decides")
