@@ -10,6 +10,11 @@ the mass inside the cap. Where the cap is the whole sphere, use the z axis: the
 horizon, where BSDF densities jump to 0, is then a cell boundary; elsewhere the
 cells are integrated with ires x ires points so that cells cut by the horizon
 are tabulated accurately.
+
+:func:`mass_and_albedo` checks what a chi-square test cannot see, a density off by a
+constant factor: the density's integral over the sphere against the share of directions
+drawn, and E[f cos / pdf] against the BSDF's albedo (the sampling lab's own checks,
+:mod:`experiments.lib.lab_mass`, on one lab panel).
 """
 import math
 
@@ -47,3 +52,32 @@ def run_chi2(domain, sample, pdf, sample_dim, monkeypatch, tmp_path, test_count=
     ok = test.run(SIGNIFICANCE, test_count=test_count, quiet=True)
     assert ok, test.messages
     return test.p_value
+
+
+def panel_checks(strategy, bsdf: dict, cos_i: float, test_count=1, samples=250_000, seed=0):
+    """The sampling lab's mass and albedo checks of ``strategy`` (a registered name or a
+    Strategy object) on ``bsdf`` (a Mitsuba dict) at incidence cos(theta_i) = ``cos_i``:
+    one lab panel (:func:`experiments.lib.lab_warps.compute`), checked by
+    :func:`experiments.lib.lab_mass.checks` at SIGNIFICANCE, Sidak-corrected over
+    ``test_count`` panels (two checks each). Returns (mass check, albedo check, panel)."""
+    from experiments.lib import lab_mass, lab_warps
+    spec = lab_warps.PanelSpec("test", bsdf, strategy, math.degrees(math.acos(cos_i)),
+                               samples, seed)
+    panel = lab_warps.compute(spec)
+    mass, albedo = lab_mass.checks(panel, samples,
+                                   lab_mass.z_value(2 * test_count, SIGNIFICANCE))
+    return mass, albedo, panel
+
+
+def mass_and_albedo(strategy, bsdf: dict, cos_i: float, test_count=1, samples=250_000, seed=0,
+                    undecided_ok=False):
+    """:func:`panel_checks`, failing the test when either check fails, and when one cannot
+    decide (too wide, heavy tails) unless ``undecided_ok``. Returns what it returns."""
+    from experiments.lib import lab_mass
+    mass, albedo, panel = panel_checks(strategy, bsdf, cos_i, test_count, samples, seed)
+    for name, c in (("mass / share drawn", mass), ("E[w] / albedo", albedo)):
+        where = f"{strategy!r} on {bsdf} at cos_i={cos_i}: {name} = {c.ratio:.4g}"
+        assert c.verdict != lab_mass.FAIL, f"{where}, interval [{c.low:.4g}, {c.high:.4g}]"
+        assert undecided_ok or c.verdict == lab_mass.PASS, \
+            f"{where}: cannot decide ({c.reason}, half-width {c.half_width:.3g})"
+    return mass, albedo, panel

@@ -202,7 +202,8 @@ def test_quick_run_writes_section_and_resumes(tmp_path, monkeypatch):
     for stem, cols in [("warps", {"p_value", "rel_variance", "strategy", "bsdf"}),
                        ("p_values", {"p_value bsdf", "rel_variance uniform"}),
                        ("discrepancy", {"discrepancy_cd", "sampler", "pair", "count"}),
-                       ("discrepancy_64", {"(0,1)", "(30,31)"})]:
+                       ("discrepancy_64", {"(0,1)", "(30,31)"}),
+                       ("mass_albedo", {"mass / share drawn", "E[w] / albedo", "panel"})]:
         assert cols <= set(read_header(os.path.join(out, "lab", stem + ".csv"))), stem
     with open(os.path.join(out, "lab", "warps.csv"), newline="") as f:
         rows = list(csv.DictReader(f))

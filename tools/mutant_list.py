@@ -53,6 +53,15 @@ MUTANTS = [
            "the glossy lobe normalised by (n + 1) / 2 pi (the sampling density's) instead of "
            "(n + 2) / 2 pi (energy off by (n + 2) / (n + 1))",
            ("tests/test_phong.py",)),
+    Mutant("hemisphere-weight-pdf", "integrators/strategies.py",
+           "        return weighted_direction(bsdf, ctx, si, wo, self.pdf(bsdf, ctx, si, wo, "
+           "active),\n                                  active)",
+           "        return weighted_direction(bsdf, ctx, si, wo, 1.1 * self.pdf(bsdf, ctx, si, "
+           "wo, active),\n                                  active)",
+           "uniform and cosine sampling weight their directions by a density 10% above the "
+           "one their pdf reports (every weight 10% low: darker with more samples; a "
+           "chi-square test of pdf cannot see it)",
+           ("tests/test_lab_checks.py",)),
     Mutant("eta-inverted", "integrators/strategies.py",
            "return dr.select(crosses & (bs.eta > 0), bs.eta, 1.0)",
            "return dr.select(crosses & (bs.eta > 0), dr.rcp(bs.eta), 1.0)",
@@ -137,6 +146,13 @@ MUTANTS = [
            "        kernels = kernel\n",
            "only the last pass's kernels are timed (a training pass looks free)",
            ("tests/test_clock.py",)),
+    Mutant("lab-mass-against-one", "experiments/lib/lab_mass.py",
+           "    return check(mass, share, rel, quad, z)",
+           "    return check(mass, 1.0, rel, quad, z)",
+           "the lab's mass check compares the density's integral with 1 instead of the share "
+           "of directions drawn (a BSDF's own sampling that fails some samples is flagged)",
+           ("tests/test_lab_checks.py::test_mass_is_compared_with_the_share_drawn_not_with_one",
+            "tests/test_lab_checks.py")),
     Mutant("integrator-kept", "experiments/lib/execute.py",
            "    return mi.load_dict(job.method.integrator_dict(job_depth(job)))",
            "    return fresh_integrator.__dict__.setdefault(\n"

@@ -27,7 +27,10 @@ holds:
 - ``rel_variance``: Var[w] / E[w]^2 of the per-sample weight w = f cos / pdf
   (the ``weight`` the render loop multiplies its throughput by, mean over RGB),
   estimated from the same samples: the relative variance of a one-sample
-  estimate of the BSDF's albedo, which sets how many samples a bounce needs.
+  estimate of the BSDF's albedo, which sets how many samples a bounce needs;
+- what the chi-square cannot see (a density off by a constant factor): the
+  density's integral over the sphere and the albedo from a quadrature of f cos,
+  with the sampled sides' standard errors (:mod:`.lab_mass`, which checks them).
 
 The uniform variates are Mitsuba's chi-square test's own (TEA-hashed PCG32
 streams, see :func:`variates`), so a panel and ``ChiSquareTest`` with the same
@@ -44,6 +47,8 @@ import numpy as np
 
 from integrators.chi2 import EqualAreaDomain, cap_cos_min, interaction
 
+from . import lab_mass
+
 #: Pool threshold of the chi-square test (expected count per cell), as mitsuba.chi2.
 POOL_THRESHOLD = 5.0
 #: Incidence angles of the lab (degrees from the normal).
@@ -57,7 +62,7 @@ BSDFS = tuple(
     + [("roughconductor a=0.1", {"type": "roughconductor", "alpha": 0.1}),
        ("roughdielectric a=0.3", {"type": "roughdielectric", "alpha": 0.3, "int_ior": 1.5})])
 #: Version of the panel computation; part of every cache key.
-VERSION = 1
+VERSION = 2
 #: Phong exponents from which a panel's grid is a cap about the lobe (see domain_for).
 CAP_EXPONENT = 100
 
@@ -273,6 +278,13 @@ def compute(spec: PanelSpec, path_module=None) -> dict:
     expected = tabulate(domain, pdf_func(spec.strategy, bsdf, wi, path), n, spec.res, spec.ires)
     fcos = tabulate(domain, fcos_func(bsdf, wi), 1, spec.res, spec.ires)
     stat, dof, p = chi2_test(hist, expected, drjit_order(expected))
+    pdf_at = pdf_func(spec.strategy, bsdf, wi, path)(wo)       # pdf where each was drawn
+    ratio = dr.select(drawn, ds.pdf / dr.maximum(pdf_at, 1e-30), 1.0)
+    mass, mass_error = lab_mass.sphere_integral(
+        tabulate, domain, pdf_func(spec.strategy, bsdf, wi, path), spec.res, spec.ires,
+        float(np.sum(expected, dtype=np.float64)) / n)
+    albedo, albedo_error = lab_mass.sphere_integral(
+        tabulate, domain, fcos_func(bsdf, wi), spec.res, spec.ires, np.sum(fcos, dtype=np.float64))
     mean_w = float(np.mean(w))
     second = float(np.mean(w * w))
     rel_var = second / mean_w ** 2 - 1.0 if mean_w > 0 else math.inf
@@ -284,11 +296,14 @@ def compute(spec: PanelSpec, path_module=None) -> dict:
             "albedo": mean_w, "drawn": float(np.mean(drawn_np)),
             "in_grid": float(np.mean(counted_np)), "cos_min": domain.cos_min,
             "max_weight": float(np.max(w)) if n else 0.0,
-            "max_z": float(np.max(np.abs(hist - expected) / np.sqrt(np.maximum(expected, 1.0))))}
+            "max_z": float(np.max(np.abs(hist - expected) / np.sqrt(np.maximum(expected, 1.0)))),
+            "mass": mass, "mass_error": mass_error, "albedo_quadrature": albedo,
+            "albedo_error": albedo_error,
+            **lab_mass.sample_moments(w, np.asarray(ratio, np.float64)[drawn_np])}
 
 
 SCALARS = ("p_value", "chi2", "dof", "rel_variance", "albedo", "drawn", "in_grid", "cos_min",
-           "max_weight", "max_z")
+           "max_weight", "max_z") + lab_mass.SCALARS
 #: The scalars that are counts (a panel read back from the cache gives them as ints, as
 #: :func:`compute` does, so a rerun writes the same tables).
 INTEGERS = ("dof",)

@@ -29,8 +29,9 @@ import time
 
 import numpy as np
 
-from experiments.lib import cli, figures, files, lab_figures, lab_points, lab_warps, report
-from experiments.lib import screen_space
+from experiments.lib import cli, figures, files, lab_figures, lab_mass, lab_points, lab_warps
+from experiments.lib import report, screen_space
+from experiments.lib.studies import lab_checks_report
 from experiments.lib.engine import Cell, Engine
 from experiments.lib.methods import Method, parse_method, strategies as registered_strategies
 from experiments.lib.study import Study
@@ -440,7 +441,7 @@ def run(args) -> None:
     cfg, out = settings.config, settings.out
     out_dir = os.path.join(out, NAME)
     warps = measure_warps(plan_warps(cfg), os.path.join(out_dir, "cache", "warps"))
-    warp_found = lab_warps.analyse(warps.rows)
+    warp_found, checks = lab_warps.analyse(warps.rows), lab_mass.analyse(warps.rows)
     warp_seconds = time.perf_counter() - start
     points = measure_points(plan_points(cfg), os.path.join(out_dir, "cache", "points"))
     point_found = analyse_points(points, cfg.counts[0])
@@ -449,6 +450,8 @@ def run(args) -> None:
     screen = measure_screen(engine, cfg, plan_screen(engine, cfg, settings.reference))
     screen_seconds = time.perf_counter() - start - warp_seconds - point_seconds
     blocks = ([report.text(GUIDE)] + report_warps(out, cfg, warps, warp_found)
+              + lab_checks_report.report_checks(out, checks, [r["p_value"] for r in warps.rows],
+                                                warp_found.alpha)
               + report_points(out, cfg, points, point_found)
               + report_screen(out, cfg, screen))
     described = {"samples per warp panel": cfg.samples, "seed": cfg.seed,
@@ -476,6 +479,8 @@ def run(args) -> None:
     files.write_json(os.path.join(out_dir, "summary.json"), {
         "warps": warps.rows, "warp_conclusion": warp_found.sentences,
         "warp_table": [dataclasses.asdict(r) for r in warp_found.rows],
+        "mass_albedo": {"z": checks.z, "tests": checks.tests, "sentences": lab_checks_report
+                        .sentences(checks), "panels": [dataclasses.asdict(r) for r in checks.rows]},
         "point_conclusion": point_found.sentences,
         "point_table": [dataclasses.asdict(r) for r in point_found.rows],
         "discrepancy": [{"spp": spp, "sampler": n, "pair": list(p), "discrepancy_cd": v}
