@@ -181,31 +181,38 @@ def _pooled_test(a: Side, b: Side, rounding: float):
     """Per channel: the relative difference of ``a`` from ``b`` over the image, its
     statistic and degrees of freedom.
 
-    Each half h of the renders (even, odd) is tested with the other half's blocks:
-    block j gets the weight w_j = mu_j / V_j (mu the blocks' common mean, V the
+    Each half h of the renders (even, odd) is tested with weights from the other half:
+    block j gets the weight w_j = mu_j / V'_j (mu the blocks' common mean, V' the
     variance of their difference, both from the other half), the best weights for a
-    uniform relative bias, and z_h = sum_j w_j d_hj / sqrt(sum_j w_j^2 V_j), d_h the
-    difference of half h's block means. Weights or a variance estimated from the data
-    they are applied to would correlate with it (a skewed block mean that falls low
-    has its variance underestimated too: the statistic drifts); this way each z_h has
-    mean 0 under no bias, whatever the skew. z = (z_0 + z_1) / sqrt(2); the relative
-    difference: sum_h sum_j w_hj d_hj / sum_h sum_j w_hj mu_hj.
+    uniform relative bias, and z_h = sum_j w_j d_hj / sqrt(sum_j w_j^2 V_hj), d_h the
+    difference of half h's block means and V_h its variance, both from half h. Weights
+    estimated from the data they are applied to would correlate with it (a skewed block
+    mean that falls low has its variance underestimated too, and weighted up: the sum
+    drifts, more with every block); this way each z_h has mean 0 under no bias,
+    whatever the skew. The variance must be the tested half's own: the other half's,
+    with the weights made from it, understates it (the blocks weighted up are those
+    whose variance fell low: by nu / (nu - 2) at nu degrees of freedom, without bound
+    for the 2 of a 3-render half of ``renders``), and halves of unequal samples (the
+    suite's two budgets, 16 and 256 spp) have unequal variances. Its one number from
+    all blocks hardly follows the noise of any one. z = (z_0 + z_1) / sqrt(2); the
+    relative difference: sum_h sum_j w_hj d_hj / sum_h sum_j w_hj mu_hj.
     """
     z = num = scale = 0.0
     dofs = []
+    used = b.full.pixels > 0
     for h in (0, 1):
-        oa, ob = a.halves[1 - h], b.halves[1 - h]     # the other half: weights, variance
+        oa, ob = a.halves[1 - h], b.halves[1 - h]     # the other half: the weights
         ta, tb = a.halves[h], b.halves[h]             # the tested half
-        va, vb, se2, _ = _variances(oa, ob, rounding)
-        used = b.full.pixels > 0
-        w = np.where(used, _common_mean(oa, ob, rounding) / se2, 0.0)
+        _, _, se2_o, _ = _variances(oa, ob, rounding)
+        w = np.where(used, _common_mean(oa, ob, rounding) / se2_o, 0.0)
+        va, vb, se2, _ = _variances(ta, tb, rounding)
         diff = (w * (ta.mean - tb.mean)).sum(axis=(0, 1))
         den = (np.square(w) * se2).sum(axis=(0, 1))
         z = z + diff / np.sqrt(np.maximum(den, 1e-300)) / np.sqrt(2.0)
         num = num + diff
         scale = scale + (w * _common_mean(ta, tb, rounding)).sum(axis=(0, 1))
-        parts = (np.square(np.square(w) * va) / oa.dof
-                 + np.square(np.square(w) * vb) / ob.dof).sum(axis=(0, 1))
+        parts = (np.square(np.square(w) * va) / ta.dof
+                 + np.square(np.square(w) * vb) / tb.dof).sum(axis=(0, 1))
         dofs.append(np.square(den) / np.maximum(parts, 1e-300))
     delta = num / np.where(scale != 0, scale, np.inf)
     return delta, z, np.maximum(np.minimum(*dofs), 1.0)
