@@ -147,3 +147,22 @@ def test_a_flagged_method_is_never_the_winner_nor_tied():
 def test_padding_leaves_partial_blocks_out_of_nothing():
     images = bias.padded(np.ones((2, 36, 48, 3)))
     assert images.shape == (2, 40, 48, 3) and images[:, 36:].sum() == 0
+
+
+def test_a_power_from_a_heavy_tailed_calibration_cell_is_indicative_only():
+    from experiments.lib.studies import suite_bias_report as R
+
+    def runs(err):
+        return A.Runs(16, (err,) * 3, (err,) * 3, (err,) * 3, (1.0,) * 3)
+
+    def scene(calibration):
+        cells = {"path": A.Cell("path", {b: runs(1.0) for b in A.BUDGETS}, (1.0,) * 3,
+                                block_bias=calibration)}
+        return A.analyse_scene(A.SceneNumbers("s", cells, A.Floor(0, 0, 0), "path",
+                                              calibration="path"))
+    heavy = scene(suite_bias.CellBias("untestable", "heavy_tails", detectable=0.02))
+    light = scene(suite_bias.CellBias("unbiased", detectable=0.02))
+    assert "indicative only" in R.bias_words(heavy)
+    assert "indicative only" in R.bias_finding([heavy])
+    # negative control: a testable calibration cell's power is stated plainly
+    assert "indicative" not in R.bias_words(light) + R.bias_finding([light])
