@@ -105,12 +105,14 @@ class Blocks:
     var: np.ndarray      # variance of that mean (estimated)
     dof: np.ndarray      # degrees of freedom of the variance estimate
     pixels: np.ndarray   # varying pixels in the block (0: the block is left out)
+    variance: str = "pixels"   # how ``var`` was estimated (:data:`VARIANCES`)
 
     def scaled(self, factor: float) -> "Blocks":
-        return Blocks(self.mean * factor, self.var * factor ** 2, self.dof, self.pixels)
+        return Blocks(self.mean * factor, self.var * factor ** 2, self.dof, self.pixels,
+                      self.variance)
 
     def with_mean(self, mean: np.ndarray) -> "Blocks":
-        return Blocks(mean, self.var, self.dof, self.pixels)
+        return Blocks(mean, self.var, self.dof, self.pixels, self.variance)
 
 
 @dataclass(frozen=True)
@@ -119,9 +121,18 @@ class Side:
     (even and odd renders: the pooled test weights one half by the other)."""
     full: Blocks
     halves: tuple
+    #: each half's samples per pixel in all (None: equal)
+    samples: tuple | None = None
 
     def scaled(self, factor: float) -> "Side":
-        return Side(self.full.scaled(factor), tuple(h.scaled(factor) for h in self.halves))
+        return Side(self.full.scaled(factor), tuple(h.scaled(factor) for h in self.halves),
+                    self.samples)
+
+    def level(self, tested: int) -> float:
+        """The variance of half ``tested`` over the other half's (their samples' ratio)."""
+        if not self.samples:
+            return 1.0
+        return float(self.samples[1 - tested]) / float(self.samples[tested])
 
 
 def _block_sum(x: np.ndarray, block: int) -> np.ndarray:
@@ -144,7 +155,7 @@ def _blocks(images: np.ndarray, varying: np.ndarray, block: int, variance: str) 
         per_render = _block_sum(np.where(varying, images, 0.0), block) / n1
         var = per_render.var(axis=0, ddof=1) / k
         dof = np.full(var.shape, float(k - 1))
-    return Blocks(mean, var, np.maximum(dof, 1.0), n)
+    return Blocks(mean, var, np.maximum(dof, 1.0), n, variance)
 
 
 def _side(r: Renders, varying: np.ndarray, block: int, variance: str) -> Side:
@@ -177,35 +188,52 @@ def _block_test(a: Side, b: Side, rounding: float):
     return t, np.where(used, dof, np.inf)
 
 
+def _variance_of(tested: Blocks, other: Blocks, used: np.ndarray, level: float) -> Blocks:
+    """The block variances the pooled test gives the tested half, with their dof: the
+    other half's times ``level`` (:meth:`Side.level`, the ratio of their samples: halves
+    of unequal samples, the suite's two budgets of 16 and 256 spp, differ 16x; taken as
+    they are, the pooled statistic's spread was sqrt((16 + 1/16) / 2) = 2.8, unbiased
+    cells flagged); for ``renders`` variances (2 dof for a half of 3 renders) the tested
+    half's own. The weights are the other half's inverse variances, so with few dof its
+    variances fall low exactly where the weights are high: they would understate the
+    statistic's variance (by nu / (nu - 2) at nu dof, without bound at 2)."""
+    if other.variance == "renders":
+        return tested
+    return Blocks(tested.mean, other.var * level, other.dof, tested.pixels, other.variance)
+
+
 def _pooled_test(a: Side, b: Side, rounding: float):
     """Per channel: the relative difference of ``a`` from ``b`` over the image, its
     statistic and degrees of freedom.
 
-    Each half h of the renders (even, odd) is tested with the other half's blocks:
-    block j gets the weight w_j = mu_j / V_j (mu the blocks' common mean, V the
+    Each half h of the renders (even, odd) is tested with weights from the other half:
+    block j gets the weight w_j = mu_j / V'_j (mu the blocks' common mean, V' the
     variance of their difference, both from the other half), the best weights for a
-    uniform relative bias, and z_h = sum_j w_j d_hj / sqrt(sum_j w_j^2 V_j), d_h the
-    difference of half h's block means. Weights or a variance estimated from the data
-    they are applied to would correlate with it (a skewed block mean that falls low
-    has its variance underestimated too: the statistic drifts); this way each z_h has
-    mean 0 under no bias, whatever the skew. z = (z_0 + z_1) / sqrt(2); the relative
-    difference: sum_h sum_j w_hj d_hj / sum_h sum_j w_hj mu_hj.
+    uniform relative bias, and z_h = sum_j w_j d_hj / sqrt(sum_j w_j^2 V_hj), d_h the
+    difference of half h's block means and V_h its variance (:func:`_variance_of`: the
+    other half's at half h's samples, or with few dof half h's own). Weights or a variance
+    estimated from the data they are applied to would correlate with it (a skewed block
+    mean that falls low has its variance underestimated too: the statistic drifts); this
+    way each z_h has mean 0 under no bias, whatever the skew. z = (z_0 + z_1) / sqrt(2);
+    the relative difference: sum_h sum_j w_hj d_hj / sum_h sum_j w_hj mu_hj.
     """
     z = num = scale = 0.0
     dofs = []
+    used = b.full.pixels > 0
     for h in (0, 1):
-        oa, ob = a.halves[1 - h], b.halves[1 - h]     # the other half: weights, variance
+        oa, ob = a.halves[1 - h], b.halves[1 - h]     # the other half: the weights
         ta, tb = a.halves[h], b.halves[h]             # the tested half
-        va, vb, se2, _ = _variances(oa, ob, rounding)
-        used = b.full.pixels > 0
-        w = np.where(used, _common_mean(oa, ob, rounding) / se2, 0.0)
+        _, _, se2_o, _ = _variances(oa, ob, rounding)
+        w = np.where(used, _common_mean(oa, ob, rounding) / se2_o, 0.0)
+        ta, tb = _variance_of(ta, oa, used, a.level(h)), _variance_of(tb, ob, used, b.level(h))
+        va, vb, se2, _ = _variances(ta, tb, rounding)
         diff = (w * (ta.mean - tb.mean)).sum(axis=(0, 1))
         den = (np.square(w) * se2).sum(axis=(0, 1))
         z = z + diff / np.sqrt(np.maximum(den, 1e-300)) / np.sqrt(2.0)
         num = num + diff
         scale = scale + (w * _common_mean(ta, tb, rounding)).sum(axis=(0, 1))
-        parts = (np.square(np.square(w) * va) / oa.dof
-                 + np.square(np.square(w) * vb) / ob.dof).sum(axis=(0, 1))
+        parts = (np.square(np.square(w) * va) / ta.dof
+                 + np.square(np.square(w) * vb) / tb.dof).sum(axis=(0, 1))
         dofs.append(np.square(den) / np.maximum(parts, 1e-300))
     delta = num / np.where(scale != 0, scale, np.inf)
     return delta, z, np.maximum(np.minimum(*dofs), 1.0)
@@ -226,8 +254,8 @@ def _unbiased(a: Side, b: Side, rounding: float):
         return x.with_mean(mu), y.with_mean(mu)
     full = one(a.full, b.full)
     halves = [one(x, y) for x, y in zip(a.halves, b.halves)]
-    return (Side(full[0], tuple(h[0] for h in halves)),
-            Side(full[1], tuple(h[1] for h in halves)))
+    return (Side(full[0], tuple(h[0] for h in halves), a.samples),
+            Side(full[1], tuple(h[1] for h in halves), b.samples))
 
 
 def _detectable(test, a: Side, b: Side, alpha: float) -> float:
@@ -348,7 +376,7 @@ def combine(parts, weights) -> Blocks:
     var = sum(terms)
     dof = np.square(var) / np.maximum(sum(np.square(t) / p.dof for t, p in zip(terms, parts)),
                                       1e-300)
-    return Blocks(mean, var, np.maximum(dof, 1.0), parts[0].pixels)
+    return Blocks(mean, var, np.maximum(dof, 1.0), parts[0].pixels, parts[0].variance)
 
 
 def side_of_renders(images: np.ndarray, varying: np.ndarray, block: int = BLOCK,
@@ -363,7 +391,7 @@ def side_of_halves(halves, samples, varying: np.ndarray, block: int = BLOCK,
     whole their mean weighted by ``samples`` (each set's samples per pixel in all)."""
     parts = tuple(_blocks(np.asarray(h, dtype=np.float64), varying, block, variance)
                   for h in halves)
-    return Side(combine(parts, samples), parts)
+    return Side(combine(parts, samples), parts, tuple(samples))
 
 
 def tail_share(halves, varying: np.ndarray, block: int = BLOCK, dominance: float = 0.5) -> float:

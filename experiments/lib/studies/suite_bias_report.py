@@ -31,8 +31,9 @@ BIAS_FINDING = (
     "{% endif %}.")
 POWER = ("Its bias test detects a uniform bias of {{ power }} about 90% of the time "
          "(measured on {{ method }}{% if calibration %}, the reference's own method: the "
-         "test's negative control{% endif %}){% if flagged %}; flagged as biased: "
-         "{{ flagged | join(', ') }}{% endif %}.")
+         "test's negative control{% endif %}{% if indicative %}; indicative only: "
+         "{{ method }}'s renders are heavy-tailed here{% endif %}){% if flagged %}; "
+         "flagged as biased: {{ flagged | join(', ') }}{% endif %}.")
 
 
 def pct2(x: float) -> str:
@@ -45,7 +46,16 @@ def bias_words(r: suite_analysis.SceneResult) -> str:
         return ""
     flagged = [m for m, c in r.cells.items() if c.biased]
     return prose.say(POWER, power=pct2(r.power), method=r.power_method,
-                     calibration=r.power_method == r.calibration, flagged=flagged)
+                     calibration=r.power_method == r.calibration, flagged=flagged,
+                     indicative=power_indicative(r))
+
+
+def power_indicative(r: suite_analysis.SceneResult) -> bool:
+    """Whether the scene's power comes from a cell untestable for heavy tails (its variance
+    estimates fall short: the stated power is optimistic)."""
+    cell = r.cells.get(r.power_method)
+    b = cell.block_bias if cell is not None else None
+    return b is not None and b.status == "untestable" and b.reason == "heavy_tails"
 
 
 def bias_finding(results: list) -> str:
@@ -58,7 +68,9 @@ def bias_finding(results: list) -> str:
                f"{b.flagged_blocks} blocks)" for n, m, b in tested if b.status == "biased"]
     untestable = [f"{m} on {n}: {UNTESTABLE[b.reason]}" for n, m, b in tested
                   if b.status == "untestable"]
-    powers = [f"{r.name} {pct2(r.power)}" for r in results if r.power is not None]
+    powers = [f"{r.name} {pct2(r.power)}" + (" (indicative only: heavy tails)"
+                                             if power_indicative(r) else "")
+              for r in results if r.power is not None]
     return prose.say(BIAS_FINDING, block=tested[0][2].block, level=suite_bias.LEVEL,
                      flagged=flagged, untestable=names(untestable, 6) if untestable else "",
                      powers=powers)
