@@ -134,7 +134,7 @@ def log_interval(log_value: float, terms: list, n: int, level: float = LEVEL) ->
         return Estimate(value, value, value, n, level)
     spread = sum(v * v / d for v, d in terms if v > 0 and math.isfinite(d))
     dof = total ** 2 / spread if spread > 0 else math.inf
-    half = _t_quantile(dof, level) * math.sqrt(total)
+    half = math.sqrt(total) * _t_quantile(dof, level)
     return Estimate(value, math.exp(log_value - half), math.exp(log_value + half), n, level)
 
 
