@@ -103,3 +103,19 @@ def test_verdict_says_not_distinguishable_when_there_is_no_difference():
     assert claims / 200 <= 0.1          # a 95% interval claims a false difference ~5%
     one = stats.verdict("A", "B", stats.efficiency_ratio([1.0], [1.0], [2.0], [1.0]))
     assert "not distinguishable" in one and "1 run" in one
+
+
+def test_log_interval_combines_terms_with_their_degrees_of_freedom():
+    """Terms from thousands of values (infinite dof) give the normal quantile; one term on
+    2 dof gives Student's 4.30; a sum takes Welch-Satterthwaite's dof in between."""
+    import math
+    from scipy.stats import t as student
+    normal = stats.log_interval(0.0, [(0.01, math.inf)], 3)
+    assert math.log(normal.hi) == pytest.approx(1.959964 * 0.1, rel=1e-5)
+    few = stats.log_interval(0.0, [(0.01, 2)], 3)
+    assert math.log(few.hi) == pytest.approx(4.302653 * 0.1, rel=1e-5)
+    both = stats.log_interval(math.log(2.0), [(0.01, math.inf), (0.01, 2)], 3)
+    dof = 0.02 ** 2 / (0.01 ** 2 / 2)
+    assert both.value == pytest.approx(2.0)
+    assert math.log(both.hi / 2) == pytest.approx(student.ppf(0.975, dof) * math.sqrt(0.02))
+    assert stats.log_interval(0.0, [(math.inf, 2)], 3).known is False

@@ -179,6 +179,25 @@ MUTANTS = [
            "if k != \"seed\"}, variant, plugins_version()],",
            "a store key that forgets the seed (two repeats would share one entry)",
            ("tests/test_experiments.py::test_job_keys_change_with_everything_the_image_depends_on",)),
+    # ------------------------------------------------------------ the suite's precise errors
+    Mutant("pass-variance-dof", "experiments/lib/jobs.py",
+           "        s2 = np.maximum(self.sq - self.spp * self.mean ** 2, 0.0) / (self.passes - 1)",
+           "        s2 = np.maximum(self.sq - self.spp * self.mean ** 2, 0.0) / self.passes",
+           "the per-pixel variance from the passes' spread divided by the passes, not passes - 1 "
+           "(the suite's expected relMSE 25% low with 4 passes)",
+           ("tests/test_suite_errors.py",)),
+    Mutant("pooled-variance-per-pixel", "experiments/lib/studies/suite_errors.py",
+           "        return value, float(v.var(axis=0, ddof=1).sum()) / (repeats * n * n)",
+           "        return value, float(v.var(axis=0, ddof=1).mean()) / repeats",
+           "the pooled error's variance is one pixel's, not that of the mean over the pixels "
+           "(intervals about sqrt(N) times too wide: nothing is ever decided)",
+           ("tests/test_suite_errors.py",)),
+    Mutant("log-interval-normal", "experiments/lib/stats.py",
+           "    half = math.sqrt(total) * _t_quantile(dof, level)",
+           "    half = math.sqrt(total) * normal_quantile(level)",
+           "the suite's combined efficiency interval takes the normal quantile even where a "
+           "term has few degrees of freedom (the paired costs' 2R - 1)",
+           ("tests/test_stats.py",)),
     # ------------------------------------------------------------ the bias test
     Mutant("welch-one-side", "experiments/lib/bias.py",
            "    se2 = np.maximum(va + vb, 1e-300)\n",

@@ -117,6 +117,27 @@ def _combine(terms: list[tuple[float, float, int, int]], level: float) -> Estima
     return Estimate(value, math.exp(log_value - half), math.exp(log_value + half), n, level)
 
 
+def normal_quantile(level: float = LEVEL) -> float:
+    """The two-sided normal quantile of ``level`` (1.96 at 95%)."""
+    return _t_quantile(math.inf, level)
+
+
+def log_interval(log_value: float, terms: list, n: int, level: float = LEVEL) -> Estimate:
+    """exp(log_value) with the interval of a sum of independent log-scale terms, each
+    (variance, degrees of freedom; ``math.inf`` for a term from thousands of values): Student
+    t on the Welch-Satterthwaite degrees of freedom of the sum, exp(log_value +- t sd)."""
+    value = math.exp(log_value)
+    total = sum(v for v, _ in terms)
+    if not math.isfinite(total):
+        return Estimate(value, float("nan"), float("nan"), n, level)
+    if total == 0:
+        return Estimate(value, value, value, n, level)
+    spread = sum(v * v / d for v, d in terms if v > 0 and math.isfinite(d))
+    dof = total ** 2 / spread if spread > 0 else math.inf
+    half = math.sqrt(total) * _t_quantile(dof, level)
+    return Estimate(value, math.exp(log_value - half), math.exp(log_value + half), n, level)
+
+
 def mean_interval(values, level: float = LEVEL) -> Estimate:
     """The mean of positive per-repeat values (MSEs, seconds) with its interval."""
     lm, var, n = _log_term(values)

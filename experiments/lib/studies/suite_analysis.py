@@ -11,6 +11,9 @@ where an error is below the reference's noise), the winner or the methods that c
 told apart, the hypothesis' verdict, vr_path's time per sample over path's and the bias
 check, all as data: the words are the report's (:mod:`.suite_report`).
 
+Where both cells' pixels are independent estimates (independent sampler, box filter) their
+relMSE is the expected one from the pixels' pass variances and their efficiency's interval
+pairs their renders' costs (:mod:`.suite_errors`); elsewhere both come from the repeats.
 Verdicts use relMSE at equal time; a method wins only where the interval of its
 efficiency over every other method excludes 1.
 """
@@ -23,6 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import stats
+from . import suite_errors
 
 g = stats.g
 #: The budgets every cell is measured at; the first is the one verdicts use.
@@ -56,6 +60,9 @@ class Runs:
     flip: tuple = ()          # per repeat, or the first repeat's only, or none
     means: tuple = ()
     mean_vars: tuple = ()
+    expected: tuple = ()      # (expected relMSE from the pixels' pass variances, the
+    #                           variance of that estimate): suite_errors; () without passes
+    costs: tuple = ()         # the cell's cost per sample of each render, both budgets
 
 
 @dataclass(frozen=True)
@@ -148,7 +155,11 @@ def _shift(values, floor: float) -> list[float]:
 def efficiency(a: Runs, b: Runs, floor: float, metric: str = "relmse") -> Ratio:
     """Efficiency 1/(error x time) of ``a`` over ``b`` (errors over the reference's own
     expected error ``floor``). Where one error is below the reference's noise, its upper
-    bound gives a bound on the ratio; where both are, it is unknown."""
+    bound gives a bound on the ratio; where both are, it is unknown. Where both have the
+    pixels' pass variances (relMSE only): :func:`.suite_errors.efficiency`."""
+    precise = suite_errors.efficiency(a, b) if metric == "relmse" else None
+    if precise is not None:
+        return Ratio(precise)
     ea, eb = (getattr(r, metric) for r in (a, b))
     xa, xb = stats.excess_interval(ea, floor), stats.excess_interval(eb, floor)
     n = min(len(ea), len(eb))
@@ -318,6 +329,8 @@ METRICS = ("relmse", "relmse_rejected", "mse", "flip")
 def _errors(runs: Runs, floor: Floor) -> dict:
     out = {k: stats.excess_interval(getattr(runs, k), getattr(floor, k))
            for k in ("relmse", "relmse_rejected", "mse")}
+    if runs.expected:         # the pixels' variances: no floor, thousands of terms
+        out["relmse"] = suite_errors.estimate(*runs.expected, len(runs.relmse))
     out["flip"] = (stats.mean_interval(runs.flip) if runs.flip and min(runs.flip) > 0
                    else stats.Estimate(math.nan, math.nan, math.nan, len(runs.flip)))
     return out

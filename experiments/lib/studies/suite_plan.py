@@ -25,8 +25,8 @@ from .. import references
 from .. import scenes
 from ..engine import Budget, Cell, Declaration, Engine, Measurements, SceneSetup
 from ..methods import Depth, Method
-from ..study import Study
-from . import suite_analysis, suite_bias
+from ..study import Study, repeat_prefix
+from . import suite_analysis, suite_bias, suite_errors
 
 NAME = "suite"
 ORDER = 50
@@ -35,6 +35,10 @@ TITLE = "Scene suite: every method on scenes that each isolate one phenomenon"
 MAX_EQUAL_TIME_SPP = 4096
 #: The budgets' names (their part of the job keys).
 SPP, TIME = "equal-spp", "equal-time"
+#: Passes per render of a cell whose pixels are independent estimates (:func:`precise`): 3
+#: degrees of freedom per pixel and render for its variance (:mod:`.suite_errors`); each
+#: pass is one more render call (a few ms).
+PASSES = 4
 
 
 @dataclass(frozen=True)
@@ -86,6 +90,7 @@ class ScenePlan:
     depth: Depth = Depth()
     ref: references.RefSpec | None = None
     user_ref: str | None = None
+    box: bool = False                             # every filter a box (suite_bias.box_filter)
     declaration: Declaration | None = None
     jobs: dict = field(default_factory=dict)      # {budget: {Cell: [per repeat: [Job]]}}
     failed: dict = field(default_factory=dict)    # {method name: error}
@@ -161,6 +166,7 @@ def plan_scenes(cfg: Settings) -> list[ScenePlan]:
                             f"{cfg.forced_resolution[1]}")
                 continue
         sp.depth = scenes.effective_depth(sp.info, cfg.max_depth, cfg.rr_depth)
+        sp.box = suite_bias.box_filter(path)
         if sp.user_ref is None:
             chunk = references.chunk_spp_for(sp.width, sp.height, cfg.reference_typical_spp)
             sp.ref = references.RefSpec(sp.info, sp.width, sp.height, sp.depth,
@@ -195,7 +201,39 @@ def plan_budget(engine: Engine, sp: ScenePlan, budget: str, methods: list[str]) 
                engine.equal_time_spp(b, [engine.study.results(jobs) for jobs in
                                          sp.jobs[b.after][sp.cell(m, b.after)]])
                for m in methods}
-    sp.jobs.setdefault(budget, {}).update(engine.jobs(chosen, b, spp))
+    sp.jobs.setdefault(budget, {}).update(
+        planned_jobs(engine, chosen, b, spp, lambda m: PASSES if precise(m, sp.box) else 1))
+
+
+def precise(method: Method, box: bool) -> bool:
+    """Whether a cell's error comes from its pixels' variances (:mod:`.suite_errors`): the
+    independent sampler under a box filter, whose pixels are independent estimates."""
+    return suite_bias.variance_kind(method, box) == "pixels"
+
+
+def pass_spp(spp: int, passes: int) -> int:
+    """spp per pass that splits ``spp`` into ``passes`` passes (0: one pass)."""
+    passes = min(passes, int(spp))
+    return 0 if passes < 2 else -(-int(spp) // passes)
+
+
+def planned_jobs(engine: Engine, decl: Declaration, budget: Budget, spp: dict | None,
+                 passes_of) -> dict:
+    """:meth:`.Engine.jobs` with ``passes_of(method)`` passes per render (1: the engine's
+    jobs, keys unchanged; more: ``pass_spp`` is in the job key). The engine's ``jobs`` does
+    not take a pass count; this is its loop with one (it belongs there, as a per-method
+    ``passes`` of :class:`.engine.Budget`)."""
+    out = {}
+    for cell, setup, method in decl.cells(budget):
+        count = spp[cell] if budget.timed else budget.spp
+        options = dict(info=setup.info, depth=setup.depth, resolution=setup.resolution,
+                       timing_group=f"{decl.name}/{cell.scene}")
+        if pass_spp(count, passes_of(method)):
+            options["pass_spp"] = pass_spp(count, passes_of(method))
+        prefix = decl.key(decl, cell)
+        out[cell] = [[engine.study.job(repeat_prefix(prefix, r), method, count, **options)]
+                     for r in range(1 if method.deterministic else decl.repeats)]
+    return out
 
 
 def overhead(st: Study, sp: ScenePlan, method: str) -> float:
@@ -292,9 +330,10 @@ def measurements(engine: Engine, sp: ScenePlan, ref: references.Reference) -> Me
 
 
 def _runs(cfg: Settings, runs: list, ref: references.Reference, b: list[float],
-          flip: str) -> tuple[suite_analysis.Runs, float]:
-    """The numbers of one budget's repeats (the engine's :class:`~..engine.Run` values),
-    and the reference's own expected relMSE over the pixels the rejected relMSE kept."""
+          flip: str, costs: tuple = ()) -> tuple[suite_analysis.Runs, float]:
+    """The numbers of one budget's repeats (the engine's :class:`~..engine.Run` values;
+    ``costs``: the cell's cost per sample of every render, both budgets), and the
+    reference's own expected relMSE over the pixels the rejected relMSE kept."""
     fmap = ref.floor_map()
     rel, rej, rej_floor, mse, secs, means, mvars, flips = ([] for _ in range(8))
     for run, per_spp in zip(runs, b):
@@ -312,8 +351,10 @@ def _runs(cfg: Settings, runs: list, ref: references.Reference, b: list[float],
         flips = [metrics.flip_mean(x.image, ref.image) for x in runs]
     elif flip == "first":
         flips = [metrics.flip_mean(runs[0].image, ref.image)]
+    maps = [suite_errors.pixel_map(x.variance, ref.image) for x in runs]
+    expected = suite_errors.pooled(maps) if all(m is not None for m in maps) else ()
     return suite_analysis.Runs(runs[0].spp, tuple(rel), tuple(rej), tuple(mse), tuple(secs),
-                               tuple(flips), tuple(means), tuple(mvars)), \
+                               tuple(flips), tuple(means), tuple(mvars), expected, costs), \
         float(np.mean(rej_floor))
 
 
@@ -332,16 +373,17 @@ def measure_scene(cfg: Settings, st: Study, sp: ScenePlan, measured: Measurement
             continue
         finals = {budget: measured.final(sp.cell(name, budget)) for budget in (TIME, SPP)}
         b = [(x.cost + y.cost) / (x.spp + y.spp) for x, y in zip(finals[SPP], finals[TIME])]
+        costs = tuple(x.cost / x.spp for budget in (SPP, TIME) for x in finals[budget])
         runs = {}
         for budget, key in ((TIME, "equal_time"), (SPP, "equal_spp")):
             mode = ("none" if not flip else cfg.flip if budget == TIME or
                     cfg.flip == "all" else "none")
-            runs[key], fl = _runs(cfg, finals[budget], ref, b, mode)
+            runs[key], fl = _runs(cfg, finals[budget], ref, b, mode, costs)
             rej_floors.append(fl)
         px = sp.width * sp.height
         tested = None
         if alpha is not None:
-            box = suite_bias.box_filter(sp.path)
+            box = sp.box
             tested = suite_bias.check_cell(
                 methods[name], [[(x.image, x.spp) for x in finals[budget]] for budget in
                                 (SPP, TIME)], chunks, box, box, cfg.reference_method, alpha)

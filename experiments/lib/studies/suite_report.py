@@ -13,7 +13,7 @@ from ..execute import VIEW_CACHE
 from . import suite_analysis, suite_bias
 from .suite_bias_report import (BLOCK_HEADER, bias_finding, bias_words, block_bias_rows,
                                 names)
-from .suite_plan import NAME, ORDER, TIME, TITLE
+from .suite_plan import NAME, ORDER, PASSES, TIME, TITLE
 
 g = stats.g
 BASELINE_WHY = ("Mitsuba's own path tracer (next-event estimation + MIS), what a user would "
@@ -302,7 +302,17 @@ def intro(cfg, plans, numbers) -> str:
         f"equal time; MSE is in the tables. A method wins a scene only where the "
         f"{stats.LEVEL:.0%} interval of its efficiency over every other method excludes 1. "
         f"FLIP (HDR): {'every repeat' if cfg.flip == 'all' else 'the first equal-time repeat only (the image shown; --flip all gives intervals)'}. "
-        f"Intervals: {stats.LEVEL:.0%}, {stats.METHOD}.")
+        f"Intervals: {stats.LEVEL:.0%}, {stats.METHOD}. " + prose.say(PRECISE,
+                                                                     passes=PASSES))
+
+
+#: How the cells of the independent sampler under a box filter are measured (suite_errors).
+PRECISE = """Where a method uses the independent sampler and the scene's filter is a box,
+    each render is made in {{ passes }} passes and its relMSE is the expected one from the
+    spread of those passes per pixel (the variance part; the bias is tested apart), pooled
+    over the repeats with each pixel's variance across them (a normal quantile, no reference
+    floor to subtract); the efficiency of two such methods pairs their renders' costs per
+    sample (same repeat and budget, rendered in turn). Other cells use the repeats."""
 
 
 def timing_text(clock, analysis: tuple[float, float], cfg) -> str:

@@ -1,0 +1,105 @@
+"""The suite's precise errors: a cell's expected relMSE from the per-pixel variances of its
+renders' passes, and efficiency intervals from them and from paired costs.
+
+Where a cell's pixels are independent estimates (the ``independent`` sampler under a box
+filter: :func:`.suite_bias.variance_kind` is ``pixels``) each render is made in
+:data:`.suite_plan.PASSES` passes (the job's ``pass_spp``), and the spread of its pass images
+gives the per-pixel variance of its mean image (:meth:`.jobs.Accumulator.variance_of_mean`, passes - 1
+degrees of freedom per pixel). The expected relMSE of an unbiased render is then
+
+    E = mean over pixels of  v_p,   v_p = mean over channels of  var_p / (ref_p^2 + eps)
+
+(the variance part of the relMSE; the bias is tested apart, :mod:`.suite_bias`), with no
+floor to subtract (the reference's noise enters only through the denominators). Pooled over
+the R repeats, its standard error comes from each pixel's variance of v_p across the
+repeats, summed over the pixels: thousands of independent terms with R - 1 degrees of
+freedom each, hence a normal quantile instead of Student's t with R - 1. What it can miss: a heavy tail that no render of the run has sampled
+(its variance is then understated, as every estimate from these renders would be).
+
+The cost side of an efficiency pairs the two methods' renders (same repeat, same budget: a
+timing group renders them one after the other, :func:`.suite_plan.interleaved`), so that the
+machine's load, shared by both, cancels in their ratio: the ratio of the mean seconds (as the
+tables give them) with the variance of its log from the 2R paired renders' relative
+deviations of their costs per sample (delta method), Student's t on 2R - 1 degrees of
+freedom. Cells of QMC samplers or other filters keep the repeat-based relMSE
+(:mod:`.suite_analysis`).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .. import metrics, stats
+
+
+def pixel_map(variance: np.ndarray | None, ref: np.ndarray) -> np.ndarray | None:
+    """v_p of one render, (H, W): its per-pixel variance of the mean (H, W, 3) over the
+    reference's ref^2 + eps, averaged over channels; None without passes."""
+    if variance is None or not np.all(np.isfinite(variance)):
+        return None
+    ref = np.asarray(ref, np.float64)
+    return (np.asarray(variance, np.float64) / (ref * ref + metrics.RELMSE_EPS)).mean(axis=-1)
+
+
+def pooled(maps) -> tuple[float, float]:
+    """(expected relMSE over the repeats' :func:`pixel_map` values, the variance of that
+    estimate): sum over pixels of each pixel's variance across the R repeats, over R N^2
+    (R - 1 degrees of freedom per pixel, thousands of pixels); with one repeat, the spread
+    over the pixels (which also counts their differences: wider). (nan, nan) without maps."""
+    if not maps or any(m is None for m in maps):
+        return math.nan, math.nan
+    v = np.stack([np.asarray(m, np.float64).ravel() for m in maps])
+    repeats, n = v.shape
+    value = float(v.mean())
+    if repeats > 1:
+        return value, float(v.var(axis=0, ddof=1).sum()) / (repeats * n * n)
+    return value, float(v.var(ddof=1)) / n if n > 1 else math.nan
+
+
+def estimate(value: float, var: float, n: int, level: float = stats.LEVEL) -> stats.Estimate:
+    """The pooled expected relMSE (:func:`pooled`) with its interval (log scale, normal
+    quantile); ``n``: the repeats."""
+    if not value > 0 or not math.isfinite(var):
+        return stats.Estimate(value, math.nan, math.nan, n, level)
+    half = stats.normal_quantile(level) * math.sqrt(var) / value
+    return stats.Estimate(value, value * math.exp(-half), value * math.exp(half), n, level)
+
+
+def _error_terms(a, b) -> tuple | None:
+    """(log of E_b / E_a, its two log-scale terms (variance, dof)) of runs with pixel terms;
+    None where either lacks them or has no error."""
+    if not (a.expected and b.expected):
+        return None
+    (ea, va), (eb, vb) = a.expected, b.expected
+    if not (ea > 0 and eb > 0 and math.isfinite(va + vb)):
+        return None
+    return math.log(eb / ea), [(va / ea ** 2, math.inf), (vb / eb ** 2, math.inf)]
+
+
+def error_ratio(a, b, level: float = stats.LEVEL) -> stats.Estimate | None:
+    """Expected relMSE of runs ``b`` over runs ``a`` (above 1: ``a`` has the lower error)
+    with its interval; None where either lacks pixel terms."""
+    terms = _error_terms(a, b)
+    if terms is None:
+        return None
+    return stats.log_interval(terms[0], terms[1], min(len(a.relmse), len(b.relmse)), level)
+
+
+def efficiency(a, b, level: float = stats.LEVEL) -> stats.Estimate | None:
+    """Efficiency 1/(relMSE x seconds) of runs ``a`` over ``b`` (:class:`.suite_analysis.Runs`
+    with pixel terms and cost readings, paired render by render) with its interval: the
+    error ratio's terms and the paired costs' (Welch-Satterthwaite); None where either lacks
+    them (the repeat-based interval is used there)."""
+    terms = _error_terms(a, b)
+    if terms is None or not (a.costs and len(a.costs) == len(b.costs) > 1):
+        return None
+    ca, cb = (np.asarray(r.costs, np.float64) for r in (a, b))
+    if not (np.all(ca > 0) and np.all(cb > 0) and np.all(np.isfinite(ca * cb))):
+        return None
+    # the seconds' ratio as the tables give it (means over the repeats); its variance by the
+    # delta method from the paired renders' relative deviations
+    k, dev = ca.size, cb / cb.mean() - ca / ca.mean()
+    log_value = terms[0] + math.log(float(np.mean(b.seconds)) / float(np.mean(a.seconds)))
+    return stats.log_interval(log_value, terms[1] + [(float(dev.var(ddof=1)) / k, k - 1)],
+                              min(len(a.relmse), len(b.relmse)), level)

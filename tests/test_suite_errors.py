@@ -1,0 +1,135 @@
+"""The suite's precise errors (experiments/lib/studies/suite_errors.py): the expected relMSE
+from the pixels' pass variances agrees with many independent repeats on a real scene, its
+intervals have their coverage (A/A: vr_path bsdf+nee and Mitsuba's path at equal spp), and
+the pooled standard error and the paired efficiency on synthetic numbers, with negative
+controls."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import scenes
+from experiments.lib import execute, metrics, plan, stats
+from experiments.lib.jobs import Accumulator
+from experiments.lib.methods import parse_method
+from experiments.lib.scenes import effective_depth, read_scene
+from experiments.lib.studies import suite_errors, suite_plan
+from experiments.lib.studies.suite_analysis import Runs
+
+VARIANT = "llvm_ad_rgb"
+SCENE = scenes.path("suite/small_light.xml")
+FILM = (48, 36)          # the suite's film of this scene
+
+
+def _render(method: str, spp: int, seed: int, size=(16, 12), passes=suite_plan.PASSES):
+    """(mean image, per-pixel variance of the mean) of one render in ``passes`` passes."""
+    info = read_scene(SCENE)
+    job = plan.make_job(f"errors/{method}/{seed}", info, parse_method(method), *size, spp,
+                        seed, effective_depth(info, None, None), VARIANT,
+                        pass_spp=suite_plan.pass_spp(spp, passes))
+    acc = Accumulator.empty(size[1], size[0])
+    acc.add_result(execute.run_job(job, VARIANT))
+    assert acc.passes == passes
+    return acc.mean, acc.variance_of_mean()
+
+
+def _runs(expected, spp=16, costs=(), seconds=(), repeats=3):
+    return Runs(spp, (0.0,) * repeats, (), (), tuple(seconds), expected=tuple(expected),
+                costs=tuple(costs))
+
+
+def test_expected_relmse_agrees_with_the_spread_of_many_repeats():
+    """The mean of the per-render estimates equals the expected relMSE measured from the
+    spread of 32 independent renders around their mean (an unbiased estimator's error
+    against its truth), within a few percent; the estimate without the division of the
+    variance by the samples (the variance of one sample, not of the mean) is 16x off."""
+    images, terms = [], []
+    for seed in range(32):
+        mean, var = _render("bsdf+nee", 16, 100 + seed)
+        images.append(mean)
+        terms.append(var)
+    images = np.stack(images)
+    truth_image = images.mean(axis=0)
+    spread = images.var(axis=0, ddof=1)
+    measured = float(np.mean(spread / (truth_image ** 2 + metrics.RELMSE_EPS)))
+    value, var = suite_errors.pooled([suite_errors.pixel_map(v, truth_image) for v in terms])
+    # the repeats' measurement has 31 dof per pixel: its own relative error is ~ 3%
+    assert value == pytest.approx(measured, rel=0.1)
+    assert math.sqrt(var) / value < 0.05
+    assert value * 16 != pytest.approx(measured, rel=0.5)
+
+
+def test_aa_relmse_interval_contains_one_in_36_of_40_seeds():
+    """bsdf+nee and Mitsuba's path are the same estimator: their equal-spp relMSE ratio from
+    the pixels' variances (3 repeats each, 4 passes of 4 spp, the suite's 48x36 film) contains 1 in at
+    least 36 of 40 seeds (95% intervals), and its intervals are narrower than those of the
+    repeats' measured relMSE (Student t on 2 degrees of freedom)."""
+    ref = _render("path", 1024, 7, FILM)[0]    # the reference both are measured against
+    inside, widths, repeat_widths = 0, [], []
+    for seed in range(40):
+        sides, measured = [], []
+        for method in ("bsdf+nee", "path"):
+            reps = [_render(method, 16, 1000 * seed + 10 * r + (method == "path"), FILM)
+                    for r in range(3)]
+            sides.append(_runs(suite_errors.pooled([suite_errors.pixel_map(v, ref)
+                                                    for _, v in reps])))
+            measured.append([metrics.relmse(m, ref) for m, _ in reps])
+        ratio = suite_errors.error_ratio(*sides)
+        inside += ratio.lo <= 1 <= ratio.hi
+        widths.append(ratio.hi / ratio.lo)
+        repeat = stats.ratio_interval([measured[1]], [measured[0]])
+        repeat_widths.append(repeat.hi / repeat.lo)
+    assert inside >= 36, inside
+    assert math.log(np.median(widths)) < 0.7 * math.log(np.median(repeat_widths))
+
+
+def test_pooled_standard_error_has_its_coverage_on_synthetic_pixels():
+    """Synthetic pass images of known variance: the 95% interval of the expected relMSE
+    covers the truth in 91-99% of 400 trials (each pixel's variance across 3 repeats); from
+    one repeat, the spread over the pixels (which also counts their differing variances)
+    over-covers."""
+    rng = np.random.default_rng(5)
+    h, w, passes, k = 12, 16, 4, 4
+    sigma = rng.uniform(0.2, 2.0, (h, w, 1)) * np.ones((1, 1, 3))
+    ref = np.ones((h, w, 3))
+    truth = float(np.mean(sigma ** 2 / (k * passes) / (1 + metrics.RELMSE_EPS)))
+    hits = wide = 0
+    for _ in range(400):
+        maps = []
+        for _ in range(3):
+            acc = Accumulator.empty(h, w)
+            for _ in range(passes):
+                acc.add(1 + sigma * rng.standard_normal((h, w, 3)) / math.sqrt(k), k)
+            maps.append(suite_errors.pixel_map(acc.variance_of_mean(), ref))
+        e = suite_errors.estimate(*suite_errors.pooled(maps), 3)
+        hits += e.lo <= truth <= e.hi
+        one = suite_errors.estimate(*suite_errors.pooled(maps[:1]), 1)
+        wide += one.lo <= truth <= one.hi
+    assert 365 <= hits <= 395, hits
+    assert wide >= 390, wide
+
+
+def test_paired_efficiency_follows_the_table_and_cancels_shared_load():
+    """The efficiency's value is (E_b seconds_b) / (E_a seconds_a); a load shared by both
+    methods' paired renders (a factor 3 on one pair) leaves the interval narrow, where the
+    unpaired spread of the same costs would not; without pixel terms: None (the
+    repeat-based interval applies)."""
+    load = np.array([1.0, 3.0, 1.0, 1.2, 1.0, 0.9])
+    a = _runs((0.01, 1e-8), 64, 2e-6 * load, [64 * 2e-6] * 3)
+    b = _runs((0.02, 4e-8), 64, 3e-6 * load * [1, 1.01, 0.99, 1, 1, 1],
+              [64 * 3e-6] * 3)
+    eff = suite_errors.efficiency(a, b)
+    assert eff.value == pytest.approx(0.02 * 3 / (0.01 * 2))
+    assert eff.hi / eff.lo < 1.1
+    unpaired = stats.ratio_interval([list(b.costs)], [list(a.costs)])
+    assert unpaired.hi / unpaired.lo > 3
+    assert suite_errors.efficiency(a, Runs(64, (), (), (), ())) is None
+
+
+def test_pass_spp_splits_the_count_and_leaves_single_samples_alone():
+    assert suite_plan.pass_spp(16, 4) == 4
+    assert suite_plan.pass_spp(2, 4) == 1
+    assert suite_plan.pass_spp(1, 4) == 0
+    assert suite_plan.pass_spp(512, 1) == 0
