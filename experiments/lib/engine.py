@@ -118,6 +118,9 @@ class Declaration:
     reference_method: Method | None = None  # None: the study's --reference-method
     reference_typical_spp: int | None = None  # sizes the reference's chunks (None: the study's)
     key: Callable = default_key
+    #: (method, spp, repeat) -> the samples per pass of a cell's jobs (0: as many as memory
+    #: allows): passes give per-pixel variances from their spread (a job key field)
+    pass_spp: Callable | None = None
 
     def __post_init__(self):
         names = [b.name for b in self.budgets]
@@ -216,11 +219,16 @@ class Engine:
             options = dict(info=setup.info, depth=setup.depth, resolution=setup.resolution,
                            timing_group=f"{declaration.name}/{cell.scene}")
             repeats = 1 if method.deterministic else declaration.repeats
-            out[cell] = [st.ladder(repeat_prefix(prefix, r), method, budget.ladder, **options)
-                         if budget.ladder else
-                         [st.job(repeat_prefix(prefix, r), method,
-                                 spp[cell] if budget.timed else budget.spp, **options)]
-                         for r in range(repeats)]
+            count = (budget.ladder[-1] if budget.ladder else
+                     spp[cell] if budget.timed else budget.spp)
+            runs = []
+            for r in range(repeats):
+                passes = declaration.pass_spp(method, count, r) if declaration.pass_spp else 0
+                runs.append(st.ladder(repeat_prefix(prefix, r), method, budget.ladder,
+                                      pass_spp=passes, **options) if budget.ladder else
+                            [st.job(repeat_prefix(prefix, r), method, count,
+                                    pass_spp=passes, **options)])
+            out[cell] = runs
         return out
 
     def reference_jobs(self, declaration: Declaration) -> dict:

@@ -180,13 +180,17 @@ def declaration(cfg: Settings, sp: ScenePlan) -> Declaration:
     time at the cost per sample the equal-spp renders measured (the count rounded to the
     nearest power of two: Mitsuba renders a power-of-two count with another kernel than any
     other count, this keeps one kernel per cell; at most :data:`MAX_EQUAL_TIME_SPP`). Job
-    keys: the engine's ``suite/SCENE/METHOD/BUDGET``, timed in the group ``suite/SCENE``."""
+    keys: the engine's ``suite/SCENE/METHOD/BUDGET``, timed in the group ``suite/SCENE``.
+    A cell whose error comes from its pixels' variances (:func:`precise`) renders each job
+    in :data:`PASSES` passes."""
+    def passes(method: Method, spp: int, repeat: int) -> int:
+        return pass_spp(spp, PASSES if precise(method, sp.box) else 1)
     return Declaration(
         NAME, tuple(cfg.methods), (SceneSetup(sp.name, sp.info, (sp.width, sp.height),
                                               sp.depth),),
         (Budget.equal_spp(cfg.spp, SPP),
          Budget.equal_time(cfg.time_budget, SPP, TIME, power_of_two=True,
-                           max_spp=MAX_EQUAL_TIME_SPP)), cfg.repeats)
+                           max_spp=MAX_EQUAL_TIME_SPP)), cfg.repeats, pass_spp=passes)
 
 
 def plan_budget(engine: Engine, sp: ScenePlan, budget: str, methods: list[str]) -> None:
@@ -201,8 +205,7 @@ def plan_budget(engine: Engine, sp: ScenePlan, budget: str, methods: list[str]) 
                engine.equal_time_spp(b, [engine.study.results(jobs) for jobs in
                                          sp.jobs[b.after][sp.cell(m, b.after)]])
                for m in methods}
-    sp.jobs.setdefault(budget, {}).update(
-        planned_jobs(engine, chosen, b, spp, lambda m: PASSES if precise(m, sp.box) else 1))
+    sp.jobs.setdefault(budget, {}).update(engine.jobs(chosen, b, spp))
 
 
 def precise(method: Method, box: bool) -> bool:
@@ -215,25 +218,6 @@ def pass_spp(spp: int, passes: int) -> int:
     """spp per pass that splits ``spp`` into ``passes`` passes (0: one pass)."""
     passes = min(passes, int(spp))
     return 0 if passes < 2 else -(-int(spp) // passes)
-
-
-def planned_jobs(engine: Engine, decl: Declaration, budget: Budget, spp: dict | None,
-                 passes_of) -> dict:
-    """:meth:`.Engine.jobs` with ``passes_of(method)`` passes per render (1: the engine's
-    jobs, keys unchanged; more: ``pass_spp`` is in the job key). The engine's ``jobs`` does
-    not take a pass count; this is its loop with one (it belongs there, as a per-method
-    ``passes`` of :class:`.engine.Budget`)."""
-    out = {}
-    for cell, setup, method in decl.cells(budget):
-        count = spp[cell] if budget.timed else budget.spp
-        options = dict(info=setup.info, depth=setup.depth, resolution=setup.resolution,
-                       timing_group=f"{decl.name}/{cell.scene}")
-        if pass_spp(count, passes_of(method)):
-            options["pass_spp"] = pass_spp(count, passes_of(method))
-        prefix = decl.key(decl, cell)
-        out[cell] = [[engine.study.job(repeat_prefix(prefix, r), method, count, **options)]
-                     for r in range(1 if method.deterministic else decl.repeats)]
-    return out
 
 
 def overhead(st: Study, sp: ScenePlan, method: str) -> float:

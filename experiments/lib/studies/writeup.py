@@ -110,9 +110,18 @@ def _targets(method, targets) -> tuple:
     return tuple(sorted(targets))
 
 
-def _declaration(name: str, method, scene: SceneSetup, targets, repeats: int) -> Declaration:
+def _declaration(name: str, method, scene: SceneSetup, targets, repeats: int,
+                 pass_spp) -> Declaration:
+    """One method's ladder; ``pass_spp(method, spp, repeat)``: its jobs' passes."""
     return Declaration(name, (method,), (scene,), (Budget.progressive(_targets(
-        method, targets)),), repeats, key=lambda decl, cell: f"{decl.name}/{cell.method}")
+        method, targets)),), repeats, key=lambda decl, cell: f"{decl.name}/{cell.method}",
+        pass_spp=pass_spp)
+
+
+def short_passes(method, spp: int, repeat: int) -> int:
+    """The short pairs' first repeat in passes of one sample: the spread of its passes gives
+    the per-pixel variances of the bias check; the other repeats as memory allows."""
+    return 1 if repeat == 0 else 0
 
 
 def declare(settings: WriteupSettings) -> Plan:
@@ -127,7 +136,7 @@ def declare(settings: WriteupSettings) -> Plan:
         for name in (a, b):
             wanted.setdefault(name, set()).add(spp)
     scene = SceneSetup("short", settings.info, tuple(settings.resolution), settings.depth)
-    short = tuple(_declaration(NAME, methods[n], scene, t, settings.repeats)
+    short = tuple(_declaration(NAME, methods[n], scene, t, settings.repeats, short_passes)
                   for n, t in wanted.items())
     full_pairs = tuple((a, b) for a, b in FULL_PAIRS if a in methods and b in methods)
     if not settings.full or not full_pairs:
@@ -136,23 +145,12 @@ def declare(settings: WriteupSettings) -> Plan:
     chunk = max(1, settings.full_spp // FULL_PASSES) * 10
     targets = list(range(chunk, settings.full_spp, chunk)) + [settings.full_spp]
     full_scene = replace(scene, name="full", resolution=tuple(settings.full_resolution))
-    full = tuple(_declaration(NAME + "_full", methods[n], full_scene, targets, 1)
+    full_pass = max(1, settings.full_spp // FULL_PASSES)
+    full = tuple(_declaration(NAME + "_full", methods[n], full_scene, targets, 1,
+                              lambda method, spp, repeat: full_pass)
                  for n in dict.fromkeys(x for p in full_pairs for x in p))
     return Plan(pairs, methods, scene.resolution, short, full, full_pairs, settings.full_spp,
                 full_scene.resolution)
-
-
-def jobs(st: Study, declaration: Declaration, pass_spp) -> dict:
-    """:meth:`Engine.jobs` of a one-budget declaration with passes of ``pass_spp(repeat)``
-    samples (the spread of the passes gives the per-pixel variances of the bias checks;
-    the engine's jobs have no passes)."""
-    budget, out = declaration.budgets[0], {}
-    for cell, setup, method in declaration.cells(budget):
-        out[cell] = [st.ladder(repeat_prefix(declaration.key(declaration, cell), r), method,
-                               budget.ladder, info=setup.info, depth=setup.depth,
-                               resolution=setup.resolution, pass_spp=pass_spp(r))
-                     for r in range(1 if method.deterministic else declaration.repeats)]
-    return out
 
 
 # ------------------------------------------------------------------ measure
@@ -180,14 +178,14 @@ def measure_short(st: Study, plan: Plan) -> tuple:
     reference, meta = _reference(st, plan.resolution, "reference")
     ref, ref_var = reference.mean, reference.variance_of_mean()
     refs = {("short", None): (ref, meta)}
-    planned = {d.methods[0].name: jobs(st, d, lambda r: 1 if r == 0 else 0)
-               for d in plan.short}
+    engine = Engine(st)
+    planned = {d.methods[0].name: engine.jobs(d, d.budgets[0]) for d in plan.short}
     st.run([j for cells in planned.values() for reps in cells.values() for ladder in reps
             for j in ladder], f"{NAME}: figures")
     errors, renders = {}, {}
     for d in plan.short:
         name, cells = d.methods[0].name, planned[d.methods[0].name]
-        rungs = dict(zip(d.budgets[0].ladder, zip(*next(iter(Engine(st).measure(
+        rungs = dict(zip(d.budgets[0].ladder, zip(*next(iter(engine.measure(
             d, {d.budgets[0].name: cells}, refs).runs.values())))))
         errors[name] = {spp: tuple(run.mse for run in runs) for spp, runs in rungs.items()}
         renders[name] = _images(st, next(iter(cells.values()))[0])   # the first repeat's
@@ -214,8 +212,8 @@ def measure_short(st: Study, plan: Plan) -> tuple:
 def measure_full(st: Study, plan: Plan) -> tuple:
     """The --full checks as numbers, and their images (with the z-maps' inputs)."""
     ref, _ = _reference(st, plan.full_resolution, "--full reference")
-    pass_spp = max(1, plan.full_spp // FULL_PASSES)
-    ladders = {d.methods[0].name: next(iter(jobs(st, d, lambda r: pass_spp).values()))[0]
+    engine = Engine(st)
+    ladders = {d.methods[0].name: next(iter(engine.jobs(d, d.budgets[0]).values()))[0]
                for d in plan.full}
     st.run([j for ladder in ladders.values() for j in ladder], f"{NAME}: --full")
     renders = {n: _images(st, ladder) for n, ladder in ladders.items()}
