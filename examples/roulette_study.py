@@ -12,8 +12,7 @@ from dataclasses import replace
 from experiments.lib import cli, report, stats
 from experiments.lib.engine import Budget, Cell, Declaration, Engine, SceneSetup, Sweep
 from experiments.lib.studies import StudySpec, register_study
-from experiments.lib.studies.settings import StudySettings, common_fields
-from experiments.lib.study import Study
+from experiments.lib.study import Study, StudySettings
 
 NAME, TITLE, BASELINE = "roulette", "Russian roulette: where to start it", 5
 HEADER = ["rr_depth", "relMSE", "relMSE_lo", "relMSE_hi", "seconds", "efficiency",
@@ -53,7 +52,7 @@ def table(measured, method: str) -> list[list]:
 
 def run(args) -> None:
     start, method = time.perf_counter(), args.method_objs[0].name
-    rows = table(Engine(Study(StudySettings(**common_fields(args)))).run(declare(args)), method)
+    rows = table(Engine(Study(StudySettings(**cli.common_fields(args)))).run(declare(args)), method)
     caption = f"{method}, efficiency relative to rr_depth {BASELINE}"
     report.write_section(args.out, NAME, TITLE, 60, {
         "method": method, "spp": args.spp, "repeats": args.repeats,

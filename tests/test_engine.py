@@ -24,8 +24,7 @@ from experiments.lib.engine import Budget, Cell, Declaration, Engine, SceneSetup
 from experiments.lib.methods import Depth, parse_method
 from experiments.lib.scenes import read_scene
 from experiments.lib.store import ReplayError
-from experiments.lib.studies.settings import StudySettings
-from experiments.lib.study import Study
+from experiments.lib.study import Study, StudySettings
 
 VARIANT = "llvm_ad_rgb"
 METHODS = (parse_method("bsdf+nee"), parse_method("path"))

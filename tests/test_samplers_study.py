@@ -566,11 +566,11 @@ TINY_SCREEN = ["--resolution", "8x4", "--spp", "4", "--depths", "2", "--repeats"
 def tiny_study(out, *argv):
     from experiments.lib import cli
     from experiments.lib.studies import sampler_comparison
-    from experiments.lib.studies.settings import StudySettings, common_fields
-    from experiments.lib.study import Study
+    from experiments.lib.study import Study, StudySettings
     args = cli.parse_args(sampler_comparison.build_parser(),
                           ["--out", str(out), *TINY_SCREEN, *argv])
-    return Study(StudySettings(**common_fields(args))), sampler_comparison.settings_of(args)
+    return (Study(StudySettings(**cli.common_fields(args))),
+            sampler_comparison.settings_of(args))
 
 
 def planned(st, cfg, p):

@@ -198,6 +198,18 @@ def one_method(text: str) -> Method:
         raise argparse.ArgumentTypeError(str(e)) from None
 
 
+def common_fields(args) -> dict:
+    """The :class:`.study.StudySettings` fields of a parsed Namespace (``cli.parse_args``)."""
+    return {"out": args.out, "scene": args.scene, "info": args.info,
+            "resolution": tuple(args.resolution), "depth": args.depth,
+            "methods": tuple(args.method_objs), "repeats": int(args.repeats),
+            "variant": args.variant, "seed": args.seed, "reference_spp": args.reference_spp,
+            "reference_method": args.reference_method, "executor": args.executor,
+            "reference_cache": args.reference_cache,
+            "reference_spp_default": args.reference_spp_default,
+            "replay_counts": args.replay_counts}
+
+
 def explicit_options(parser: Parser, argv) -> set[str]:
     """Destinations of the options given on the command line (not left at their default)."""
     given = set()

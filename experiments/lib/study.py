@@ -1,7 +1,7 @@
 """What every experiment script shares: the job store, the executor, the reference image.
 
 A :class:`Study` is built from a study's typed settings (a
-:class:`~.studies.settings.StudySettings`, or any value with the fields it reads, such as
+:class:`StudySettings`, or any value with the fields it reads, such as
 the suite's settings), never from the command line. Scripts plan jobs
 (:mod:`.plan`), hand them to :meth:`Study.run` (which executes what the store
 lacks, :func:`.execute.execute`), then read the results back from the store
@@ -12,6 +12,7 @@ reference at the same settings) are rendered once.
 from __future__ import annotations
 
 import os
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -24,6 +25,32 @@ from .scenes import SceneInfo
 from .store import STORE_DIR, JobStore
 
 
+@dataclass(frozen=True)
+class StudySettings:
+    """What every study's typed settings share (a study subclasses it with its own
+    options; :func:`.cli.common_fields` makes these fields from the command line): the
+    field names :class:`Study` reads."""
+    out: str                          # the report directory (``--out``)
+    scene: str                        # the scene file
+    info: SceneInfo
+    resolution: tuple                 # (width, height)
+    depth: Depth                      # the scene's path settings with --max-depth etc.
+    methods: tuple                    # Method values, in order
+    repeats: int                      # independent randomizations (--repeats)
+    variant: str
+    seed: int
+    reference_spp: int
+    reference_method: Method
+    executor: object                  # a Dask executor, or None (the local loop)
+    #: the reference store (``--reference-cache``); None: ``<out>/references``
+    reference_cache: str | None = field(default=None, kw_only=True)
+    #: the study's default --reference-spp, which sizes a reference's chunks whatever this
+    #: run asks for (:func:`~..references.chunk_spp_for`); None: this run's reference_spp
+    reference_spp_default: int | None = field(default=None, kw_only=True)
+    #: an earlier run's --out whose equal-time counts are replayed (``--replay-counts``)
+    replay_counts: str | None = field(default=None, kw_only=True)
+
+
 def repeat_prefix(prefix: str, repeat: int) -> str:
     """Job prefix of repeat ``repeat`` (0: the prefix itself, so earlier single runs are
     reused as the first repeat; others: ``prefix/rN``, hence another seed)."""
@@ -32,7 +59,7 @@ def repeat_prefix(prefix: str, repeat: int) -> str:
 
 class Study:
     """The stores, the executor and the job factory of one study run, made from its typed
-    settings: a :class:`~.studies.settings.StudySettings` or any value with its fields
+    settings: a :class:`StudySettings` or any value with its fields
     ``out``, ``variant``, ``info``, ``depth``, ``seed``, ``resolution``, ``repeats``,
     ``reference_cache``, ``reference_spp``, ``reference_spp_default``,
     ``reference_method`` and ``executor``."""

@@ -32,8 +32,7 @@ from experiments.lib.methods import Method
 from experiments.lib.studies import StudySpec, register_study
 from experiments.lib.studies import convergence_analysis
 from experiments.lib.studies import convergence_report
-from experiments.lib.studies.settings import StudySettings, common_fields
-from experiments.lib.study import Study
+from experiments.lib.study import Study, StudySettings
 
 NAME = convergence_analysis.NAME
 ORDER = 20
@@ -108,7 +107,7 @@ def settings_from(args) -> ConvergenceSettings:
     to the default methods (see --best-sampler)."""
     best = (None if "methods" in args.explicit else
             best_combination(args.best_sampler, args.out, args.depth.max_depth))
-    fields = common_fields(args)
+    fields = cli.common_fields(args)
     # issue 29: its references' chunks stay sized by this run's --reference-spp, as before
     # typed settings (by the study's default, as the other studies do, changes the chunks of
     # a run given --reference-spp: a decision apart from this refactoring)
@@ -185,7 +184,8 @@ def run_settings(settings: ConvergenceSettings) -> convergence_analysis.Result:
     measured = measured_of(measurements)
     result = convergence_analysis.analyse(measured, settings)
     convergence_report.report(convergence_report.Context(
-        settings, st, measured, measured.targets, st.timed_on(measurements.all_jobs()), TITLE, ORDER, start),
+        settings, st, measured, measured.targets, st.timed_on(measurements.all_jobs()),
+        TITLE, ORDER, start),
         result)
     return result
 

@@ -34,8 +34,7 @@ from experiments.lib import report, screen_space
 from experiments.lib.studies import lab_checks_report
 from experiments.lib.engine import Cell, Engine
 from experiments.lib.methods import Method, parse_method, strategies as registered_strategies
-from experiments.lib.study import Study
-from experiments.lib.studies.settings import StudySettings, common_fields
+from experiments.lib.study import Study, StudySettings
 from experiments.lib.studies import StudySpec, register_study
 from experiments.lib.studies import sampler_comparison, sampler_comparison_plan
 from experiments.lib.studies.sampler_comparison_analysis import families
@@ -446,7 +445,7 @@ def run(args) -> None:
     points = measure_points(plan_points(cfg), os.path.join(out_dir, "cache", "points"))
     point_found = analyse_points(points, cfg.counts[0])
     point_seconds = time.perf_counter() - start - warp_seconds
-    engine = Engine(Study(StudySettings(**common_fields(args))))
+    engine = Engine(Study(StudySettings(**cli.common_fields(args))))
     screen = measure_screen(engine, cfg, plan_screen(engine, cfg, settings.reference))
     screen_seconds = time.perf_counter() - start - warp_seconds - point_seconds
     blocks = ([report.text(GUIDE)] + report_warps(out, cfg, warps, warp_found)

@@ -45,8 +45,7 @@ from experiments.lib import cli, clock, files, report, samplers, stats
 from experiments.lib.engine import Engine
 from experiments.lib.methods import Method
 from experiments.lib.plan import doubling_targets
-from experiments.lib.study import Study
-from experiments.lib.studies.settings import StudySettings, common_fields
+from experiments.lib.study import Study, StudySettings
 from experiments.lib.studies import StudySpec, register_study
 from experiments.lib.studies.sampler_comparison_analysis import BASELINE, METRIC, METRIC_NAMES
 from experiments.lib.studies.sampler_comparison_efficiency import Efficiency
@@ -216,7 +215,7 @@ def screen_settings_text(sc: ScreenSettings | None) -> str:
 
 def run(args) -> None:
     start = time.perf_counter()
-    st, cfg = Study(StudySettings(**common_fields(args))), settings_of(args)
+    st, cfg = Study(StudySettings(**cli.common_fields(args))), settings_of(args)
     engine = Engine(st)
     planned = [(p, plan(engine, declared)) for p in PASSES
                if (declared := p.declare(st, cfg)) is not None]       # passes switched off

@@ -20,7 +20,6 @@ import time
 
 from experiments.lib import files
 from experiments.lib.studies import StudySpec, check_scene, register_study
-from experiments.lib.studies.settings import common_fields
 from experiments.lib import cli, report, stats
 from experiments.lib.metrics import FIREFLY_MADS
 from experiments.lib.sweeps import BREAK_FACTOR, NAME, NORMAL, QUICK, REGISTRY, Context, Skip
@@ -69,7 +68,7 @@ def parse(argv=None):
 def settings_from(args) -> StabilitySettings:
     """The typed settings of a parsed command line (:func:`parse`); the library below
     never sees the Namespace."""
-    return StabilitySettings(**common_fields(args), spp=args.spp, sweeps=tuple(args.sweeps),
+    return StabilitySettings(**cli.common_fields(args), spp=args.spp, sweeps=tuple(args.sweeps),
                              quick=bool(args.quick), config=QUICK if args.quick else NORMAL)
 
 

@@ -28,8 +28,7 @@ from experiments.lib.engine import Budget, Declaration, Engine, SceneSetup
 from experiments.lib.studies import StudySpec, register_study
 from experiments.lib.studies import writeup_analysis
 from experiments.lib.studies import writeup_report
-from experiments.lib.studies.settings import StudySettings, common_fields
-from experiments.lib.study import Study, repeat_prefix
+from experiments.lib.study import Study, StudySettings, repeat_prefix
 
 NAME = writeup_analysis.NAME
 ORDER = 30
@@ -74,7 +73,7 @@ class WriteupSettings(StudySettings):
 
 
 def settings_from(args) -> WriteupSettings:
-    fields = common_fields(args)
+    fields = cli.common_fields(args)
     # issue 29: its references' chunks stay sized by this run's --reference-spp, as before
     # typed settings (by the study's default, as the other studies do, changes the chunks of
     # a run given --reference-spp: a decision apart from this refactoring)

@@ -39,8 +39,7 @@ from .. import engine
 from ..engine import Budget, Cell, Declaration, Engine, Measurements, SceneSetup
 from ..methods import Depth, parse_method
 from ..scenes import Needs
-from ..studies.settings import StudySettings
-from ..study import Study
+from ..study import Study, StudySettings
 
 NAME = "stability"
 #: relMSE ratio at which a method counts as broken down against the robust one.
