@@ -52,6 +52,24 @@ def test_frozen_guide_draws_its_pdf(share, bsdf, monkeypatch, tmp_path):
     run_chi2(CapDomain((0, 0, 1), -1.0), sample, pdf, 3, monkeypatch, tmp_path, test_count=3)
 
 
+@pytest.mark.parametrize("share", [0.1, 0.5])
+def test_drawn_pdf_and_weights(share):
+    """The density a drawn direction reports is the strategy's density there (the weight
+    uses it), and E[f cos / pdf] is the diffuse BSDF's albedo (0.5): what a chi-square of
+    the directions alone cannot see."""
+    strategy, n = frozen_guide(share), 200_000
+    bsdf = mi.load_dict({"type": "diffuse"})      # kept alive: the pointer does not
+    ptr, ctx, wi = mi.BSDFPtr(bsdf), mi.BSDFContext(), incident(0.6)
+    u = np.random.default_rng(3).random((3, n))
+    si = interaction(wi, n)
+    ds = vr_path.sample_direction(strategy, ptr, ctx, si, mi.Float(u[0]), mi.Point2f(u[1], u[2]))
+    reported = np.array(vr_path.direction_pdf(strategy, ptr, ctx, si, ds.wo))
+    drawn = np.array(ds.pdf) > 0
+    assert np.allclose(np.array(ds.pdf)[drawn], reported[drawn], rtol=1e-4)
+    weight = np.array(ds.weight[0])
+    assert abs(weight.mean() - 0.5) < 5 * weight.std() / np.sqrt(n)
+
+
 def test_guide_density_integrates_to_one():
     """A quadrature of the guide's density over the sphere (midpoints of a fine grid in
     cos theta, phi: d omega = d cos d phi) is 1; the chi-square cannot see a constant
@@ -131,18 +149,36 @@ def plane_under_sky():
                    "film": {"type": "hdrfilm", "width": 16, "height": 16}}})
 
 
-def test_training_learns_the_sky_from_the_floor():
-    """After training on the floor, the leaves' histograms are uniform over the upper
-    hemisphere (records divided by the cosine sampling pdf) and empty below."""
-    _, _, integ = render_job(plane_under_sky(), {"type": "vr_guided_path", "max_depth": 2,
-                                                 "directional_resolution": RES}, 30, 1)
+def sky_band_shares(nee):
+    """The share of each cos(theta) band of the upper hemisphere in what the floor should
+    learn: uniform without NEE; with NEE the sky found by a cosine-sampled direction is
+    weighted by the power heuristic against the sky's uniform sampling (pdfs c / pi and
+    1 / (4 pi)): w(c) = c^2 / (c^2 + 1/16)."""
+    c = (np.arange(RES // 2 * 1000) + 0.5) / (RES // 2 * 1000)
+    w = c ** 2 / (c ** 2 + 1 / 16) if nee else np.ones_like(c)
+    bands = w.reshape(RES // 2, 1000).sum(axis=1)
+    return bands / bands.sum()
+
+
+@pytest.mark.parametrize("nee", [False, True])
+def test_training_learns_the_sky_from_the_floor(nee):
+    """After training, the floor's histograms hold the radiance that arrived along each
+    vertex's own direction, divided by its pdf: per cos theta band the shares of
+    :func:`sky_band_shares` (NEE found at the vertex itself is not along its direction),
+    and nothing from below."""
+    _, _, integ = render_job(plane_under_sky(), {"type": "vr_guided_path", "max_depth": 3,
+                                                 "emitter_sampling": nee,
+                                                 "directional_resolution": RES,
+                                                 # the direction pdf stays cos / pi
+                                                 "bsdf_fraction": 1.0}, 62, 1)
     tree = integ.guide.tree
     learned = np.flatnonzero(tree.learned[:tree.leaves])
     assert len(learned) > 0
     prob = tree.prob[learned].mean(axis=0).reshape(RES, RES)
     assert prob[:RES // 2].sum() < 1e-6                     # nothing from below
     upper = prob[RES // 2:].sum(axis=1)                    # per cos theta band
-    assert np.allclose(upper / upper.sum(), 2 / RES, rtol=0.1), upper
+    assert np.allclose(upper / upper.sum(), sky_band_shares(nee), rtol=0.1, atol=0.01), \
+        (upper / upper.sum(), sky_band_shares(nee))
 
 
 def cbox():
