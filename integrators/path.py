@@ -304,6 +304,8 @@ class VRPathIntegrator(mi.SamplingIntegrator):
         segments = mi.UInt32(0)                # rays traced (count_segments only)
         shadow_rays = mi.UInt32(0)             # shadow rays (count_segments only)
         active = mi.Bool(active)
+        recorder = self._recorder(scene, sampler, ray)   # learning integrators only
+        record = recorder is not None
 
         while dr.hint(active, label="vr_path"):
             si = scene.ray_intersect(ray, ray_flags=mi.RayFlags.All,
@@ -362,6 +364,8 @@ class VRPathIntegrator(mi.SamplingIntegrator):
                 prev_it = dr.select(skip, prev_it, mi.Interaction3f(si))
             prev_pdf = dr.select(skip, prev_pdf, direction.pdf)
             prev_delta = dr.select(skip, prev_delta, direction.delta)
+            if dr.hint(record, mode='scalar'):
+                recorder.vertex(depth, si, direction, L, beta, active_next)
             depth[si.is_valid() & ~skip] += 1
 
             # ------------------------------------------------- Russian roulette
@@ -375,9 +379,17 @@ class VRPathIntegrator(mi.SamplingIntegrator):
             active = skip | (active_next & (~rr_active | rr_continue) & (beta_max > 0)
                              & (direction.pdf > 0))
 
-        return dr.select(valid_ray, L, 0.0), valid_ray, self._aovs(segments, shadow_rays)
+        if dr.hint(record, mode='scalar'):
+            recorder.finish(L, valid_ray, segments, shadow_rays)
+        result = dr.select(valid_ray, L, 0.0)
+        return result, valid_ray, self._aovs(segments, shadow_rays, result)
 
-    def _aovs(self, segments, shadow_rays):
+    def _recorder(self, scene, sampler, ray):
+        """What records the path's vertices for a learning subclass (``vertex`` after a
+        direction is drawn, ``finish`` with the path's radiance); None here."""
+        return None
+
+    def _aovs(self, segments, shadow_rays, result=None):
         return [mi.Float(segments), mi.Float(shadow_rays)] if self.count_segments else []
 
     def aov_names(self):

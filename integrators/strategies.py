@@ -352,6 +352,13 @@ def get(name: str) -> Strategy:
     return made
 
 
+def integrator_type(name: str) -> str:
+    """The integrator plugin that renders the registered strategy ``name``: ``vr_path``,
+    or the one a strategy that learns names in its ``integrator_type`` attribute (the
+    ``guided`` strategy: ``vr_guided_path``, which trains it between passes)."""
+    return getattr(_lookup(name), "integrator_type", "vr_path")
+
+
 def resolve(strategy) -> Strategy:
     """A :class:`Strategy` from a registered name (:func:`get`) or a Strategy object."""
     if isinstance(strategy, Strategy):

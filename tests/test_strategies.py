@@ -63,6 +63,10 @@ USER = {
 }
 
 
+#: Strategies the package registers beside the built-in ones (integrators/guiding.py).
+PACKAGED = ("guided",)
+
+
 @pytest.fixture(scope="module", autouse=True)
 def user():
     for name, strategy in USER.items():
@@ -70,7 +74,7 @@ def user():
     yield
     for name in (*USER, "mirror_lobe"):             # and the example file's own
         strategies.unregister(name)
-    assert strategies.names() == strategies.BUILTIN
+    assert strategies.names() == strategies.BUILTIN + PACKAGED
 
 
 @pytest.fixture
@@ -106,7 +110,7 @@ def samples(n):
 def test_builtin_strategies_in_order_and_as_objects():
     assert strategies.BUILTIN == ("uniform", "cosine", "bsdf", "mis")
     assert strategies.names()[:4] == strategies.BUILTIN
-    assert strategies.names()[4:] == ("mirror_lobe", *USER)   # then in registration order
+    assert strategies.names()[4:] == (*PACKAGED, "mirror_lobe", *USER)  # registration order
     from integrators import choices
     assert choices.STRATEGIES == vr_path.STRATEGIES == strategies.BUILTIN
     for name in strategies.BUILTIN:
@@ -159,7 +163,7 @@ def test_an_object_is_shared_and_a_factory_makes_one_per_vr_path():
 
 
 def test_unknown_name_lists_the_registered_ones():
-    valid = "valid choices are uniform, cosine, bsdf, mis, mirror_lobe, " + ", ".join(USER)
+    valid = "valid choices are uniform, cosine, bsdf, mis, guided, mirror_lobe, " + ", ".join(USER)
     with pytest.raises(ValueError, match=f"unknown strategy 'nope'; {valid}$"):
         strategies.get("nope")
     with pytest.raises(ValueError, match=f"unknown strategy 'nope'; {valid}$"):

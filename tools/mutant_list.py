@@ -198,6 +198,32 @@ MUTANTS = [
            "the suite's combined efficiency interval takes the normal quantile even where a "
            "term has few degrees of freedom (the paired costs' 2R - 1)",
            ("tests/test_stats.py",)),
+    # ------------------------------------------------------------ path guiding
+    Mutant("guide-share-missing", "integrators/guiding.py",
+           "        pdf = dr.fma(s, pdf_bsdf - (p := self.tree.pdf(leaf, si.to_world(wo), "
+           "active)), p)",
+           "        pdf = (1.0 - s) * self.tree.pdf(leaf, si.to_world(wo), active)",
+           "the guided mixture's density without the BSDF's share (only the guide's part)",
+           ("tests/test_guiding.py::test_drawn_pdf_and_weights",)),
+    Mutant("guide-bin-solid-angle", "integrators/guide_warps.py",
+           "    return 4.0 * math.pi / (res * res)",
+           "    return 2.0 * math.pi / (res * res)",
+           "a histogram bin's solid angle taken over the hemisphere (2 pi / res^2) though "
+           "the bins tile the sphere (the density twice too high)",
+           ("tests/test_guiding.py::test_guide_density_integrates_to_one",
+            "tests/test_guiding.py")),
+    Mutant("guide-record-wrong-vertex", "integrators/guiding.py",
+           "            value = dr.mean((L - before) * inverse)",
+           "            value = dr.mean(L * inverse)",
+           "every vertex files the path's whole radiance, its own NEE and what earlier "
+           "vertices found included, instead of what arrived along its direction",
+           ("tests/test_guiding.py::test_training_learns_the_sky_from_the_floor",)),
+    Mutant("guide-record-no-pdf", "integrators/guiding.py",
+           "        scale = mi.Color3f(mi.unpolarized_spectrum(beta)) * direction.pdf",
+           "        scale = mi.Color3f(mi.unpolarized_spectrum(beta))",
+           "records' radiance not divided by the sampling pdf (the guide learns the "
+           "radiance times the density that sampled it)",
+           ("tests/test_guiding.py::test_training_learns_the_sky_from_the_floor",)),
     # ------------------------------------------------------------ the bias test
     Mutant("welch-one-side", "experiments/lib/bias.py",
            "    se2 = np.maximum(va + vb, 1e-300)\n",

@@ -79,7 +79,7 @@ class Method:
 
     @property
     def integrator(self) -> str:
-        return PATH if self.strategy is None else "vr_path"
+        return PATH if self.strategy is None else _strategies.integrator_type(self.strategy)
 
     @property
     def sampler_spec(self) -> samplers.SamplerSpec:
@@ -106,7 +106,7 @@ class Method:
     def integrator_dict(self, depth: Depth = Depth()) -> dict:
         """The integrator plugin dict (settings of ``depth`` left None keep its defaults)."""
         d = ({"type": PATH} if self.strategy is None else
-             {"type": "vr_path", "strategy": self.strategy, "emitter_sampling": self.nee})
+             {"type": self.integrator, "strategy": self.strategy, "emitter_sampling": self.nee})
         d.update({k: v for k, v in dataclasses.asdict(depth).items() if v is not None})
         return d
 
@@ -151,6 +151,12 @@ def parse_method(name: str) -> Method:
             samplers.get(sampler).check_randomization(randomization)
         except ValueError as e:
             raise bad(str(e)) from None
+        if head != PATH and _strategies.integrator_type(head) != "vr_path" \
+                and samplers.get(sampler).bakes_spp:
+            valid = [n for n in samplers.names() if not samplers.get(n).bakes_spp]
+            raise bad(f"'{head}' learns between passes, and the sampler '{sampler}' compiles "
+                      f"the sample count into the kernel (every pass would recompile); "
+                      f"valid samplers for it: {', '.join(valid)}")
     return Method(name, None if head == PATH else head, nee, sampler, randomization)
 
 

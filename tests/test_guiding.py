@@ -1,0 +1,242 @@
+"""Path guiding (integrators/guiding.py, sdtree.py, guide_warps.py): the frozen guide's warp
+(chi-square, integral), the learning against known radiance fields, per-block agreement of
+the trained multi-pass render with Mitsuba's path (with and without NEE), the pass weights
+on a hand-computed case, no recompilation over a job's passes, the record cap and the
+refusals."""
+import math
+
+import drjit as dr
+import mitsuba as mi
+import numpy as np
+import pytest
+from scipy import stats
+
+import _blocks
+import integrators.path as vr_path
+from _chi2 import CapDomain, incident, interaction, run_chi2
+from experiments.lib import methods
+from experiments.lib.execute import kernels_compiled
+from integrators import guide_warps, guiding
+
+RES = 8
+
+
+def frozen_guide(share):
+    """A guided strategy whose leaf 0 holds a lumpy histogram (cos theta and phi both
+    matter), BSDF share ``share``."""
+    g = guiding.GuidedStrategy(RES, 4)
+    i_cos, i_phi = np.divmod(np.arange(RES * RES), RES)
+    p = (1 + 3 * (i_cos == RES - 2)) * (1 + np.cos(2 * np.pi * (i_phi + 0.5) / RES) ** 2)
+    p[:RES] = 0.0                                         # an empty band of bins
+    g.tree.prob[0] = p / p.sum()
+    g.tree.upload()
+    g.set_share(np.full(4, share))
+    return g
+
+
+@pytest.mark.parametrize("share,bsdf", [(0.0, "diffuse"), (0.5, "diffuse"),
+                                        (0.3, "roughconductor")])
+def test_frozen_guide_draws_its_pdf(share, bsdf, monkeypatch, tmp_path):
+    strategy = frozen_guide(share)
+    b = mi.load_dict({"type": bsdf} if bsdf == "diffuse" else {"type": bsdf, "alpha": 0.3})
+    wi, ctx, ptr = incident(0.6), mi.BSDFContext(), mi.BSDFPtr(b)
+
+    def sample(u):
+        ds = vr_path.sample_direction(strategy, ptr, ctx, interaction(wi, dr.width(u)), u.x,
+                                      mi.Point2f(u.y, u.z))
+        drawn = ds.pdf > 0
+        return dr.select(drawn, ds.wo, mi.Vector3f(0, 0, 1)), dr.select(drawn, 1.0, 0.0)
+
+    def pdf(wo):
+        return vr_path.direction_pdf(strategy, ptr, ctx, interaction(wi, dr.width(wo)), wo)
+    run_chi2(CapDomain((0, 0, 1), -1.0), sample, pdf, 3, monkeypatch, tmp_path, test_count=3)
+
+
+@pytest.mark.parametrize("share", [0.1, 0.5])
+def test_drawn_pdf_and_weights(share):
+    """The density a drawn direction reports is the strategy's density there (the weight
+    uses it), and E[f cos / pdf] is the diffuse BSDF's albedo (0.5): what a chi-square of
+    the directions alone cannot see."""
+    strategy, n = frozen_guide(share), 200_000
+    bsdf = mi.load_dict({"type": "diffuse"})      # kept alive: the pointer does not
+    ptr, ctx, wi = mi.BSDFPtr(bsdf), mi.BSDFContext(), incident(0.6)
+    u = np.random.default_rng(3).random((3, n))
+    si = interaction(wi, n)
+    ds = vr_path.sample_direction(strategy, ptr, ctx, si, mi.Float(u[0]), mi.Point2f(u[1], u[2]))
+    reported = np.array(vr_path.direction_pdf(strategy, ptr, ctx, si, ds.wo))
+    drawn = np.array(ds.pdf) > 0
+    assert np.allclose(np.array(ds.pdf)[drawn], reported[drawn], rtol=1e-4)
+    weight = np.array(ds.weight[0])
+    assert abs(weight.mean() - 0.5) < 5 * weight.std() / np.sqrt(n)
+
+
+def test_guide_density_integrates_to_one():
+    """A quadrature of the guide's density over the sphere (midpoints of a fine grid in
+    cos theta, phi: d omega = d cos d phi) is 1; the chi-square cannot see a constant
+    factor (a bin's solid angle wrong)."""
+    g = frozen_guide(0.0)
+    n = 256
+    c = (np.arange(n) + 0.5) / n * 2 - 1
+    phi = (np.arange(4 * n) + 0.5) / (4 * n) * 2 * np.pi
+    cc, pp = np.meshgrid(c, phi)
+    s = np.sqrt(1 - cc ** 2)
+    d = mi.Vector3f(*(mi.Float(a.ravel()) for a in (s * np.cos(pp), s * np.sin(pp), cc)))
+    density = np.array(g.tree.pdf(mi.UInt32(0), d))
+    assert abs(density.mean() * 4 * math.pi - 1) < 1e-3
+
+
+def test_learning_recovers_a_known_field():
+    """Records of a known radiance field L(w) = 1 + 9 max(0, w.a)^4 from directions drawn
+    uniformly (value L / pdf): the learned histogram's samples pass a chi-square against
+    the field's own bin probabilities; a field learned without dividing by the pdf of a
+    non-uniform sampling would not."""
+    rng = np.random.default_rng(1)
+    n = 1_000_000
+    z, phi = rng.uniform(-1, 1, n), rng.uniform(0, 2 * np.pi, n)
+    d = np.stack([np.sqrt(1 - z ** 2) * np.cos(phi), np.sqrt(1 - z ** 2) * np.sin(phi), z], 1)
+    axis = np.array([0.6, 0.0, 0.8])
+
+    def field(x):
+        return 1 + 9 * np.maximum(x @ axis, 0) ** 4
+    tree = guiding.SDTree(RES, 4)
+    dirs = mi.Vector3f(*(mi.Float(d[:, k]) for k in range(3)))
+    index = tree.record_index(mi.UInt32(0), dirs)
+    dr.scatter_add(tree.energy, mi.Float(field(d) * 4 * np.pi), index)
+    dr.scatter_add(tree.counts, mi.UInt32(1), index // tree.bins)
+    tree.refine(threshold=1e12)
+    # the truth: the field integrated over each bin (fine midpoint quadrature)
+    m = 64
+    zz = np.repeat((np.arange(m * RES) + 0.5) / (m * RES) * 2 - 1, m * RES)
+    pp = np.tile((np.arange(m * RES) + 0.5) / (m * RES) * 2 * np.pi, m * RES)
+    q = np.stack([np.sqrt(1 - zz ** 2) * np.cos(pp), np.sqrt(1 - zz ** 2) * np.sin(pp), zz], 1)
+    truth = np.bincount(guide_warps.direction_to_bin_np(q, RES), field(q), RES * RES)
+    truth /= truth.sum()
+    draws = 40_000
+    u = rng.random((draws, 3))
+    wo = tree.sample(mi.UInt32(0), mi.Float(u[:, 0]), mi.Point2f(u[:, 1], u[:, 2]))
+    wo = np.stack([np.array(wo.x), np.array(wo.y), np.array(wo.z)], 1)
+    counts = np.bincount(guide_warps.direction_to_bin_np(wo, RES), minlength=RES * RES)
+    assert stats.chisquare(counts, truth * draws).pvalue > 0.001
+
+
+# ------------------------------------------------------------------ renders in passes
+
+def render_job(scene, integrator_dict, spp, seed):
+    """A job as the executor renders a MultiPass method: (image, compiled per pass)."""
+    integ = mi.load_dict(integrator_dict)
+    schedule = integ.pass_schedule(spp)
+    images, compiled = [], []
+    for i, k in enumerate(schedule):
+        dr.set_flag(dr.JitFlag.KernelHistory, True)
+        dr.kernel_history_clear()
+        image = mi.render(scene, integrator=integ, spp=k, seed=seed * 1000 + i)
+        dr.eval(image)
+        compiled.append(kernels_compiled(dr.kernel_history()))
+        integ.after_pass(i, image, k)
+        images.append(np.array(image, dtype=np.float64)[..., :3])
+    return integ.combine(images, schedule), compiled, integ
+
+
+def plane_under_sky():
+    """A diffuse floor under a constant sky, seen from above: the radiance arriving at the
+    floor is uniform over its upper hemisphere and 0 below."""
+    return mi.load_dict({
+        "type": "scene", "sky": {"type": "constant"},
+        "floor": {"type": "rectangle", "bsdf": {"type": "diffuse"},
+                  "to_world": mi.ScalarTransform4f().scale(2.0)},
+        "sensor": {"type": "perspective", "fov": 40,
+                   "to_world": mi.ScalarTransform4f().look_at([0, 0, 3], [0, 0, 0], [0, 1, 0]),
+                   "film": {"type": "hdrfilm", "width": 16, "height": 16}}})
+
+
+def sky_band_shares(nee):
+    """The share of each cos(theta) band of the upper hemisphere in what the floor should
+    learn: uniform without NEE; with NEE the sky found by a cosine-sampled direction is
+    weighted by the power heuristic against the sky's uniform sampling (pdfs c / pi and
+    1 / (4 pi)): w(c) = c^2 / (c^2 + 1/16)."""
+    c = (np.arange(RES // 2 * 1000) + 0.5) / (RES // 2 * 1000)
+    w = c ** 2 / (c ** 2 + 1 / 16) if nee else np.ones_like(c)
+    bands = w.reshape(RES // 2, 1000).sum(axis=1)
+    return bands / bands.sum()
+
+
+@pytest.mark.parametrize("nee", [False, True])
+def test_training_learns_the_sky_from_the_floor(nee):
+    """After training, the floor's histograms hold the radiance that arrived along each
+    vertex's own direction, divided by its pdf: per cos theta band the shares of
+    :func:`sky_band_shares` (NEE found at the vertex itself is not along its direction),
+    and nothing from below."""
+    _, _, integ = render_job(plane_under_sky(), {"type": "vr_guided_path", "max_depth": 3,
+                                                 "emitter_sampling": nee,
+                                                 "directional_resolution": RES,
+                                                 # the direction pdf stays cos / pi
+                                                 "bsdf_fraction": 1.0}, 62, 1)
+    tree = integ.guide.tree
+    learned = np.flatnonzero(tree.learned[:tree.leaves])
+    assert len(learned) > 0
+    prob = tree.prob[learned].mean(axis=0).reshape(RES, RES)
+    assert prob[:RES // 2].sum() < 1e-6                     # nothing from below
+    upper = prob[RES // 2:].sum(axis=1)                    # per cos theta band
+    assert np.allclose(upper / upper.sum(), sky_band_shares(nee), rtol=0.1, atol=0.01), \
+        (upper / upper.sum(), sky_band_shares(nee))
+
+
+def cbox():
+    d = mi.cornell_box()
+    d["sensor"]["film"].update(width=16, height=16, rfilter={"type": "box"})
+    return mi.load_dict(d)
+
+
+@pytest.mark.parametrize("nee,spp", [(True, 32), (False, 96)])
+def test_blocks_agree_with_path(nee, spp):
+    scene, k = cbox(), 8
+    guided = {"type": "vr_guided_path", "emitter_sampling": nee, "max_depth": 5,
+              "directional_resolution": RES, "spatial_threshold": 500.0}
+    images = np.stack([render_job(scene, guided, spp, 10 + s)[0] for s in range(k)])
+    path = mi.load_dict({"type": "path", "max_depth": 5})
+    ref = np.stack([np.array(mi.render(scene, integrator=path, spp=4 * spp, seed=500 + s),
+                             dtype=np.float64)[..., :3] for s in range(k)])
+    agreement = _blocks.agree(_blocks.summarize(images), _blocks.summarize(ref), 0.005, 0.005)
+    assert agreement.passed, agreement.describe()
+
+
+def test_no_recompile_after_the_first_job():
+    """A second job (fresh integrator, as the executor renders every job) compiles no
+    kernel in any pass, the refined tree included."""
+    scene = cbox()
+    d = {"type": "vr_guided_path", "emitter_sampling": True, "max_depth": 4,
+         "spatial_threshold": 200.0}
+    render_job(scene, d, 16, 1)
+    _, compiled, integ = render_job(scene, d, 16, 2)
+    assert len(compiled) >= 3 and integ.guide.tree.leaves > 1
+    assert compiled == [0] * len(compiled), compiled
+
+
+def test_pass_weights_by_hand():
+    """Two iterations: variances 0.04 and 0.01 -> weights 0.2 and 0.8; a pixel's variance
+    from its mean and mean square: (m2 - mean^2) / (n - 1)."""
+    assert np.allclose(guiding.pass_weights([0.04, 0.01], [2, 4]), [0.2, 0.8])
+    assert np.allclose(guiding.pass_weights([0.0, 0.01], [2, 4]), [1 / 3, 2 / 3])
+    mean, m2 = np.array([[1.0, 2.0]]), np.array([[1.5, 4.0]])
+    assert guiding.image_variance(mean, m2, 3) == pytest.approx((0.5 + 0.0) / 2 / 2)
+    assert guiding.iterations(64) == [2, 4, 8, 16, 34]
+    assert guiding.split(100, 64) == [50, 50]
+
+
+def test_record_cap_and_refusals():
+    scene = cbox()
+    big = mi.load_dict({"type": "vr_guided_path", "max_pass_spp": 4096, "record_depth": 32})
+    with pytest.raises(Exception) as error:
+        mi.render(scene, integrator=big, spp=4096)
+    assert "256 MiB" in str(error.value) + str(error.value.__cause__)
+    strat = {**mi.cornell_box(), "integrator": {"type": "vr_guided_path"}}
+    strat["sensor"]["sampler"] = {"type": "stratified", "sample_count": 4}
+    with pytest.raises(Exception) as error:
+        mi.render(mi.load_dict(strat))
+    assert "independent" in str(error.value) + str(error.value.__cause__)
+    for bad in ({"bsdf_fraction": 0.05}, {"directional_resolution": 1}, {"strategy": "bsdf"}):
+        with pytest.raises(Exception, match="bsdf_fraction|directional_resolution|learns"):
+            mi.load_dict({"type": "vr_guided_path", **bad})
+    with pytest.raises(ValueError, match="valid samplers for it: independent"):
+        methods.parse_method("guided+nee+multijitter")
+    assert methods.parse_method("guided+nee").integrator_dict()["type"] == "vr_guided_path"
