@@ -239,7 +239,9 @@ class GuidedPathIntegrator(VRPathIntegrator):
         if "strategy" not in props:
             props["strategy"] = "guided"
         VRPathIntegrator.__init__(self, props)
-        if not isinstance(self.sampling_strategy, GuidedStrategy):
+        # by the attribute, not the class: the strategy registry outlives a variant switch,
+        # which defines this module's classes anew
+        if getattr(self.sampling_strategy, "integrator_type", None) != "vr_guided_path":
             raise ValueError(f"vr_guided_path: 'strategy' must be a strategy that learns "
                              f"(guided), got {self.strategy!r}")
 
