@@ -294,3 +294,19 @@ def test_settings_read_where_the_sampler_study_chose_its_winner(tmp_path):
     summary["best_at"] = {"8": {"sampler": "halton:owen", "spp": 9, "requested_spp": 8}}
     (out / "samplers" / "summary.json").write_text(json.dumps(summary))
     assert convergence.settings_from(args).best.spp == 8
+
+
+def test_a_ratio_untold_for_the_baselines_bound_names_it():
+    """An efficiency that cannot be told because the baseline's equal-time error is below
+    the reference's noise says so in the method's row (not an unexplained n/a); negative
+    control: with the baseline's error above the noise, nothing is named."""
+    ladders = {"uniform": ladder(1.0), "bsdf": ladder(0.1)}
+
+    def rows(baseline_excess):
+        equal = {"uniform": rung(64, baseline_excess), "bsdf": rung(64, 0.1 / 64)}
+        return {r.method: r for r in A.efficiency_rows(measured(ladders, equal), "uniform")}
+    below = rows(-FLOOR.relmse / 2)             # the baseline under the reference's noise
+    assert below["bsdf"].equal_relative.value != below["bsdf"].equal_relative.value   # NaN
+    assert "uniform's equal-time relMSE" in below["bsdf"].bounds()
+    above = rows(1.0 / 64)
+    assert above["bsdf"].bounds() == [] and above["bsdf"].equal_relative.value > 0

@@ -115,12 +115,15 @@ class EfficiencyRow:
     equal_mse: stats.Estimate
     equal_relmse: stats.Estimate
     equal_relative: stats.Estimate      # at equal time
+    baseline_bounds: tuple = ()         # the baseline's errors that are bounds (its ratios n/a)
 
     def bounds(self) -> list[str]:
-        """The errors of this row that are only upper bounds (below the reference's noise)."""
+        """The errors of this row that are only upper bounds (below the reference's noise),
+        and the baseline's that make its ratios impossible to tell."""
         return [name for name, e in (("MSE", self.mse), ("relMSE", self.relmse),
                                      ("equal-time MSE", self.equal_mse),
-                                     ("equal-time relMSE", self.equal_relmse)) if e.bound]
+                                     ("equal-time relMSE", self.equal_relmse)) if e.bound] \
+            + list(self.baseline_bounds)
 
     def record(self) -> dict:
         """Flat fields for summary.json (intervals as ``*_lo`` / ``*_hi``)."""
@@ -202,6 +205,9 @@ def efficiency_rows(measured: Measured, base: str) -> list[EfficiencyRow]:
     """The efficiency table: after --spp and at equal time, relative to ``base``."""
     floor, rows = measured.floor, []
     last = {m: rungs[-1] for m, rungs in measured.ladders.items()}
+    base_bounds = tuple(f"{base}'s {name}" for name, values in (
+        ("relMSE", last[base].relmse), ("equal-time relMSE", measured.equal[base].relmse))
+        if stats.excess_interval(values, floor.relmse).bound)
     for m, r in last.items():
         one = stats.Estimate(1.0, 1.0, 1.0, len(r.relmse))     # the baseline against itself
         eq = measured.equal[m]
@@ -212,7 +218,8 @@ def efficiency_rows(measured: Measured, base: str) -> list[EfficiencyRow]:
             one if m == base else efficiency_ratio(r, last[base], floor),
             eq.spp, float(np.mean(eq.seconds)), stats.excess_interval(eq.mse, floor.mse),
             stats.excess_interval(eq.relmse, floor.relmse),
-            one if m == base else efficiency_ratio(eq, measured.equal[base], floor)))
+            one if m == base else efficiency_ratio(eq, measured.equal[base], floor),
+            () if m == base else base_bounds))
     return rows
 
 
