@@ -6,7 +6,9 @@ cached reference per scene; a scene x method matrix with intervals and the winne
 default: the bundled suite, ``scenes/suite/``. Each scene's integrator and sampler are
 replaced per method, its own max_depth (and rr_depth, hide_emitters) kept unless
 ``--max-depth`` etc. say otherwise. Resolution: the scene's own film, scaled so that its long
-side is at most ``--max-size`` pixels (aspect kept), unless ``--resolution`` gives one.
+side is at most ``--max-size`` pixels (aspect kept; and scaled up to ``--min-size`` where
+it is shorter), unless ``--resolution`` gives one. ``--preset paper`` sets publication-size
+values (PRESETS; an option given explicitly wins); ``--preset default`` changes nothing.
 
 Per scene and method (a cell), ``--repeats`` independent runs at equal spp (``--spp``) and at
 equal time: each equal-time render gets about ``--time-budget`` seconds of sample work at the
@@ -54,6 +56,19 @@ REFERENCE_GROWTH = 8
 QUICK_DEFAULTS = {"spp": 4, "time_budget": 0.02, "reference_spp": 32, "max_size": 12,
                   "scenes": "furnace,veach_mis", "methods": "bsdf,bsdf+nee,path"}
 FLIP_MODES = ("first", "all")
+#: ``--preset NAME``: option values set where the command line does not give them (an
+#: explicit option wins; ``--quick`` wins over a preset). ``default`` changes nothing;
+#: ``paper`` is the publication run (docs/methodology.md, "The paper preset", says why
+#: each value and what it costs): every film's long side 256 pixels (the writeup's Cornell
+#: box film, 256 x 128; the bundled films are 64 wide, so they are scaled up), 256 spp at
+#: equal spp, 0.5 s of sample work at equal time, 8 repeats (a Student t of 2.36 at 7
+#: degrees of freedom, against 4.30 at the default 3), references of 4096 spp extended to
+#: their floor (FLOOR_SHARE of the smallest error) up to 65536 spp.
+PRESETS = {
+    "default": {},
+    "paper": {"max_size": 256, "min_size": 256, "spp": 256, "time_budget": 0.5,
+              "repeats": 8, "reference_spp": 4096, "reference_max_spp": 65536},
+}
 
 
 # ------------------------------------------------------------------ options
@@ -90,6 +105,16 @@ def scene_files(text: str) -> list[str]:
     return [os.path.abspath(p) for p in dict.fromkeys(out)]
 
 
+def non_negative_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise cli.argparse.ArgumentTypeError(f"'{text}' is not a whole number >= 0")
+    return value
+
+
 def flip_mode(text: str) -> str:
     if text not in FLIP_MODES:
         raise cli.argparse.ArgumentTypeError(f"invalid --flip '{text}': choose "
@@ -105,6 +130,11 @@ def add_shared(p: cli.Parser) -> None:
     p.add_argument("--references", default=None, metavar="DIR",
                    help="use your own reference images: DIR/<scene name>.exr (their own "
                         "error is unknown, nothing is subtracted)")
+    p.add_argument("--preset", choices=tuple(PRESETS), default="default",
+                   help="default: every option at its own default; paper: publication size (" +
+                        ", ".join(f"{k.replace('_', '-')} {v}" for k, v in
+                                  PRESETS["paper"].items()) +
+                        "); options given explicitly win")
 
 
 def build_parser() -> cli.Parser:
@@ -122,6 +152,9 @@ def build_parser() -> cli.Parser:
     add_shared(p)
     p.add_argument("--max-size", type=cli.positive_int, default=MAX_SIZE,
                    help="longest film side when --resolution is not given")
+    p.add_argument("--min-size", type=non_negative_int, default=0,
+                   help="scale a film whose long side is shorter up to this many pixels "
+                        "(aspect kept; at most --max-size); 0: never scale up")
     p.add_argument("--baseline", type=cli.one_method, default="path",
                    help="method every efficiency is relative to (one of --methods)")
     p.add_argument("--best-sampler", default="auto", metavar="SAMPLER|auto|none",
@@ -191,6 +224,9 @@ def _deterministic(label: str) -> bool:
 
 def parse(argv=None):
     args = cli.parse_args(build_parser(), argv)
+    for key, value in PRESETS[args.preset].items():
+        if key not in args.explicit:
+            setattr(args, key, value)
     if args.quick:
         for key, value in QUICK_DEFAULTS.items():
             if key not in args.explicit:
@@ -237,7 +273,7 @@ def settings(args) -> suite_plan.Settings:
         scenes=tuple(args.scene_files), methods=tuple(args.method_objs),
         baseline=args.baseline, spp=args.spp, time_budget=args.time_budget,
         forced_resolution=tuple(args.resolution) if "resolution" in args.explicit else None,
-        max_size=args.max_size, max_depth=args.max_depth, rr_depth=args.rr_depth,
+        max_size=args.max_size, min_size=args.min_size, max_depth=args.max_depth, rr_depth=args.rr_depth,
         reference_spp=ref_spp, reference_max_spp=max(ref_spp, args.reference_max_spp or
                                                      REFERENCE_GROWTH * ref_spp),
         reference_typical_spp=REFERENCE_GROWTH * (args.reference_spp_default or ref_spp),
@@ -365,4 +401,4 @@ def run(args) -> None:
 STUDY = register_study(StudySpec(
     NAME, TITLE, ORDER, build_parser, run, parse=parse, quick=("--quick",), shared=add_shared,
     forwarded={"scenes": "--scenes", "references": "--references",
-               "best_sampler": "--best-sampler"}))
+               "best_sampler": "--best-sampler", "preset": "--preset"}))

@@ -72,6 +72,7 @@ class Settings:
     reference_cache: str | None = None  # Study's reference store (--reference-cache)
     reference_spp_default: int | None = None     # the parser's default --reference-spp
     replay_counts: str | None = None    # an earlier run's --out (--replay-counts)
+    min_size: int = 0                   # --min-size: a film's long side scaled up to it
 
 
 # ------------------------------------------------------------------ the plan
@@ -119,7 +120,10 @@ def film(cfg: Settings, info: scenes.SceneInfo, user_exr: str | None) -> tuple[i
     if user_exr is not None:
         h, w = files.read_exr(user_exr).shape[:2]
         return w, h
-    scale = min(1.0, cfg.max_size / max(info.width, info.height))
+    long = max(info.width, info.height)
+    scale = min(1.0, cfg.max_size / long)
+    if cfg.min_size and long < cfg.min_size:
+        scale = min(cfg.min_size, cfg.max_size) / long
     return max(1, round(info.width * scale)), max(1, round(info.height * scale))
 
 
