@@ -7,7 +7,9 @@ any, and the repeats. :class:`Engine` then
 1. plans the jobs (:mod:`.plan`: keys and seeds from the plan, a deterministic method
    rendered once for every repeat, the references in the shared reference store);
 2. renders what the stores lack through the study's executor (local or Dask; a rerun
-   resumes), the equal-time budgets after the budgets that measure their cost per sample;
+   resumes), the equal-time budgets after the budgets that measure their cost per sample
+   (or at the counts of an earlier run: ``--replay-counts``, :meth:`Engine.replayed`), each
+   job in the passes the declaration asks for (``pass_spp``: per-pixel variances);
 3. costs every image with the one clock (:mod:`.clock`) and measures its errors against
    the reference (whose own expected error, the floor, comes with it);
 4. gives errors, ratios and efficiencies with their intervals from one implementation
@@ -30,8 +32,8 @@ import numpy as np
 from . import clock, metrics, stats
 from .jobs import accumulate
 from .methods import Depth, Method
-from .scenes import SceneInfo
 from .plan import job_name
+from .scenes import SceneInfo
 from .store import STORE_DIR, JobStore, ReplayError
 from .study import Study, repeat_prefix
 
