@@ -5,8 +5,9 @@ bounding box, each level halving its node along x, y, z in turn (PPG's rule), a 
 between training passes when it received more than ``threshold`` records (and again, as
 if its records halved with each split, up to :data:`MAX_DEPTH` levels). Directions: per
 leaf an equal-area histogram of ``res x res`` bins (:mod:`.guide_warps`), rebuilt from the
-pass's records (a leaf with fewer than :data:`MIN_RECORDS` keeps its previous histogram;
-children start with their parent's).
+pass's records, their energy smoothed by a 3x3 box blur (:func:`blur`: a bin of a lit
+region is not left at density 0 by short training; a leaf with fewer than
+:data:`MIN_RECORDS` keeps its previous histogram; children start with their parent's).
 
 The tree lives on the host as numpy arrays of **fixed maximum sizes** (``max_leaves``
 leaves, ``2 max_leaves`` nodes), refined there, and uploaded as evaluated Dr.Jit arrays:
@@ -25,6 +26,23 @@ from . import guide_warps
 MAX_DEPTH = 24
 #: Records a leaf needs in a pass to get a new directional histogram.
 MIN_RECORDS = 32
+#: Smooth each new histogram's energy with :func:`blur` (off: the raw records' shares, as
+#: the tests of what the records hold need).
+SMOOTH = True
+
+
+def blur(energy: np.ndarray, res: int) -> np.ndarray:
+    """A 3x3 box blur of each row of ``energy`` (rows of ``res x res`` bins, index
+    ``i_cos * res + i_phi``): periodic in phi, the cos(theta) edges averaging over the
+    neighbours they have. The total of a row is not kept (the caller normalises)."""
+    e = energy.reshape(-1, res, res)
+    e = e + np.roll(e, 1, axis=2) + np.roll(e, -1, axis=2)
+    out = e.copy()
+    out[:, 1:] += e[:, :-1]
+    out[:, :-1] += e[:, 1:]
+    rows = np.full(res, 3.0)
+    rows[[0, -1]] = 2.0
+    return (out / rows[None, :, None]).reshape(energy.shape)
 
 
 class SDTree:
@@ -125,7 +143,8 @@ class SDTree:
         energy = np.where(np.isfinite(energy) & (energy > 0), energy, 0.0)
         total = energy.sum(axis=1)
         fresh = (counts >= MIN_RECORDS) & (total > 0)
-        self.prob[fresh] = energy[fresh] / total[fresh, None]
+        learned = blur(energy[fresh], self.res) if SMOOTH else energy[fresh]
+        self.prob[fresh] = learned / learned.sum(axis=1, keepdims=True)
         self.learned |= fresh
         self._split(counts, threshold)
         self.upload()

@@ -16,7 +16,7 @@ import integrators.path as vr_path
 from _chi2 import CapDomain, incident, interaction, run_chi2
 from experiments.lib import methods
 from experiments.lib.execute import kernels_compiled
-from integrators import guide_warps, guiding
+from integrators import guide_warps, guiding, sdtree
 
 RES = 8
 
@@ -85,11 +85,12 @@ def test_guide_density_integrates_to_one():
     assert abs(density.mean() * 4 * math.pi - 1) < 1e-3
 
 
-def test_learning_recovers_a_known_field():
+def test_learning_recovers_a_known_field(monkeypatch):
     """Records of a known radiance field L(w) = 1 + 9 max(0, w.a)^4 from directions drawn
     uniformly (value L / pdf): the learned histogram's samples pass a chi-square against
     the field's own bin probabilities; a field learned without dividing by the pdf of a
     non-uniform sampling would not."""
+    monkeypatch.setattr(sdtree, "SMOOTH", False)    # the raw records' shares
     rng = np.random.default_rng(1)
     n = 1_000_000
     z, phi = rng.uniform(-1, 1, n), rng.uniform(0, 2 * np.pi, n)
@@ -161,11 +162,12 @@ def sky_band_shares(nee):
 
 
 @pytest.mark.parametrize("nee", [False, True])
-def test_training_learns_the_sky_from_the_floor(nee):
+def test_training_learns_the_sky_from_the_floor(nee, monkeypatch):
     """After training, the floor's histograms hold the radiance that arrived along each
     vertex's own direction, divided by its pdf: per cos theta band the shares of
     :func:`sky_band_shares` (NEE found at the vertex itself is not along its direction),
     and nothing from below."""
+    monkeypatch.setattr(sdtree, "SMOOTH", False)    # the raw records' shares
     _, _, integ = render_job(plane_under_sky(), {"type": "vr_guided_path", "max_depth": 3,
                                                  "emitter_sampling": nee,
                                                  "directional_resolution": RES,
