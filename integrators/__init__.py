@@ -42,7 +42,7 @@ __all__ = ["register", "register_strategy", "strategies", "PLUGIN_MODULES",
            "supported_variant"]
 
 #: Modules that each define and register one plugin for the current variant.
-PLUGIN_MODULES = ("phong", "path", "guiding", "halton", "zsobol")
+PLUGIN_MODULES = ("phong", "path", "guiding", "moments", "halton", "zsobol")
 #: Modules of per-variant base classes, defined again before the plugins that derive from them.
 BASE_MODULES = ("sequence_sampler",)
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import atexit
 import contextlib
+import math
 import re
 from dataclasses import dataclass
 from importlib import resources
@@ -22,9 +23,9 @@ from importlib import resources
 NAMES = ("cbox.xml", "furnace.xml")
 #: The folder of the scene suite, inside this package.
 SUITE = "suite"
-#: Keys of a scene's suite header that it must give, and the one it may give.
+#: Keys of a scene's suite header that it must give, and the ones it may give.
 HEADER_KEYS = ("isolates", "hypothesis", "favours", "over")
-HEADER_OPTIONAL = ("exact",)
+HEADER_OPTIONAL = ("exact", "budget")
 
 _files = contextlib.ExitStack()
 atexit.register(_files.close)
@@ -70,13 +71,17 @@ class Header:
     ``favours`` and ``over`` are method-name patterns (:mod:`fnmatch`); the
     hypothesis holds when the most efficient method matching ``favours`` beats
     every method matching ``over``. ``exact`` is the value of every pixel where
-    the scene has one (the furnace), else None.
+    the scene has one (the furnace), else None. ``budget`` scales the suite's
+    equal-time budget for this scene (``budget: 8x``, header text; 1 without): a
+    scene whose error is ruled by rare samples (caustic fireflies, a light
+    smaller than a pixel) needs more of them for a decisive interval.
     """
     isolates: str
     hypothesis: str
     favours: tuple[str, ...]
     over: tuple[str, ...]
     exact: float | None = None
+    budget: float = 1.0
 
 
 _COMMENT = re.compile(r"<!--(.*?)-->", re.DOTALL)
@@ -96,8 +101,8 @@ def parse_header(text: str, source: str = "<scene>") -> Header | None:
     by one indented ``key: value`` line per key of :data:`HEADER_KEYS` (and
     optionally :data:`HEADER_OPTIONAL`); pattern lists are comma-separated.
     A header with a line of another form, an unknown, repeated, missing or
-    empty key, or an ``exact`` that is not a number raises ValueError naming
-    ``source``.
+    empty key, an ``exact`` that is not a number or a ``budget`` that is not a
+    positive factor raises ValueError naming ``source``.
     """
     for comment in _COMMENT.findall(text):
         lines = [line for line in comment.splitlines() if line.strip()]
@@ -133,7 +138,22 @@ def parse_header(text: str, source: str = "<scene>") -> Header | None:
             raise ValueError(f"{source}: suite header 'exact' is {exact!r}, "
                              f"not a number") from None
     return Header(entries["isolates"], entries["hypothesis"], _patterns(entries["favours"]),
-                  _patterns(entries["over"]), exact)
+                  _patterns(entries["over"]), exact, _budget(entries.get("budget"), source))
+
+
+def _budget(value: str | None, source: str) -> float:
+    """The header's ``budget``: ``Nx`` (or ``N``), N a number in (0, 1000]; 1 without."""
+    if value is None:
+        return 1.0
+    try:
+        scale = float(value.removesuffix("x"))
+    except ValueError:
+        scale = math.nan
+    if not 0 < scale <= 1000:
+        raise ValueError(f"{source}: suite header 'budget' is {value!r}; give a factor of "
+                         f"the suite's equal-time budget such as '4x' (above 0, at most "
+                         f"1000x)")
+    return scale
 
 
 def _patterns(value: str) -> tuple[str, ...]:

@@ -9,7 +9,8 @@ any, and the repeats. :class:`Engine` then
 2. renders what the stores lack through the study's executor (local or Dask; a rerun
    resumes), the equal-time budgets after the budgets that measure their cost per sample
    (or at the counts of an earlier run: ``--replay-counts``, :meth:`Engine.replayed`), each
-   job in the passes the declaration asks for (``pass_spp``: per-pixel variances);
+   job in the passes the declaration asks for (``pass_spp``: per-pixel variances from
+   their spread) or with its samples' second moments (``sample_moments``);
 3. costs every image with the one clock (:mod:`.clock`) and measures its errors against
    the reference (whose own expected error, the floor, comes with it);
 4. gives errors, ratios and efficiencies with their intervals from one implementation
@@ -123,6 +124,10 @@ class Declaration:
     #: (method, spp, repeat) -> the samples per pass of a cell's jobs (0: as many as memory
     #: allows): passes give per-pixel variances from their spread (a job key field)
     pass_spp: Callable | None = None
+    #: method -> whether a cell's jobs (of budgets without a ladder) keep their samples'
+    #: per-pixel second moments (``vr_moments``: every sample its own pass; for independent
+    #: samples under a box filter only; a job key field)
+    sample_moments: Callable | None = None
 
     def __post_init__(self):
         names = [b.name for b in self.budgets]
@@ -223,13 +228,14 @@ class Engine:
             repeats = 1 if method.deterministic else declaration.repeats
             count = (budget.ladder[-1] if budget.ladder else
                      spp[cell] if budget.timed else budget.spp)
+            moments = bool(declaration.sample_moments and declaration.sample_moments(method))
             runs = []
             for r in range(repeats):
                 passes = declaration.pass_spp(method, count, r) if declaration.pass_spp else 0
                 runs.append(st.ladder(repeat_prefix(prefix, r), method, budget.ladder,
                                       pass_spp=passes, **options) if budget.ladder else
                             [st.job(repeat_prefix(prefix, r), method, count,
-                                    pass_spp=passes, **options)])
+                                    pass_spp=passes, sample_moments=moments, **options)])
             out[cell] = runs
         return out
 

@@ -143,9 +143,15 @@ def _scene(job: Job, variant: str):
 
 def fresh_integrator(job: Job):
     """A new, untrained integrator of ``job``'s method: every job starts from one, so that
-    a method that learns over its passes learns from its own job's samples only."""
+    a method that learns over its passes learns from its own job's samples only. A job
+    with ``sample_moments`` gets it inside ``vr_moments`` (:mod:`integrators.moments`),
+    except a :class:`MultiPass` method, whose variances come from its own passes."""
     import mitsuba as mi
-    return mi.load_dict(job.method.integrator_dict(job_depth(job)))
+    spec = job.method.integrator_dict(job_depth(job))
+    integrator = mi.load_dict(spec)
+    if job.sample_moments and not isinstance(integrator, MultiPass):
+        integrator = mi.load_dict({"type": "vr_moments", "nested": spec})
+    return integrator
 
 
 def _view(job: Job, variant: str) -> View:
@@ -266,6 +272,7 @@ class Timed(NamedTuple):
     image: np.ndarray            # the job's mean image (H, W, 3) float64
     sq: np.ndarray               # sum over passes of k_i m_i^2
     spp: int                     # samples rendered (what the sampler ran)
+    passes: int                  # the passes of sq (every sample with ``sample_moments``)
     pass_seconds: list           # wall seconds per pass
     cpu_seconds: float
     kernel_seconds: float
@@ -277,9 +284,12 @@ def _render_job(view: View, integrator, job: Job) -> Timed:
     """Every pass of ``job`` with ``integrator``: the memory-bounded passes of
     :meth:`.jobs.Job.passes`, or a :class:`MultiPass` method's own schedule with its hooks
     between them (their CPU time measured on this thread, the kernels they launch synced
-    first so that their time is the hooks' own)."""
+    first so that their time is the hooks' own). Through ``vr_moments`` every sample is a
+    pass of ``sq`` (its squares' per-pixel mean times the pass's count)."""
     import drjit as dr
+    from integrators import moments
     multi = isinstance(integrator, MultiPass)
+    per_sample = isinstance(integrator, moments.MomentsIntegrator)
     continues = job.method.continues_sequence
     schedule = integrator.pass_schedule(job.spp) if multi else job.passes()
     mean = np.zeros((job.height, job.width, 3))
@@ -289,7 +299,7 @@ def _render_job(view: View, integrator, job: Job) -> Timed:
     for i, k in enumerate(schedule):
         seed = job.seed if continues else derive_seed(job.seed, i)
         image, seconds, cpu_seconds, compiled_now, kernel = _render(
-            view, integrator, k, seed, sequence_state(job, done), raw=multi)
+            view, integrator, k, seed, sequence_state(job, done), raw=multi or per_sample)
         # Mitsuba's stratified, orthogonal and ldsampler round the count (e.g.
         # orthogonal: 16 -> 25, a prime squared): count what was rendered
         k = view.sensor.sampler().sample_count()
@@ -302,8 +312,11 @@ def _render_job(view: View, integrator, job: Job) -> Timed:
             image = np.array(image, dtype=np.float64)[..., :3]
             images.append(image)
             spps.append(k)
+        if per_sample:
+            image = np.array(image, dtype=np.float64)
+            image, m2 = image[..., :3], image[..., -len(moments.SQUARES):]
         mean += image * k
-        sq += k * image * image
+        sq += k * (m2 if per_sample else image * image)
         done += k
         times.append(seconds)
         cpu += cpu_seconds
@@ -314,7 +327,8 @@ def _render_job(view: View, integrator, job: Job) -> Timed:
         start = time.thread_time()
         mean = np.asarray(integrator.combine(images, spps), dtype=np.float64)
         host += time.thread_time() - start
-    return Timed(mean, sq, done, times, cpu, kernels, host, compiled)
+    return Timed(mean, sq, done, done if per_sample else len(times), times, cpu, kernels,
+                 host, compiled)
 
 
 def run_job(job: Job, variant: str) -> JobResult:
@@ -331,7 +345,7 @@ def run_job(job: Job, variant: str) -> JobResult:
         if not timed.compiled:
             break
     return JobResult(image=timed.image.astype(np.float32), sq=timed.sq, spp=timed.spp,
-                     passes=len(timed.pass_seconds),
+                     passes=timed.passes,
                      wall_seconds=float(sum(timed.pass_seconds)),
                      pass_seconds=timed.pass_seconds, cpu_seconds=timed.cpu_seconds,
                      host=socket.gethostname(), cpu=f"{cpu_model()} ({os.cpu_count()} cores)",

@@ -52,6 +52,8 @@ class Job:
     timing_group: str | None = None  # jobs whose times one comparison divides
     sequence_spp: int = 0       # samples per pixel of the whole sequence a job continues
                                 # (samplers that order pixels by it, zsobol; 0: none)
+    sample_moments: bool = False  # rendered through ``vr_moments``: every sample its own
+                                  # pass for the per-pixel variances (independent, box)
 
     def passes(self) -> list[int]:
         """The spp of each pass of this job."""

@@ -64,10 +64,12 @@ def job_name(prefix: str) -> str:
 
 def make_job(prefix: str, info: SceneInfo, method: Method, width: int, height: int, spp: int,
              seed: int, depth: Depth, variant: str, sample_offset: int = 0, pass_spp: int = 0,
-             timing_group: str | None = None, sequence_spp: int = 0) -> Job:
+             timing_group: str | None = None, sequence_spp: int = 0,
+             sample_moments: bool = False) -> Job:
     """A :class:`Job` whose key is ``prefix`` + a hash of everything its image depends on
     (the plugin sources and the variant included; the method by its name; the sequence's
-    length only where a sampler needs it, so other keys are as they always were).
+    length only where a sampler needs it and ``sample_moments`` only where set, so other
+    keys are as they always were).
 
     ValueError for a deterministic sampler at unbounded depth (:func:`check_terminates`).
     """
@@ -77,6 +79,8 @@ def make_job(prefix: str, info: SceneInfo, method: Method, width: int, height: i
                   pass_spp=pass_spp, **dataclasses.asdict(depth))
     if sequence_spp:
         fields["sequence_spp"] = sequence_spp
+    if sample_moments:
+        fields["sample_moments"] = True
     digest = hashlib.sha256(json.dumps([fields, variant, plugins_version()],
                                        sort_keys=True).encode()).hexdigest()[:12]
     safe = job_name(prefix)

@@ -1,11 +1,13 @@
 """The suite's precise errors: a cell's expected relMSE from the per-pixel variances of its
-renders' passes, and efficiency intervals from them and from paired costs.
+renders' samples, and efficiency intervals from them and from paired costs.
 
 Where a cell's pixels are independent estimates (the ``independent`` sampler under a box
-filter: :func:`.suite_bias.variance_kind` is ``pixels``) each render is made in
-:data:`.suite_plan.PASSES` passes (the job's ``pass_spp``), and the spread of its pass images
-gives the per-pixel variance of its mean image (:meth:`.jobs.Accumulator.variance_of_mean`, passes - 1
-degrees of freedom per pixel). The expected relMSE of an unbiased render is then
+filter: :func:`.suite_bias.variance_kind` is ``pixels``) each render keeps its samples'
+per-pixel second moments (the job's ``sample_moments``: ``vr_moments``,
+:mod:`integrators.moments`), which give the per-pixel variance of its mean image
+(:meth:`.jobs.Accumulator.variance_of_mean`, every sample a pass: spp - 1 degrees of freedom
+per pixel; a method that renders its own passes, :class:`.execute.MultiPass`, gives the
+spread of those instead). The expected relMSE of an unbiased render is then
 
     E = mean over pixels of  v_p,   v_p = mean over channels of  var_p / (ref_p^2 + eps)
 
@@ -13,8 +15,11 @@ degrees of freedom per pixel). The expected relMSE of an unbiased render is then
 floor to subtract (the reference's noise enters only through the denominators). Pooled over
 the R repeats, its standard error comes from each pixel's variance of v_p across the
 repeats, summed over the pixels: thousands of independent terms with R - 1 degrees of
-freedom each, hence a normal quantile instead of Student's t with R - 1. What it can miss: a heavy tail that no render of the run has sampled
-(its variance is then understated, as every estimate from these renders would be).
+freedom each, hence a normal quantile instead of Student's t with R - 1. What it can miss: a
+heavy tail that no render of the run has sampled (its variance is then understated, as every
+estimate from these renders would be). Where a few pixels hold most of E (a light smaller
+than a pixel, caustic fireflies) their rare samples rule its spread: the interval is wide
+there, as it must be.
 
 The cost side of an efficiency pairs the two methods' renders (same repeat, same budget: a
 timing group renders them one after the other, :func:`.suite_plan.interleaved`), so that the

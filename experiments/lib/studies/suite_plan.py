@@ -35,10 +35,6 @@ TITLE = "Scene suite: every method on scenes that each isolate one phenomenon"
 MAX_EQUAL_TIME_SPP = 4096
 #: The budgets' names (their part of the job keys).
 SPP, TIME = "equal-spp", "equal-time"
-#: Passes per render of a cell whose pixels are independent estimates (:func:`precise`): 3
-#: degrees of freedom per pixel and render for its variance (:mod:`.suite_errors`); each
-#: pass is one more render call (a few ms).
-PASSES = 4
 
 
 @dataclass(frozen=True)
@@ -186,15 +182,21 @@ def declaration(cfg: Settings, sp: ScenePlan) -> Declaration:
     other count, this keeps one kernel per cell; at most :data:`MAX_EQUAL_TIME_SPP`). Job
     keys: the engine's ``suite/SCENE/METHOD/BUDGET``, timed in the group ``suite/SCENE``.
     A cell whose error comes from its pixels' variances (:func:`precise`) renders each job
-    in :data:`PASSES` passes."""
-    def passes(method: Method, spp: int, repeat: int) -> int:
-        return pass_spp(spp, PASSES if precise(method, sp.box) else 1)
+    with its samples' per-pixel second moments (``sample_moments``: spp - 1 degrees of
+    freedom per pixel for its variance, :mod:`.suite_errors`)."""
     return Declaration(
         NAME, tuple(cfg.methods), (SceneSetup(sp.name, sp.info, (sp.width, sp.height),
                                               sp.depth),),
         (Budget.equal_spp(cfg.spp, SPP),
-         Budget.equal_time(cfg.time_budget, SPP, TIME, power_of_two=True,
-                           max_spp=MAX_EQUAL_TIME_SPP)), cfg.repeats, pass_spp=passes)
+         Budget.equal_time(cfg.time_budget * time_scale(sp), SPP, TIME, power_of_two=True,
+                           max_spp=MAX_EQUAL_TIME_SPP)), cfg.repeats,
+        sample_moments=lambda method: precise(method, sp.box))
+
+
+def time_scale(sp: ScenePlan) -> float:
+    """The factor of ``--time-budget`` a scene's equal-time renders get: its header's
+    ``budget`` (1 without a header)."""
+    return sp.header.budget if sp.header is not None else 1.0
 
 
 def plan_budget(engine: Engine, sp: ScenePlan, budget: str, methods: list[str]) -> None:
@@ -216,12 +218,6 @@ def precise(method: Method, box: bool) -> bool:
     """Whether a cell's error comes from its pixels' variances (:mod:`.suite_errors`): the
     independent sampler under a box filter, whose pixels are independent estimates."""
     return suite_bias.variance_kind(method, box) == "pixels"
-
-
-def pass_spp(spp: int, passes: int) -> int:
-    """spp per pass that splits ``spp`` into ``passes`` passes (0: one pass)."""
-    passes = min(passes, int(spp))
-    return 0 if passes < 2 else -(-int(spp) // passes)
 
 
 def overhead(st: Study, sp: ScenePlan, method: str) -> float:

@@ -10,10 +10,10 @@ import numpy as np
 
 from .. import figures, files, metrics, prose, report, stats
 from ..execute import VIEW_CACHE
-from . import suite_analysis, suite_bias
+from . import suite_analysis, suite_bias, suite_plan
 from .suite_bias_report import (BLOCK_HEADER, bias_finding, bias_words, block_bias_rows,
                                 names)
-from .suite_plan import NAME, ORDER, PASSES, TIME, TITLE
+from .suite_plan import NAME, ORDER, TIME, TITLE
 
 g = stats.g
 BASELINE_WHY = ("Mitsuba's own path tracer (next-event estimation + MIS), what a user would "
@@ -259,12 +259,19 @@ def viewer_block(cfg, sp, measured, r: suite_analysis.SceneResult, ref) -> dict:
     notes += [f"the blocks where the bias test flags {label.split(':')[0]} (red)"
               for label, _ in maps]
     return report.viewer(cfg.out, f"{sp.name}: equal time", images + maps, ref.image,
-                         f"{sp.name} at equal time ({cfg.time_budget:g} s of samples each; "
+                         f"{sp.name} at equal time "
+                         f"({cfg.time_budget * suite_plan.time_scale(sp):g} s of samples each; "
                          f"first repeat shown) and its reference: {ref.describe()}."
                          + (" Red: the blocks the bias test flags." if maps else ""), notes)
 
 
 # ------------------------------------------------------------------ the section
+
+def scaled(plans) -> str:
+    """The scenes whose header scales the equal-time budget, as text."""
+    return ", ".join(f"{sp.name} {suite_plan.time_scale(sp):g}x" for sp in plans
+                     if suite_plan.time_scale(sp) != 1) or "none"
+
 
 def intro(cfg, plans, numbers) -> str:
     methods = ", ".join(m.name for m in cfg.methods)
@@ -278,7 +285,8 @@ def intro(cfg, plans, numbers) -> str:
            f"pixels, aspect kept") + "). "
         f"Each cell is rendered {cfg.repeats} times at equal spp ({cfg.spp}) and {cfg.repeats} "
         f"times at equal time (about {cfg.time_budget:g} s of sample work each at the cell's own "
-        f"time per sample, the spp rounded to a power of two), independent seeds (a "
+        f"time per sample, the spp rounded to a power of two; a scene whose header asks for "
+        f"more gets that factor: {scaled(plans)}), independent seeds (a "
         f"deterministic sampler once). "
         f"Time per sample: the execution time of the renders' kernels (Dr.Jit's kernel "
         f"history: the sample work, without the per-call cost of tracing the integrator and "
@@ -302,14 +310,13 @@ def intro(cfg, plans, numbers) -> str:
         f"equal time; MSE is in the tables. A method wins a scene only where the "
         f"{stats.LEVEL:.0%} interval of its efficiency over every other method excludes 1. "
         f"FLIP (HDR): {'every repeat' if cfg.flip == 'all' else 'the first equal-time repeat only (the image shown; --flip all gives intervals)'}. "
-        f"Intervals: {stats.LEVEL:.0%}, {stats.METHOD}. " + prose.say(PRECISE,
-                                                                     passes=PASSES))
+        f"Intervals: {stats.LEVEL:.0%}, {stats.METHOD}. " + prose.say(PRECISE))
 
 
 #: How the cells of the independent sampler under a box filter are measured (suite_errors).
 PRECISE = """Where a method uses the independent sampler and the scene's filter is a box,
-    each render is made in {{ passes }} passes and its relMSE is the expected one from the
-    spread of those passes per pixel (the variance part; the bias is tested apart), pooled
+    each render keeps its samples' second moments per pixel and its relMSE is the expected
+    one from their variance (the variance part; the bias is tested apart), pooled
     over the repeats with each pixel's variance across them (a normal quantile, no reference
     floor to subtract); the efficiency of two such methods pairs their renders' costs per
     sample (same repeat and budget, rendered in turn). Other cells use the repeats."""
