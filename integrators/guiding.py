@@ -49,7 +49,7 @@ class GuidedStrategy(Strategy):
     def __init__(self, res: int = 16, max_leaves: int = 1024):
         self.tree = SDTree(res, max_leaves)
         self.share = None
-        self.set_share(np.ones(max_leaves))
+        self.set_share(np.ones(self.tree.max_units))
 
     def set_share(self, share: np.ndarray) -> None:
         """The BSDF share per leaf (an evaluated array: a new one recompiles nothing)."""
@@ -57,7 +57,7 @@ class GuidedStrategy(Strategy):
         dr.eval(self.share)
 
     def _leaf(self, si, active):
-        leaf = self.tree.lookup(si.p, active)
+        leaf = self.tree.lookup(si.p, si.n, active)
         return leaf, dr.gather(mi.Float, self.share, leaf, active)
 
     def sample(self, bsdf, ctx, si, sample1, sample2, active):
@@ -113,7 +113,7 @@ class Recorder:
         weight, ``L``: the radiance with the vertex's own NEE)."""
         active = active & ~direction.delta & (direction.pdf > 0) & (depth < self.depth) \
             & (self.on != 0)
-        leaf = self.tree.lookup(si.p, active)
+        leaf = self.tree.lookup(si.p, si.n, active)
         index = self.tree.record_index(leaf, si.to_world(direction.wo))
         scale = mi.Color3f(mi.unpolarized_spectrum(beta)) * direction.pdf
         inverse = dr.select(scale > 0, dr.rcp(scale), 0.0)

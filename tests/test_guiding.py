@@ -28,9 +28,9 @@ def frozen_guide(share):
     i_cos, i_phi = np.divmod(np.arange(RES * RES), RES)
     p = (1 + 3 * (i_cos == RES - 2)) * (1 + np.cos(2 * np.pi * (i_phi + 0.5) / RES) ** 2)
     p[:RES] = 0.0                                         # an empty band of bins
-    g.tree.prob[0] = p / p.sum()
+    g.tree.prob[:sdtree.CLASSES] = p / p.sum()           # every normal class of leaf 0
     g.tree.upload()
-    g.set_share(np.full(4, share))
+    g.set_share(np.full(g.tree.max_units, share))
     return g
 
 
@@ -174,7 +174,7 @@ def test_training_learns_the_sky_from_the_floor(nee, monkeypatch):
                                                  # the direction pdf stays cos / pi
                                                  "bsdf_fraction": 1.0}, 62, 1)
     tree = integ.guide.tree
-    learned = np.flatnonzero(tree.learned[:tree.leaves])
+    learned = np.flatnonzero(tree.learned[:tree.leaves * sdtree.CLASSES])
     assert len(learned) > 0
     prob = tree.prob[learned].mean(axis=0).reshape(RES, RES)
     assert prob[:RES // 2].sum() < 1e-6                     # nothing from below
