@@ -44,7 +44,11 @@ INVALID = 0xFFFFFFFF
 class GuidedStrategy(Strategy):
     """``s`` x BSDF sampling + ``(1 - s)`` x the learned guide (see the module)."""
 
-    dispatch = True
+    #: The methods take the ``mi.BSDFPtr`` itself: the guide's lookup, sampling and
+    #: density run once per lane, outside a dispatch over the BSDFs (which would run them
+    #: once per BSDF instance); only the BSDF's own calls dispatch. BSDFs with a Dirac
+    #: lobe get share 1, i.e. their own sampling, per lane.
+    dispatch = False
     integrator_type = "vr_guided_path"
 
     def __init__(self, res: int = 16, max_leaves: int = 1024):
@@ -57,10 +61,12 @@ class GuidedStrategy(Strategy):
         self.share = mi.Float(np.asarray(share, np.float32))
         dr.eval(self.share)
 
-    def _unit(self, si, active):
-        """The vertex's unit (leaf x normal class) and its BSDF share."""
+    def _unit(self, bsdf, si, active):
+        """The vertex's unit (leaf x normal class) and its BSDF share (1 for a BSDF with
+        a Dirac lobe)."""
         unit = self.tree.lookup(si.p, si.n, active)
-        return unit, dr.gather(mi.Float, self.share, unit, active)
+        delta = mi.Bool(mi.has_flag(bsdf.flags(), mi.BSDFFlags.Delta))
+        return unit, dr.select(delta, 1.0, dr.gather(mi.Float, self.share, unit, active))
 
     def _draw(self, bsdf, ctx, si, unit, s, sample1, sample2, active):
         """The mixture's direction: the guide's direction is drawn first, so that one BSDF
@@ -79,8 +85,9 @@ class GuidedStrategy(Strategy):
         pdf = dr.fma(s, pdf_bsdf - (p := self.tree.pdf(unit, si.to_world(wo), active)), p)
         pdf = dr.select(drawn, pdf, 0.0)
         eta = dr.select(use_bsdf, bs.eta, crossing_eta(bsdf, ctx, si, wo, active & ~use_bsdf))
-        return DirectionSample(wo, pdf, direction_weight(value, pdf), mi.Bool(False), eta,
-                               mi.Bool(False))
+        return DirectionSample(wo, pdf, direction_weight(value, pdf),
+                               use_bsdf & mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta),
+                               eta, use_bsdf & mi.has_flag(bs.sampled_type, mi.BSDFFlags.Null))
 
     def _eval_pdf(self, bsdf, ctx, si, unit, s, wo, active):
         value, pdf_bsdf = bsdf.eval_pdf(ctx, si, wo, active)
@@ -88,18 +95,18 @@ class GuidedStrategy(Strategy):
         return value, dr.fma(s, pdf_bsdf - guide, guide)
 
     def sample(self, bsdf, ctx, si, sample1, sample2, active):
-        unit, s = self._unit(si, active)
+        unit, s = self._unit(bsdf, si, active)
         return self._draw(bsdf, ctx, si, unit, s, sample1, sample2, active)
 
     def pdf(self, bsdf, ctx, si, wo, active):
         return self.eval_pdf(bsdf, ctx, si, wo, active)[1]
 
     def eval_pdf(self, bsdf, ctx, si, wo, active):
-        return self._eval_pdf(bsdf, ctx, si, *self._unit(si, active), wo, active)
+        return self._eval_pdf(bsdf, ctx, si, *self._unit(bsdf, si, active), wo, active)
 
     def sample_and_eval(self, bsdf, ctx, si, sample1, sample2, wo_em, active):
         """One unit lookup for both (the direction and the NEE direction's density)."""
-        unit, s = self._unit(si, active)
+        unit, s = self._unit(bsdf, si, active)
         return VertexSample(self._draw(bsdf, ctx, si, unit, s, sample1, sample2, active),
                             *self._eval_pdf(bsdf, ctx, si, unit, s, wo_em, active))
 
