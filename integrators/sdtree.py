@@ -4,15 +4,16 @@ A simplified SD-tree (Mueller, Gross, Novak 2017). Space: a binary tree over the
 bounding box, each level halving its node along x, y, z in turn (PPG's rule), a leaf split
 between training passes when it received more than ``threshold`` records (and again, as
 if its records halved with each split, up to :data:`MAX_DEPTH` levels). Directions: per
-leaf an equal-area histogram of ``res x res`` bins (:mod:`.guide_warps`), rebuilt from the
-pass's records, their energy smoothed by a 3x3 box blur (:func:`blur`: a bin of a lit
-region is not left at density 0 by short training; a leaf with fewer than
-:data:`MIN_RECORDS` keeps its previous histogram; children start with their parent's).
+leaf and normal class (a *unit*, :data:`CLASSES`) an equal-area histogram of
+``res x res`` bins (:mod:`.guide_warps`), rebuilt from the pass's records (a unit with
+fewer than :data:`MIN_RECORDS` keeps its previous histogram; children start with their
+parent's; :func:`blur` smooths the energies when :data:`SMOOTH` is on).
 
 The tree lives on the host as numpy arrays of **fixed maximum sizes** (``max_leaves``
 leaves, ``2 max_leaves`` nodes), refined there, and uploaded as evaluated Dr.Jit arrays:
-the render kernel gathers from them and bakes only the sizes (res, :data:`MAX_DEPTH`), so
-a refined tree does not recompile anything. The bounding box is an opaque array too.
+the render kernel finds a point's leaf in a grid filled from the tree (one gather) and
+bakes only the sizes (res, :data:`GRID`), so a refined tree does not recompile anything.
+The bounding box is an opaque array too.
 """
 from __future__ import annotations
 
