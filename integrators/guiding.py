@@ -27,7 +27,8 @@ import numpy as np
 from . import strategies
 from .path import VRPathIntegrator
 from .sdtree import SDTree
-from .strategies import DirectionSample, Strategy, direction_weight, crossing_eta
+from .strategies import (DirectionSample, Strategy, VertexSample, crossing_eta,
+                         direction_weight)
 from .warps import ONE_MINUS_EPSILON
 
 #: Largest size of a render's record arrays (bytes): larger renders are refused.
@@ -43,47 +44,71 @@ INVALID = 0xFFFFFFFF
 class GuidedStrategy(Strategy):
     """``s`` x BSDF sampling + ``(1 - s)`` x the learned guide (see the module)."""
 
-    dispatch = True
+    #: The methods take the ``mi.BSDFPtr`` itself: the guide's lookup, sampling and
+    #: density run once per lane, outside a dispatch over the BSDFs (which would run them
+    #: once per BSDF instance); only the BSDF's own calls dispatch. BSDFs with a Dirac
+    #: lobe get share 1, i.e. their own sampling, per lane.
+    dispatch = False
     integrator_type = "vr_guided_path"
 
     def __init__(self, res: int = 16, max_leaves: int = 1024):
         self.tree = SDTree(res, max_leaves)
         self.share = None
-        self.set_share(np.ones(max_leaves))
+        self.set_share(np.ones(self.tree.max_units))
 
     def set_share(self, share: np.ndarray) -> None:
         """The BSDF share per leaf (an evaluated array: a new one recompiles nothing)."""
         self.share = mi.Float(np.asarray(share, np.float32))
         dr.eval(self.share)
 
-    def _leaf(self, si, active):
-        leaf = self.tree.lookup(si.p, active)
-        return leaf, dr.gather(mi.Float, self.share, leaf, active)
+    def _unit(self, bsdf, si, active):
+        """The vertex's unit (leaf x normal class) and its BSDF share (1 for a BSDF with
+        a Dirac lobe)."""
+        unit = self.tree.lookup(si.p, si.n, active)
+        delta = mi.Bool(mi.has_flag(bsdf.flags(), mi.BSDFFlags.Delta))
+        return unit, dr.select(delta, 1.0, dr.gather(mi.Float, self.share, unit, active))
 
-    def sample(self, bsdf, ctx, si, sample1, sample2, active):
-        leaf, s = self._leaf(si, active)
+    def _draw(self, bsdf, ctx, si, unit, s, sample1, sample2, active):
+        """The mixture's direction: the guide's direction is drawn first, so that one BSDF
+        call (``eval_pdf_sample``) evaluates it and draws the BSDF's own direction; for a
+        BSDF-drawn direction, value and density come from the sample (``weight x pdf``)."""
         use_bsdf = sample1 < s
         u_bsdf = dr.minimum(sample1 / dr.maximum(s, 1e-6), ONE_MINUS_EPSILON)
         u_guide = dr.minimum((sample1 - s) / dr.maximum(1.0 - s, 1e-6), ONE_MINUS_EPSILON)
-        bs, weight = bsdf.sample(ctx, si, u_bsdf, sample2, active & use_bsdf)
-        guide = self.tree.sample(leaf, u_guide, sample2, active & ~use_bsdf)
-        wo = dr.select(use_bsdf, bs.wo, si.to_local(guide))
+        guide = si.to_local(self.tree.sample(unit, u_guide, sample2, active & ~use_bsdf))
+        value_g, pdf_g, bs, weight = bsdf.eval_pdf_sample(ctx, si, guide, u_bsdf, sample2,
+                                                          active)
+        wo = dr.select(use_bsdf, bs.wo, guide)
+        value = dr.select(use_bsdf, weight * bs.pdf, value_g)
+        pdf_bsdf = dr.select(use_bsdf, bs.pdf, pdf_g)
         drawn = ~use_bsdf | dr.any(mi.unpolarized_spectrum(weight) != 0)
-        value, pdf_bsdf = bsdf.eval_pdf(ctx, si, wo, active & drawn)
-        pdf = dr.fma(s, pdf_bsdf - (p := self.tree.pdf(leaf, si.to_world(wo), active)), p)
+        pdf = dr.fma(s, pdf_bsdf - (p := self.tree.pdf(unit, si.to_world(wo), active)), p)
         pdf = dr.select(drawn, pdf, 0.0)
         eta = dr.select(use_bsdf, bs.eta, crossing_eta(bsdf, ctx, si, wo, active & ~use_bsdf))
-        return DirectionSample(wo, pdf, direction_weight(value, pdf), mi.Bool(False), eta,
-                               mi.Bool(False))
+        return DirectionSample(wo, pdf, direction_weight(value, pdf),
+                               use_bsdf & mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta),
+                               eta, use_bsdf & mi.has_flag(bs.sampled_type, mi.BSDFFlags.Null))
+
+    def _eval_pdf(self, bsdf, ctx, si, unit, s, wo, active):
+        value, pdf_bsdf = bsdf.eval_pdf(ctx, si, wo, active)
+        guide = self.tree.pdf(unit, si.to_world(wo), active)
+        return value, dr.fma(s, pdf_bsdf - guide, guide)
+
+    def sample(self, bsdf, ctx, si, sample1, sample2, active):
+        unit, s = self._unit(bsdf, si, active)
+        return self._draw(bsdf, ctx, si, unit, s, sample1, sample2, active)
 
     def pdf(self, bsdf, ctx, si, wo, active):
         return self.eval_pdf(bsdf, ctx, si, wo, active)[1]
 
     def eval_pdf(self, bsdf, ctx, si, wo, active):
-        leaf, s = self._leaf(si, active)
-        value, pdf_bsdf = bsdf.eval_pdf(ctx, si, wo, active)
-        guide = self.tree.pdf(leaf, si.to_world(wo), active)
-        return value, dr.fma(s, pdf_bsdf - guide, guide)
+        return self._eval_pdf(bsdf, ctx, si, *self._unit(bsdf, si, active), wo, active)
+
+    def sample_and_eval(self, bsdf, ctx, si, sample1, sample2, wo_em, active):
+        """One unit lookup for both (the direction and the NEE direction's density)."""
+        unit, s = self._unit(bsdf, si, active)
+        return VertexSample(self._draw(bsdf, ctx, si, unit, s, sample1, sample2, active),
+                            *self._eval_pdf(bsdf, ctx, si, unit, s, wo_em, active))
 
     def __repr__(self):
         return f"GuidedStrategy(res={self.tree.res}, max_leaves={self.tree.max_leaves})"
@@ -113,7 +138,7 @@ class Recorder:
         weight, ``L``: the radiance with the vertex's own NEE)."""
         active = active & ~direction.delta & (direction.pdf > 0) & (depth < self.depth) \
             & (self.on != 0)
-        leaf = self.tree.lookup(si.p, active)
+        leaf = self.tree.lookup(si.p, si.n, active)
         index = self.tree.record_index(leaf, si.to_world(direction.wo))
         scale = mi.Color3f(mi.unpolarized_spectrum(beta)) * direction.pdf
         inverse = dr.select(scale > 0, dr.rcp(scale), 0.0)

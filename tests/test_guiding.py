@@ -28,9 +28,9 @@ def frozen_guide(share):
     i_cos, i_phi = np.divmod(np.arange(RES * RES), RES)
     p = (1 + 3 * (i_cos == RES - 2)) * (1 + np.cos(2 * np.pi * (i_phi + 0.5) / RES) ** 2)
     p[:RES] = 0.0                                         # an empty band of bins
-    g.tree.prob[0] = p / p.sum()
+    g.tree.prob[:sdtree.CLASSES] = p / p.sum()           # every normal class of leaf 0
     g.tree.upload()
-    g.set_share(np.full(4, share))
+    g.set_share(np.full(g.tree.max_units, share))
     return g
 
 
@@ -174,7 +174,7 @@ def test_training_learns_the_sky_from_the_floor(nee, monkeypatch):
                                                  # the direction pdf stays cos / pi
                                                  "bsdf_fraction": 1.0}, 62, 1)
     tree = integ.guide.tree
-    learned = np.flatnonzero(tree.learned[:tree.leaves])
+    learned = np.flatnonzero(tree.learned[:tree.leaves * sdtree.CLASSES])
     assert len(learned) > 0
     prob = tree.prob[learned].mean(axis=0).reshape(RES, RES)
     assert prob[:RES // 2].sum() < 1e-6                     # nothing from below
@@ -183,15 +183,21 @@ def test_training_learns_the_sky_from_the_floor(nee, monkeypatch):
         (upper / upper.sum(), sky_band_shares(nee))
 
 
-def cbox():
+def cbox(delta=False):
+    """Mitsuba's Cornell box at 16 x 16; ``delta``: the tall box a mirror and the small
+    box ``plastic`` (a Dirac lobe beside a diffuse one): share 1 per lane there."""
     d = mi.cornell_box()
     d["sensor"]["film"].update(width=16, height=16, rfilter={"type": "box"})
+    if delta:
+        d["large-box"]["bsdf"] = {"type": "conductor"}
+        d["small-box"]["bsdf"] = {"type": "plastic"}
     return mi.load_dict(d)
 
 
-@pytest.mark.parametrize("nee,spp", [(True, 32), (False, 96)])
-def test_blocks_agree_with_path(nee, spp):
-    scene, k = cbox(), 8
+@pytest.mark.parametrize("nee,spp,delta", [(True, 32, False), (False, 96, False),
+                                           (True, 32, True)])
+def test_blocks_agree_with_path(nee, spp, delta):
+    scene, k = cbox(delta), 8
     guided = {"type": "vr_guided_path", "emitter_sampling": nee, "max_depth": 5,
               "directional_resolution": RES, "spatial_threshold": 500.0}
     images = np.stack([render_job(scene, guided, spp, 10 + s)[0] for s in range(k)])

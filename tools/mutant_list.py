@@ -200,9 +200,9 @@ MUTANTS = [
            ("tests/test_stats.py",)),
     # ------------------------------------------------------------ path guiding
     Mutant("guide-share-missing", "integrators/guiding.py",
-           "        pdf = dr.fma(s, pdf_bsdf - (p := self.tree.pdf(leaf, si.to_world(wo), "
+           "        pdf = dr.fma(s, pdf_bsdf - (p := self.tree.pdf(unit, si.to_world(wo), "
            "active)), p)",
-           "        pdf = (1.0 - s) * self.tree.pdf(leaf, si.to_world(wo), active)",
+           "        pdf = (1.0 - s) * self.tree.pdf(unit, si.to_world(wo), active)",
            "the guided mixture's density without the BSDF's share (only the guide's part)",
            ("tests/test_guiding.py::test_drawn_pdf_and_weights",)),
     Mutant("guide-bin-solid-angle", "integrators/guide_warps.py",
