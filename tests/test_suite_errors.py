@@ -157,3 +157,35 @@ def test_the_suite_declares_sample_moments_only_where_pixels_are_independent():
     assert suite_plan.precise(parse_method("bsdf+nee"), True)
     assert not suite_plan.precise(parse_method("bsdf+nee"), False)
     assert not suite_plan.precise(parse_method("bsdf+nee+halton"), True)
+
+
+def test_precision_scale_rounds_up_to_a_power_of_two_within_its_cap():
+    """The factor brings the error to the target: (se / target)^2 rounded up to a power of
+    two; at least 1 (never fewer samples), at most the cap."""
+    assert suite_plan.scale_for(0.07, 0.035) == 4.0
+    assert suite_plan.scale_for(0.08, 0.035) == 8.0      # 5.2 -> 8: the target is met
+    assert suite_plan.scale_for(0.01, 0.035) == 1.0
+    assert suite_plan.scale_for(5.0, 0.035, cap=32) == 32.0
+
+
+def test_the_error_predicted_from_few_samples_matches_the_one_measured_at_more():
+    """The rule behind the suite's equal-time factor: the relative standard error of the
+    pooled expected relMSE falls as 1/sqrt(samples). From 3 renders at 16 spp, the error
+    predicted at 128 spp agrees with the spread of 3-render estimates at 128 spp (8 sets)
+    within a factor 1.6 on cbox (0.84 seen); without the sqrt(16/128) scaling it is 2.4
+    times too large (the negative control)."""
+    scene = scenes.path("suite/cbox.xml")
+    ref = _render("path", 1024, 3, scene=scene)[0]
+
+    def pooled(spp, seeds):
+        maps = [suite_errors.pixel_map(_render("path", spp, s, scene=scene)[1], ref)
+                for s in seeds]
+        return suite_errors.pooled(maps)
+
+    value, var = pooled(16, range(700, 703))
+    predicted = math.sqrt(var) / value * math.sqrt(16 / 128)
+    estimates = np.array([pooled(128, range(800 + 3 * k, 803 + 3 * k))[0] for k in range(8)])
+    measured = estimates.std(ddof=1) / estimates.mean()
+    assert 1 / 1.6 < predicted / measured < 1.6, (predicted, measured)
+    unscaled = math.sqrt(var) / value
+    assert not 1 / 1.6 < unscaled / measured < 1.6

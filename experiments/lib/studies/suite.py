@@ -343,8 +343,9 @@ def adequate(cfg: suite_plan.Settings, engine: Engine, refs: references.Referenc
 
 def render(cfg: suite_plan.Settings, engine: Engine, refs: references.ReferenceStore, plans,
            clock: Clock) -> None:
-    """Per scene: its reference, the equal-spp then the equal-time budget of every cell
-    (planned by the engine from the scene's declaration), then its reference's extension
+    """Per scene: its reference, the equal-spp budget of every cell, the equal-time factor
+    its baseline's precision needs (:func:`precision`), then the equal-time budget of every
+    cell (planned by the engine from the scene's declaration), then its reference's extension
     where it is too noisy. A scene's cells go in groups of at most the scenes a process
     keeps loaded (a scene loaded again compiles again), the baseline and the timed pair
     leading the last group, their timed renders interleaved. Locally scene by scene and
@@ -361,9 +362,20 @@ def render(cfg: suite_plan.Settings, engine: Engine, refs: references.ReferenceS
         for batch in ([groups] if cfg.executor is not None else [[g] for g in groups]):
             clock.time("renders", suite_plan.run_budget, engine, batch, suite_plan.SPP,
                        f"{NAME}: equal spp")
+            clock.time("precision rule", precision, cfg, engine, refs, unit)
             clock.time("renders", suite_plan.run_budget, engine, batch, suite_plan.TIME,
                        f"{NAME}: equal time")
         adequate(cfg, engine, refs, unit, clock)
+
+
+def precision(cfg: suite_plan.Settings, engine: Engine, refs: references.ReferenceStore,
+              plans) -> None:
+    """Each scene's equal-time factor from its baseline's equal-spp renders, once
+    (:func:`.suite_plan.precision_scale`; the first group of a scene holds the baseline)."""
+    for sp in plans:
+        if sp.precision is None and not sp.precision_note and not sp.error:
+            sp.precision, sp.precision_note = suite_plan.precision_scale(
+                cfg, engine, sp, suite_plan.reference_of(refs, sp, None).image)
 
 
 def run_suite(cfg: suite_plan.Settings) -> dict:

@@ -24,6 +24,7 @@ from .. import clock, files, metrics
 from .. import references
 from .. import scenes
 from ..engine import Budget, Cell, Declaration, Engine, Measurements, SceneSetup
+from ..jobs import Accumulator
 from ..methods import Depth, Method
 from ..study import Study, repeat_prefix
 from . import suite_analysis, suite_bias, suite_errors
@@ -33,6 +34,12 @@ ORDER = 50
 TITLE = "Scene suite: every method on scenes that each isolate one phenomenon"
 #: Largest equal-time sample count (a very cheap scene would otherwise render thousands).
 MAX_EQUAL_TIME_SPP = 4096
+#: Relative standard error of the expected relMSE (pooled over the repeats) of the baseline
+#: and the timed pair that the equal-time budget of a scene aims for (:func:`precision_scale`):
+#: two such errors give an A/A efficiency interval of hi/lo ~1.2 before the costs' spread.
+PRECISION = 0.035
+#: Largest factor of ``--time-budget`` :func:`precision_scale` may give a scene.
+MAX_PRECISION_SCALE = 32
 #: The budgets' names (their part of the job keys).
 SPP, TIME = "equal-spp", "equal-time"
 
@@ -89,6 +96,8 @@ class ScenePlan:
     user_ref: str | None = None
     box: bool = False                             # every filter a box (suite_bias.box_filter)
     declaration: Declaration | None = None
+    precision: float | None = None                # the equal-time factor :func:`precision_scale`
+    precision_note: str = ""                      # why there is none
     jobs: dict = field(default_factory=dict)      # {budget: {Cell: [per repeat: [Job]]}}
     failed: dict = field(default_factory=dict)    # {method name: error}
 
@@ -188,23 +197,80 @@ def declaration(cfg: Settings, sp: ScenePlan) -> Declaration:
         NAME, tuple(cfg.methods), (SceneSetup(sp.name, sp.info, (sp.width, sp.height),
                                               sp.depth),),
         (Budget.equal_spp(cfg.spp, SPP),
-         Budget.equal_time(cfg.time_budget * time_scale(sp), SPP, TIME, power_of_two=True,
+         Budget.equal_time(cfg.time_budget, SPP, TIME, power_of_two=True,
                            max_spp=MAX_EQUAL_TIME_SPP)), cfg.repeats,
         sample_moments=lambda method: precise(method, sp.box))
 
 
 def time_scale(sp: ScenePlan) -> float:
-    """The factor of ``--time-budget`` a scene's equal-time renders get: its header's
-    ``budget`` (1 without a header)."""
-    return sp.header.budget if sp.header is not None else 1.0
+    """The factor of ``--time-budget`` a scene's equal-time renders get: the larger of its
+    header's ``budget`` (1 without) and its :func:`precision_scale` (1 before it is known)."""
+    return max(sp.header.budget if sp.header is not None else 1.0, sp.precision or 1.0)
+
+
+def precision_scale(cfg: Settings, engine: Engine, sp: ScenePlan,
+                    ref: np.ndarray) -> tuple[float | None, str]:
+    """The factor of ``--time-budget`` that the scene's equal-time renders need for the
+    expected relMSE of the baseline and of the timed pair (:data:`.suite_analysis.TIMED_PAIR`,
+    those of them in the run) to be known to :data:`PRECISION` (relative standard error,
+    pooled over the repeats), predicted from their equal-spp renders (their pixels'
+    variances against ``ref``, :mod:`.suite_errors`): the standard error falls as
+    1/sqrt(samples), so the factor is (the largest se at the unscaled equal-time count /
+    PRECISION)^2, rounded up to a power of two (the counts stay powers of two), between 1
+    and :data:`MAX_PRECISION_SCALE`. (None, why) where the baseline's pixels are not
+    independent estimates or it has no equal-spp renders."""
+    baseline = cfg.baseline
+    if not precise(baseline, sp.box):
+        return None, (f"the baseline {baseline.name} has no pixel variances here (a QMC "
+                      f"sampler or a filter other than a box)")
+    names = [m.name for m in sp.declaration.methods
+             if m.name in (baseline.name,) + suite_analysis.TIMED_PAIR and precise(m, sp.box)]
+    errors = [e for e in (_equal_time_error(engine, sp, name, ref) for name in names)
+              if e is not None]
+    if baseline.name in sp.failed or not errors:
+        return None, f"the baseline {baseline.name} has no equal-spp error"
+    return scale_for(max(errors)), ""
+
+
+def scale_for(error: float, precision: float = PRECISION,
+              cap: float = MAX_PRECISION_SCALE) -> float:
+    """The power-of-two factor (1 to ``cap``) of samples that brings a relative standard
+    error ``error`` (falling as 1/sqrt(samples)) to ``precision`` or below."""
+    scale = (error / precision) ** 2
+    return float(min(cap, 2 ** max(0, math.ceil(math.log2(max(scale, 1.0))))))
+
+
+def _equal_time_error(engine: Engine, sp: ScenePlan, method: str,
+                      ref: np.ndarray) -> float | None:
+    """The relative standard error of a cell's pooled expected relMSE predicted at its
+    unscaled equal-time count from its equal-spp renders (None: no usable renders)."""
+    runs = [engine.study.results(jobs)
+            for jobs in sp.jobs.get(SPP, {}).get(sp.cell(method, SPP), [])]
+    if method in sp.failed or not runs:
+        return None
+    maps = []
+    for results in runs:
+        acc = Accumulator.empty(*np.asarray(ref).shape[:2])
+        for r in results:
+            acc.add_result(r)
+        maps.append(suite_errors.pixel_map(acc.variance_of_mean(), ref))
+    value, var = suite_errors.pooled(maps)
+    if not (value > 0 and math.isfinite(var)):
+        return None
+    base = next(b for b in sp.declaration.budgets if b.name == TIME)
+    spp = sum(r.spp for r in runs[0])
+    return math.sqrt(var) / value * math.sqrt(spp / engine.equal_time_spp(base, runs))
 
 
 def plan_budget(engine: Engine, sp: ScenePlan, budget: str, methods: list[str]) -> None:
     """Plan the jobs of ``methods`` at ``budget`` (:meth:`.Engine.jobs`); an equal-time
-    budget takes each cell's count from its equal-spp renders (or ``--replay-counts``)."""
+    budget (its seconds times :func:`time_scale`) takes each cell's count from its
+    equal-spp renders (or ``--replay-counts``)."""
     decl = sp.declaration
     chosen = replace(decl, methods=tuple(m for m in decl.methods if m.name in methods))
     b = next(x for x in decl.budgets if x.name == budget)
+    if b.timed:
+        b = replace(b, seconds=b.seconds * time_scale(sp))
     spp = None
     if b.timed:
         spp = {sp.cell(m, budget): engine.replayed(decl, sp.cell(m, budget)) or
@@ -237,15 +303,13 @@ def live_cells(plans: list[ScenePlan]) -> list[tuple]:
 def timing_groups(sp: ScenePlan, first: tuple, size: int) -> list[list[tuple]]:
     """A scene's cells in groups of at most ``size`` (the methods a process keeps warm on
     its one loaded scene, :data:`.execute.VIEW_CACHE`: a method set up again compiles
-    its kernels again). The
-    methods of ``first`` (the baseline, the timed pair) lead the last group: the baseline
-    is then still loaded from its reference before it, and after it for an extension."""
+    its kernels again). The methods of ``first`` (the baseline, the timed pair) lead the
+    first group: the baseline is then still loaded from its reference, and its equal-spp
+    renders come before any equal-time render (:func:`precision_scale` needs them)."""
     cells = live_cells([sp])
     head = [c for m in dict.fromkeys(first) for c in cells if c[1] == m]
-    rest = [c for c in cells if c not in head]
-    room = max(0, size - len(head))
-    tail, rest = (rest[len(rest) - room:], rest[:len(rest) - room]) if room else ([], rest)
-    return [rest[i:i + size] for i in range(0, len(rest), max(1, size))] + [head + tail]
+    rest = head + [c for c in cells if c not in head]
+    return [rest[i:i + size] for i in range(0, len(rest), max(1, size))]
 
 
 def interleaved(lists: list[list]) -> list:

@@ -268,9 +268,12 @@ def viewer_block(cfg, sp, measured, r: suite_analysis.SceneResult, ref) -> dict:
 # ------------------------------------------------------------------ the section
 
 def scaled(plans) -> str:
-    """The scenes whose header scales the equal-time budget, as text."""
-    return ", ".join(f"{sp.name} {suite_plan.time_scale(sp):g}x" for sp in plans
+    """The scenes whose equal-time budget is scaled (header or precision rule), and those
+    without the precision rule, as text."""
+    text = ", ".join(f"{sp.name} {suite_plan.time_scale(sp):g}x" for sp in plans
                      if suite_plan.time_scale(sp) != 1) or "none"
+    notes = [f"{sp.name}: {sp.precision_note}" for sp in plans if sp.precision_note]
+    return text + ("; no precision rule for " + "; ".join(notes) if notes else "")
 
 
 def intro(cfg, plans, numbers) -> str:
@@ -285,8 +288,10 @@ def intro(cfg, plans, numbers) -> str:
            f"pixels, aspect kept") + "). "
         f"Each cell is rendered {cfg.repeats} times at equal spp ({cfg.spp}) and {cfg.repeats} "
         f"times at equal time (about {cfg.time_budget:g} s of sample work each at the cell's own "
-        f"time per sample, the spp rounded to a power of two; a scene whose header asks for "
-        f"more gets that factor: {scaled(plans)}), independent seeds (a "
+        f"time per sample, the spp rounded to a power of two, times a factor per scene: the "
+        f"larger of its header's budget and what the baseline's error needs to be known to "
+        f"{suite_plan.PRECISION:.1%} from its equal-spp renders, at most "
+        f"{suite_plan.MAX_PRECISION_SCALE}x: {scaled(plans)}), independent seeds (a "
         f"deterministic sampler once). "
         f"Time per sample: the execution time of the renders' kernels (Dr.Jit's kernel "
         f"history: the sample work, without the per-call cost of tracing the integrator and "
