@@ -18,7 +18,7 @@ Time per sample: the execution time of each render's kernels (Dr.Jit's kernel hi
 the sample work, without tracing the integrator or launching kernels, a fixed cost per
 render call that can swamp the samples of a small render), over its samples, per repeat
 summed over both budgets' renders. A scene's cells run in groups of at most the scenes a
-process keeps loaded (the baseline and vr_path bsdf+nee lead the last), their timed
+process keeps loaded (the baseline and vr_path bsdf+nee lead the first), their timed
 renders taking turns. Errors against the reference (from
 :mod:`experiments.lib.references`: rendered once per scene, cached, extended when too noisy)
 with its own expected error subtracted; efficiency over ``--baseline`` (Mitsuba's ``path``:
@@ -348,7 +348,7 @@ def render(cfg: suite_plan.Settings, engine: Engine, refs: references.ReferenceS
     cell (planned by the engine from the scene's declaration), then its reference's extension
     where it is too noisy. A scene's cells go in groups of at most the scenes a process
     keeps loaded (a scene loaded again compiles again), the baseline and the timed pair
-    leading the last group, their timed renders interleaved. Locally scene by scene and
+    leading the first group, their timed renders interleaved. Locally scene by scene and
     group by group (each stays loaded from one step to the next); on a cluster every
     scene's step at once (they fan out)."""
     live = [sp for sp in plans if not sp.error]

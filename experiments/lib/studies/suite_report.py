@@ -298,7 +298,7 @@ def intro(cfg, plans, numbers) -> str:
         f"launching kernels, listed as 'per call') over their samples, per repeat summed "
         f"over both budgets; the time budget is in the same seconds. A scene's methods are "
         f"timed in groups of at most {VIEW_CACHE} (the methods a process keeps warm), the "
-        f"baseline and {suite_analysis.TIMED_PAIR[0]} leading the last, their renders taking "
+        f"baseline and {suite_analysis.TIMED_PAIR[0]} leading the first, their renders taking "
         f"turns; the "
         f"intervals count the spread of the repeats, not a drift of the machine's load "
         f"between groups. "
