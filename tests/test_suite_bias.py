@@ -30,6 +30,7 @@ class FakeMethod:
     name: str = "mine"
     sampler: str = "independent"
     deterministic: bool = False
+    learns: bool = False
 
 
 def renders(rng, mu, k, spp, factor=1.0):
@@ -166,3 +167,14 @@ def test_a_power_from_a_heavy_tailed_calibration_cell_is_indicative_only():
     assert "indicative only" in R.bias_finding([heavy])
     # negative control: a testable calibration cell's power is stated plainly
     assert "indicative" not in R.bias_words(light) + R.bias_finding([light])
+
+
+def test_a_method_that_learns_is_tested_on_its_renders_spread_not_its_pixels():
+    """A learned guide is shared by every pixel of a render: its pixels are not independent
+    estimates, so its blocks' variances come from the spread of its renders."""
+    assert suite_bias.variance_kind(FakeMethod(), True) == "pixels"
+    assert suite_bias.variance_kind(FakeMethod(learns=True), True) == "renders"
+    assert suite_bias.variance_kind(FakeMethod(sampler="halton"), True) == "renders"
+    from experiments.lib.methods import parse_method
+    assert parse_method("guided+nee").learns and not parse_method("bsdf+nee").learns
+    assert not parse_method("path").learns

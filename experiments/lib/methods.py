@@ -82,6 +82,13 @@ class Method:
         return PATH if self.strategy is None else _strategies.integrator_type(self.strategy)
 
     @property
+    def learns(self) -> bool:
+        """Its strategy learns from the render's own samples between passes (its integrator
+        is not ``vr_path``, e.g. ``guided``): its pixels share what was learned, so they are
+        not independent estimates."""
+        return self.strategy is not None and self.integrator != "vr_path"
+
+    @property
     def sampler_spec(self) -> samplers.SamplerSpec:
         return samplers.get(self.sampler)
 

@@ -89,8 +89,11 @@ def box_filter(path: str) -> bool:
 
 
 def variance_kind(method, box: bool) -> str:
-    """``pixels`` for the independent sampler under a box filter, else ``renders``."""
-    return "pixels" if box and method.sampler == samplers.DEFAULT else "renders"
+    """``pixels`` for the independent sampler under a box filter (each pixel an independent
+    estimate), else ``renders``: a QMC sampler, a wider filter, or a method that learns
+    from the render's own samples (its pixels share the learned guide)."""
+    return "pixels" if box and method.sampler == samplers.DEFAULT and not method.learns \
+        else "renders"
 
 
 def reference_chunks(refs, spec) -> np.ndarray | None:
