@@ -154,9 +154,9 @@ MUTANTS = [
            ("tests/test_lab_checks.py::test_mass_is_compared_with_the_share_drawn_not_with_one",
             "tests/test_lab_checks.py")),
     Mutant("integrator-kept", "experiments/lib/execute.py",
-           "    return mi.load_dict(job.method.integrator_dict(job_depth(job)))",
-           "    return fresh_integrator.__dict__.setdefault(\n"
-           "        job.method.name, mi.load_dict(job.method.integrator_dict(job_depth(job))))",
+           "    integrator = mi.load_dict(spec)",
+           "    integrator = fresh_integrator.__dict__.setdefault(job.method.name,\n"
+           "                                                      mi.load_dict(spec))",
            "one integrator kept per method across jobs (a learning method starts its second "
            "job trained)",
            ("tests/test_clock.py",)),
@@ -238,4 +238,23 @@ MUTANTS = [
            "the run's bias tests each at 1%, the Sidak correction over the run's cells not "
            "applied (about one false 'biased' per 100 cells)",
            ("tests/test_suite_bias.py",)),
+    Mutant("bias-learned-pixels", "experiments/lib/studies/suite_bias.py",
+           "    return \"pixels\" if box and method.sampler == samplers.DEFAULT and not method.learns \\",
+           "    return \"pixels\" if box and method.sampler == samplers.DEFAULT \\",
+           "a method that learns from its own samples tested on its pixels' spread (they share "
+           "the learned guide: its blocks' variances too small, false 'biased')",
+           ("tests/test_suite_bias.py",)),
+    # ------------------------------------------------------------ the suite's errors
+    Mutant("moments-count-missing", "experiments/lib/execute.py",
+           "        sq += k * (m2 if per_sample else image * image)",
+           "        sq += (m2 if per_sample else k * image * image)",
+           "the samples' mean squares added without their count: the per-pixel variances "
+           "of a vr_moments render wrong by the sample count",
+           ("tests/test_suite_errors.py",)),
+    Mutant("precision-scale-linear", "experiments/lib/studies/suite_plan.py",
+           "    scale = (error / precision) ** 2",
+           "    scale = error / precision",
+           "the precision rule's factor not squared (the standard error falls as "
+           "1/sqrt(samples)): scenes ruled by rare samples get too few",
+           ("tests/test_suite_errors.py",)),
 ]
