@@ -178,6 +178,29 @@ def test_scenes_folder_with_include_and_path(tmp_path):
     assert summary["failed_scenes"] == {}
 
 
+def test_a_scenes_header_methods_leave_the_others_out(tmp_path):
+    """A scene whose header says ``methods: bsdf`` renders bsdf and the baseline alone; the
+    report says which methods it left out and why; a scene without it renders them all."""
+    text = open(FURNACE).read()
+    (tmp_path / "only.xml").write_text(text.replace("  over:", "  methods: bsdf\n  over:", 1))
+    shutil.copy(FURNACE, tmp_path / "all.xml")
+    out = tmp_path / "r"
+    S.STUDY.main(QUICK + ["--out", str(out), "--scenes", str(tmp_path),
+                          "--methods", "bsdf,bsdf+nee,path"])
+    summary = _summary(out)
+    cells = {(c["scene"], c["method"]) for c in summary["cells"]}
+    assert {m for s, m in cells if s == "only"} == {"bsdf", "path"}
+    assert {m for s, m in cells if s == "all"} == {"bsdf", "bsdf+nee", "path"}
+    scene = {s["name"]: s for s in summary["scenes"]}
+    assert list(scene["only"]["left_out"]) == ["bsdf+nee"]
+    assert "header methods (bsdf)" in scene["only"]["left_out"]["bsdf+nee"]
+    assert scene["all"]["left_out"] == {}
+    rows = {r.split(",")[0]: r for r in (out / "suite" / "matrix.csv").read_text().splitlines()}
+    assert "left out" in rows["only"] and "left out" not in rows["all"]
+    page = json.loads((out / "suite" / "section.json").read_text())
+    assert any("left out here are bsdf+nee" in b.get("text", "") for b in page["blocks"])
+
+
 @pytest.mark.parametrize("argv, message", [
     (["--scenes", "/no/such/folder"], "neither a folder nor a scene file"),
     (["--scenes", "EMPTY"], "holds no *.xml"),
