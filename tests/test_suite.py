@@ -319,6 +319,14 @@ def test_equal_time_count_is_the_budgets_power_of_two(tmp_path):
     assert count(0.1 / 17) == 16
     assert count(10.0) == 1
     assert count(1e-9) == S.suite_plan.MAX_EQUAL_TIME_SPP
+    # a learning method's host work between passes is a fixed cost per job: taken off the
+    # budget, not spread over the 16 samples (which would give it a quarter of the count)
+    learned = engine.equal_time_spp(budget, [[SimpleNamespace(
+        spp=16, kernel_seconds=16 * 0.05 / 64, host_seconds=0.05, wall_seconds=0.0)]])
+    assert learned == 64                       # (0.1 - 0.05) / (0.05 / 64 per sample)
+    spread = engine.equal_time_spp(budget, [[SimpleNamespace(
+        spp=16, kernel_seconds=16 * 0.05 / 64 + 0.05, host_seconds=0.0, wall_seconds=0.0)]])
+    assert spread == 32                        # negative control: the same cost as kernel time
 
 
 def test_crop_boxes_follow_the_data():
