@@ -33,6 +33,11 @@ time; the wall-clock ratio is given next to it. On the default scene
 6. (:mod:`benchmarks.cluster`) Dask with one worker over the local loop on the
    default convergence study (target <= 1.10 wall time), and the speed-up of
    two workers on a reference split into jobs.
+7. (:mod:`benchmarks.guiding`) ``guided+nee`` over ``path`` on the door-lit room
+   (``scenes/suite/door_room.xml``, 64x48, 5 repeats): efficiency at path's time (path
+   1024 spp, guided's training counted by the executor's one clock) with its interval
+   (target >= 3, issue 31), guided's time per sample after training over path's, and the
+   training's share of guided's time.
 
 Usage: ``python -m benchmarks.run [--reps 11] [--spp 8] [--rss-full] ...``
 """
@@ -54,6 +59,7 @@ from experiments.lib import files
 
 from . import cluster
 from . import common
+from . import guiding
 from . import halton
 from .common import dr, mi
 
@@ -255,6 +261,9 @@ def build_rows(res: dict, args) -> list[list[str]]:
     cl = res.get("cluster")
     if cl:
         rows += cl["rows"]
+    gd = res.get("guiding")
+    if gd:
+        rows += guiding.rows(gd)
     cp = res.get("compile")
     if cp:
         for n, c in cp["cold"].items():
@@ -310,6 +319,9 @@ def markdown(rows: list[list[str]], res: dict) -> str:
         # a paragraph of its own: right below the sampler table, a line is a table row
         notes += ["", "Kernels recompiled over two further passes (new seed, new sample offset): "
                   + ", ".join(f"{n} {v}" for n, v in rc.items()) + "."]
+    gd = res.get("guiding")
+    if gd:
+        notes += ["", guiding.note(gd)]
     return "\n".join(lines + notes) + "\n"
 
 
@@ -341,10 +353,10 @@ def parse_args(argv=None):
     p.add_argument("--rss-full", action="store_true",
                    help="peak RSS at 1000 and 100 spp (about 15 minutes on 2 cores)")
     p.add_argument("--skip", default="", help="comma-separated parts to skip: "
-                   "vs_path,halton,halton_native,segments,rss,cluster,compile")
+                   "vs_path,halton,halton_native,segments,rss,cluster,guiding,compile")
     p.add_argument("--quick", action="store_true",
-                   help="smaller images and fewer rounds for the halton_native and cluster "
-                        "parts (checks that they run; not figures to quote)")
+                   help="smaller images and fewer rounds for the halton_native, cluster and "
+                        "guiding parts (checks that they run; not figures to quote)")
     p.add_argument("--out", default=os.path.join(common.ROOT, "results"))
     p.add_argument("--update-docs", action="store_true",
                    help="also put the table into docs/benchmarks.md (make bench does; by "
@@ -363,7 +375,8 @@ def main(argv=None) -> None:
            "settings": {k: (sorted(v) if isinstance(v, set) else v) for k, v in vars(args).items()}}
     parts = [("vs_path", bench_vs_path), ("halton", bench_halton),
              ("halton_native", lambda a: halton.measure(a.quick)), ("segments", bench_segments),
-             ("rss", bench_rss), ("cluster", lambda a: {"rows": cluster.rows(quick=a.quick)})]
+             ("rss", bench_rss), ("cluster", lambda a: {"rows": cluster.rows(quick=a.quick)}),
+             ("guiding", lambda a: guiding.measure(**guiding.quick_settings(a.quick)))]
     for name, fn in parts:
         if name in args.skip:
             continue

@@ -95,6 +95,30 @@ def _on_variant_change(old: str | None, new: str | None) -> None:
                       f"variant such as 'llvm_ad_rgb'.", stacklevel=2)
 
 
+class _VariantStrategy:
+    """The registry's entry for a strategy whose class a plugin module defines per variant
+    (``guided``, in :mod:`.guiding`), until a variant is set and that module registers the
+    class in its place: its name and its integrator are known before, so that method names
+    such as ``guided+nee`` parse (and a suite's default methods are the same) whether or
+    not a variant is set yet."""
+
+    def __init__(self, name: str, module: str, integrator_type: str):
+        self.name, self.module, self.integrator_type = name, module, integrator_type
+
+    def __call__(self):
+        raise RuntimeError(f"strategy {self.name!r} is defined in integrators.{self.module} "
+                           f"when a Mitsuba variant is set: call mi.set_variant(...) first")
+
+    def __repr__(self) -> str:
+        return f"<strategy {self.name!r} of integrators.{self.module}, defined per variant>"
+
+
+#: Strategies defined by a plugin module per variant: (name, module, integrator type).
+VARIANT_STRATEGIES = (("guided", "guiding", "vr_guided_path"),)
+for _name, _module, _integrator in VARIANT_STRATEGIES:
+    if _name not in strategies.names():
+        strategies.register(_name, _VariantStrategy(_name, _module, _integrator))
+
 if mi.variant() is not None:
     register()
 mi.detail.add_variant_callback(_on_variant_change)

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import atexit
 import contextlib
+import fnmatch
 import math
 import re
 from dataclasses import dataclass
@@ -25,7 +26,10 @@ NAMES = ("cbox.xml", "furnace.xml")
 SUITE = "suite"
 #: Keys of a scene's suite header that it must give, and the ones it may give.
 HEADER_KEYS = ("isolates", "hypothesis", "favours", "over")
-HEADER_OPTIONAL = ("exact", "budget")
+HEADER_OPTIONAL = ("exact", "budget", "methods")
+#: Characters of a method-name pattern (``methods``, ``favours``, ``over``): the method
+#: grammar's (letters, digits, ``_``, ``+``, ``:``) and :mod:`fnmatch`'s wildcards.
+_PATTERN = re.compile(r"[A-Za-z0-9_+:*?\[\]!-]+\Z")
 
 _files = contextlib.ExitStack()
 atexit.register(_files.close)
@@ -75,6 +79,10 @@ class Header:
     equal-time budget for this scene (``budget: 8x``, header text; 1 without): a
     scene whose error is ruled by rare samples (caustic fireflies, a light
     smaller than a pixel) needs more of them for a decisive interval.
+    ``methods`` are method-name patterns: the scene renders only the run's methods that
+    match one (and the run's baseline); empty (no ``methods`` line): every method. A
+    scene that isolates what one costly method is for (path guiding, which needs a long
+    budget to pay for its training) renders that method and its rivals alone.
     """
     isolates: str
     hypothesis: str
@@ -82,6 +90,12 @@ class Header:
     over: tuple[str, ...]
     exact: float | None = None
     budget: float = 1.0
+    methods: tuple[str, ...] = ()
+
+    def renders(self, method: str) -> bool:
+        """Whether the scene renders the method named ``method`` (its ``methods``
+        patterns; every method without them; the baseline is the caller's to keep)."""
+        return not self.methods or any(fnmatch.fnmatchcase(method, p) for p in self.methods)
 
 
 _COMMENT = re.compile(r"<!--(.*?)-->", re.DOTALL)
@@ -101,8 +115,9 @@ def parse_header(text: str, source: str = "<scene>") -> Header | None:
     by one indented ``key: value`` line per key of :data:`HEADER_KEYS` (and
     optionally :data:`HEADER_OPTIONAL`); pattern lists are comma-separated.
     A header with a line of another form, an unknown, repeated, missing or
-    empty key, an ``exact`` that is not a number or a ``budget`` that is not a
-    positive factor raises ValueError naming ``source``.
+    empty key, an ``exact`` that is not a number, a ``budget`` that is not a
+    positive factor or a ``methods`` entry that is not a method-name pattern raises
+    ValueError naming ``source``.
     """
     for comment in _COMMENT.findall(text):
         lines = [line for line in comment.splitlines() if line.strip()]
@@ -138,7 +153,8 @@ def parse_header(text: str, source: str = "<scene>") -> Header | None:
             raise ValueError(f"{source}: suite header 'exact' is {exact!r}, "
                              f"not a number") from None
     return Header(entries["isolates"], entries["hypothesis"], _patterns(entries["favours"]),
-                  _patterns(entries["over"]), exact, _budget(entries.get("budget"), source))
+                  _patterns(entries["over"]), exact, _budget(entries.get("budget"), source),
+                  _methods(entries.get("methods"), source))
 
 
 def _budget(value: str | None, source: str) -> float:
@@ -154,6 +170,23 @@ def _budget(value: str | None, source: str) -> float:
                          f"the suite's equal-time budget such as '4x' (above 0, at most "
                          f"1000x)")
     return scale
+
+
+def _methods(value: str | None, source: str) -> tuple[str, ...]:
+    """The header's ``methods``: comma-separated method-name patterns (none without)."""
+    if value is None:
+        return ()
+    patterns = _patterns(value)
+    if not patterns:
+        raise ValueError(f"{source}: suite header 'methods' is {value!r}, which names no "
+                         f"method; give comma-separated method-name patterns such as "
+                         f"'path, bsdf+nee, guided+nee*'")
+    for p in patterns:
+        if not _PATTERN.match(p):
+            raise ValueError(f"{source}: suite header 'methods' entry {p!r} is not a "
+                             f"method-name pattern: use letters, digits, '_', '+', ':' "
+                             f"and the wildcards '*', '?', '[...]' (e.g. 'guided+nee*')")
+    return patterns
 
 
 def _patterns(value: str) -> tuple[str, ...]:

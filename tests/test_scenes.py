@@ -20,9 +20,11 @@ from integrators.choices import STRATEGIES
 SUITE = scenes.suite_names()
 #: The suite's default method names (experiments' grammar: STRATEGY[+nee][+SAMPLER],
 #: ``path`` for Mitsuba's path tracer): every vr_path strategy with and without NEE,
-#: bsdf+nee with a sampler, and path.
+#: path guiding with NEE, bsdf+nee with a sampler, and path.
 METHODS = (list(STRATEGIES) + [f"{s}+nee" for s in STRATEGIES]
-           + ["bsdf+nee+independent", "path"])
+           + ["guided+nee", "bsdf+nee+independent", "path"])
+#: The suite scenes that isolate what path guiding is for (their header's methods).
+GUIDING = ("suite/door_room.xml", "suite/glossy_indirect.xml", "suite/hidden_lamp.xml")
 #: The $ parameters every suite scene declares with a <default> (the suite sets them).
 PARAMETERS = ("width", "height", "spp", "max_depth", "strategy", "emitter_sampling",
               "sampler")
@@ -46,16 +48,21 @@ def problems(text: str, source: str = "<scene>") -> list:
     if header is None:
         return [f"{source}: no suite header"]
     found = []
-    for key in ("favours", "over"):
+    for key in ("favours", "over", "methods"):
         patterns = getattr(header, key)
-        if not patterns:
+        if not patterns and key != "methods":
             found.append(f"{source}: '{key}' lists no pattern")
         for pattern in patterns:
             if not fnmatch.filter(METHODS, pattern):
                 found.append(f"{source}: {key} pattern {pattern!r} matches no method "
                              f"(methods: {', '.join(METHODS)})")
-    favoured = {m for p in header.favours for m in fnmatch.filter(METHODS, p)}
-    beaten = {m for p in header.over for m in fnmatch.filter(METHODS, p)}
+    rendered = [m for m in METHODS if m == "path" or header.renders(m)]
+    favoured = {m for p in header.favours for m in fnmatch.filter(rendered, p)}
+    beaten = {m for p in header.over for m in fnmatch.filter(rendered, p)}
+    for key, found_methods in (("favours", favoured), ("over", beaten)):
+        if getattr(header, key) and not found_methods:
+            found.append(f"{source}: '{key}' names only methods that its 'methods' leaves "
+                         f"out ({', '.join(header.methods)})")
     if favoured & beaten:
         found.append(f"{source}: {', '.join(sorted(favoured & beaten))} both favoured and over")
     return found
@@ -123,12 +130,39 @@ def test_header_check_accepts_a_good_header():
     (GOOD.replace("-->", "  exact: two\n-->"), "'exact' is 'two'"),
     (GOOD.replace("  isolates: a thing", "isolates a thing"), "not an indented"),
     (GOOD.replace("suite:\n", ""), "no suite header"),
+    (GOOD.replace("-->", "  methods: bsdf*, halton\n-->"), "methods pattern 'halton' matches"),
+    (GOOD.replace("-->", "  methods: cosine, uniform\n-->"), "'favours' names only methods"),
+    (GOOD.replace("-->", "  methods: , ,\n-->"), "'methods' is ', ,', which names no method"),
+    (GOOD.replace("-->", "  methods: bsdf nee\n-->"), "'bsdf nee' is not a method-name pattern"),
+    (GOOD.replace("-->", "  methods:\n-->"), "'methods' is empty"),
 ])
 def test_header_check_catches(broken, message):
     """Negative controls: each defect is reported by the same check the scenes pass."""
     found = problems(broken)
     assert found, broken
     assert any(re.search(message, p) for p in found), found
+
+
+def test_methods_key_keeps_the_methods_it_names():
+    header = scenes.parse_header(GOOD.replace("-->", "  methods: path, bsdf+nee, guided+nee*\n-->"))
+    assert header.methods == ("path", "bsdf+nee", "guided+nee*")
+    assert [m for m in METHODS if header.renders(m)] == ["bsdf+nee", "guided+nee", "path"]
+    assert header.renders("guided+nee+halton:owen") and not header.renders("bsdf")
+    every = scenes.parse_header(GOOD)
+    assert every.methods == () and all(every.renders(m) for m in METHODS)
+
+
+def test_bad_methods_name_the_value_and_the_valid_form():
+    with pytest.raises(ValueError, match=r"mine\.xml: suite header 'methods' entry 'a/b' is "
+                                         r"not a method-name pattern.*'\*'"):
+        scenes.parse_header(GOOD.replace("-->", "  methods: path, a/b\n-->"), "mine.xml")
+
+
+def test_guiding_scenes_render_guiding_and_its_rivals_at_a_longer_budget():
+    for name in GUIDING:
+        header = scenes.header(scenes.path(name))
+        assert header.methods == ("path", "bsdf+nee", "guided+nee*"), name
+        assert header.favours == ("guided+nee*",) and header.budget > 1, name
 
 
 def test_only_the_furnace_claims_an_exact_value():
@@ -165,8 +199,12 @@ def test_loads_with_its_defaults_and_with_overrides(name):
 
 @pytest.mark.parametrize("name", SUITE)
 def test_renders_with_vr_path_and_with_mitsubas_path_swapped_in(name):
-    """At the scene's own max_depth, both integrators give a finite image that is not black."""
-    scene = mi.load_file(scenes.path(name), width=16, height=12, spp=4)
+    """At the scene's own max_depth, both integrators give a finite image that is not black
+    (the guiding scenes, lit through one bounce off a small region, with NEE and 16 spp:
+    BSDF sampling alone rarely finds their light at 4)."""
+    guiding = name in GUIDING
+    scene = mi.load_file(scenes.path(name), width=16, height=12, spp=16 if guiding else 4,
+                         emitter_sampling=guiding)
     path = mi.load_dict({"type": "path", "max_depth": scene.integrator().max_depth})
     for integrator in (scene.integrator(), path):
         img = np.array(mi.render(scene, integrator=integrator, seed=1))
@@ -225,3 +263,48 @@ def test_furnace_check_sees_a_wrong_albedo():
     """Negative control: a 4% error (albedo 0.52 rendered, 0.5's value claimed) fails."""
     file = scenes.path("suite/furnace.xml")
     assert not furnace_agrees(file, scenes.header(file).exact, albedo=0.52)
+
+
+# ------------------------------------------------------------------ guiding scenes
+
+#: Per guiding scene: where its camera's first hits must get no light sample through
+#: (the room: NEE cannot see the light), and where some must (what the light lights
+#: directly, seen from the camera): functions of the hit points (x, y, z), numpy arrays.
+HIDDEN = {
+    "suite/door_room.xml": (lambda x, y, z: x < 1.9, lambda x, y, z: x > 2.1),
+    "suite/hidden_lamp.xml": (lambda x, y, z: z > -1.9, lambda x, y, z: (z < -1.99) &
+                              (abs(x) < 0.5) & (abs(y - 1.3) < 0.3)),
+    "suite/glossy_indirect.xml": (lambda x, y, z: y < 0.01, lambda x, y, z: y > 1.99),
+}
+
+
+def light_samples_reaching(file: str, width=48, height=36, per_pixel=64):
+    """First hits of the camera's pixel-centre rays, and per pixel whether any of
+    ``per_pixel`` light samples from the hit (Mitsuba's emitter sampling, visibility
+    tested) carries light: (x, y, z, reached), each (height, width)."""
+    scene = mi.load_file(file, width=width, height=height)
+    sensor = scene.sensors()[0]
+    px = np.repeat(np.arange(width * height), per_pixel)
+    u = ((px % width) + 0.5) / width
+    v = ((px // width) + 0.5) / height
+    ray, _ = sensor.sample_ray(0.0, 0.5, mi.Point2f(u, v), mi.Point2f(0.5, 0.5))
+    si = scene.ray_intersect(ray)
+    rng = np.random.default_rng(5)
+    sample = mi.Point2f(*(rng.random(px.size).astype(np.float32) for _ in range(2)))
+    _, weight = scene.sample_emitter_direction(si, sample, True, si.is_valid())
+    w = np.array(weight).max(axis=0)                   # (channels, lanes)
+    reached = (w.reshape(-1, per_pixel) > 0).any(axis=1).reshape(height, width)
+    p = [np.array(c).reshape(-1, per_pixel)[:, 0].reshape(height, width) for c in si.p]
+    return (*p, reached)
+
+
+@pytest.mark.parametrize("name", sorted(HIDDEN))
+def test_light_samples_from_the_room_never_reach_the_light(name):
+    """The guiding scenes' premise: no light sample from the hidden region reaches the
+    light, while light samples from what it lights directly do (positive control)."""
+    hidden, lit = HIDDEN[name]
+    x, y, z, reached = light_samples_reaching(scenes.path(name))
+    room, seen = hidden(x, y, z), lit(x, y, z)
+    assert room.mean() > 0.4, "the camera sees the hidden region"
+    assert not reached[room].any(), f"{reached[room].sum()} room pixels see the light"
+    assert seen.any() and reached[seen].mean() > 0.5, "the lit region is seen and lit"

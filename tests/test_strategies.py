@@ -123,13 +123,19 @@ def test_builtin_strategies_in_order_and_as_objects():
 
 
 def test_registry_is_usable_before_a_variant_is_set():
-    """Names are listed, and a user strategy defined and registered, before
-    mi.set_variant; it renders by name once a variant is set."""
+    """Names are listed (``guided`` too: its class comes with a variant, its name and
+    integrator before, so that ``guided+nee`` parses), and a user strategy defined and
+    registered, before mi.set_variant; it renders by name once a variant is set."""
     code = (
         "import integrators, mitsuba as mi\n"
         "from integrators import strategies, choices\n"
         "assert mi.variant() is None\n"
         "print(strategies.names(), choices.STRATEGIES)\n"
+        "print(strategies.integrator_type('guided'))\n"
+        "try:\n"
+        "    strategies.get('guided')\n"
+        "except RuntimeError as e:\n"
+        "    print('set_variant' in str(e))\n"
         "class Cos(strategies.Strategy):\n"
         "    def sample(self, bsdf, ctx, si, s1, s2, active):\n"
         "        return strategies.cosine.sample(bsdf, ctx, si, s1, s2, active)\n"
@@ -146,8 +152,8 @@ def test_registry_is_usable_before_a_variant_is_set():
                             text=True, timeout=300)
     assert result.returncode == 0, result.stderr
     assert result.stdout.splitlines() == [
-        "('uniform', 'cosine', 'bsdf', 'mis') ('uniform', 'cosine', 'bsdf', 'mis')",
-        "Cos True"]
+        "('uniform', 'cosine', 'bsdf', 'mis', 'guided') ('uniform', 'cosine', 'bsdf', 'mis')",
+        "vr_guided_path", "True", "Cos True"]
 
 
 def test_an_object_is_shared_and_a_factory_makes_one_per_vr_path():

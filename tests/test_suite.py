@@ -178,6 +178,29 @@ def test_scenes_folder_with_include_and_path(tmp_path):
     assert summary["failed_scenes"] == {}
 
 
+def test_a_scenes_header_methods_leave_the_others_out(tmp_path):
+    """A scene whose header says ``methods: bsdf`` renders bsdf and the baseline alone; the
+    report says which methods it left out and why; a scene without it renders them all."""
+    text = open(FURNACE).read()
+    (tmp_path / "only.xml").write_text(text.replace("  over:", "  methods: bsdf\n  over:", 1))
+    shutil.copy(FURNACE, tmp_path / "all.xml")
+    out = tmp_path / "r"
+    S.STUDY.main(QUICK + ["--out", str(out), "--scenes", str(tmp_path),
+                          "--methods", "bsdf,bsdf+nee,path"])
+    summary = _summary(out)
+    cells = {(c["scene"], c["method"]) for c in summary["cells"]}
+    assert {m for s, m in cells if s == "only"} == {"bsdf", "path"}
+    assert {m for s, m in cells if s == "all"} == {"bsdf", "bsdf+nee", "path"}
+    scene = {s["name"]: s for s in summary["scenes"]}
+    assert list(scene["only"]["left_out"]) == ["bsdf+nee"]
+    assert "header methods (bsdf)" in scene["only"]["left_out"]["bsdf+nee"]
+    assert scene["all"]["left_out"] == {}
+    rows = {r.split(",")[0]: r for r in (out / "suite" / "matrix.csv").read_text().splitlines()}
+    assert "left out" in rows["only"] and "left out" not in rows["all"]
+    page = json.loads((out / "suite" / "section.json").read_text())
+    assert any("left out here are bsdf+nee" in b.get("text", "") for b in page["blocks"])
+
+
 @pytest.mark.parametrize("argv, message", [
     (["--scenes", "/no/such/folder"], "neither a folder nor a scene file"),
     (["--scenes", "EMPTY"], "holds no *.xml"),
@@ -296,6 +319,14 @@ def test_equal_time_count_is_the_budgets_power_of_two(tmp_path):
     assert count(0.1 / 17) == 16
     assert count(10.0) == 1
     assert count(1e-9) == S.suite_plan.MAX_EQUAL_TIME_SPP
+    # a learning method's host work between passes is a fixed cost per job: taken off the
+    # budget, not spread over the 16 samples (which would give it a quarter of the count)
+    learned = engine.equal_time_spp(budget, [[SimpleNamespace(
+        spp=16, kernel_seconds=16 * 0.05 / 64, host_seconds=0.05, wall_seconds=0.0)]])
+    assert learned == 64                       # (0.1 - 0.05) / (0.05 / 64 per sample)
+    spread = engine.equal_time_spp(budget, [[SimpleNamespace(
+        spp=16, kernel_seconds=16 * 0.05 / 64 + 0.05, host_seconds=0.0, wall_seconds=0.0)]])
+    assert spread == 32                        # negative control: the same cost as kernel time
 
 
 def test_crop_boxes_follow_the_data():

@@ -51,6 +51,14 @@ def total(results: Iterable) -> float:
     return float(sum(cost(r) for r in results))
 
 
+def fixed(result) -> float:
+    """The part of an image's cost (:func:`cost`) that does not grow with its samples: the
+    method's host work between passes (reading records, refining and uploading a guide),
+    about the same per job whatever its count. A count that fits a time budget is
+    extrapolated from the rest (:meth:`.engine.Engine.equal_time_spp`)."""
+    return float(result.host_seconds)
+
+
 def overhead(result) -> float:
     """Seconds of a render that the clock does not count: tracing, launching, waiting (its
     wall-clock time less its cost; never negative)."""

@@ -256,9 +256,13 @@ class Engine:
 
     def equal_time_spp(self, budget: Budget, measured: list) -> int:
         """Samples per pixel that cost ``budget.seconds`` at the cost per sample of the
-        ``measured`` renders (each repeat's, averaged)."""
-        per_sample = np.mean([clock.total(rs) / sum(r.spp for r in rs) for rs in measured])
-        spp = budget.seconds / max(float(per_sample), 1e-12)
+        ``measured`` renders (each repeat's, averaged), their fixed cost per job
+        (:func:`.clock.fixed`: a learning method's host work between passes, which a short
+        render would otherwise spread over its few samples) taken off the budget first."""
+        fixed = np.mean([sum(clock.fixed(r) for r in rs) / len(rs) for rs in measured])
+        per_sample = np.mean([(clock.total(rs) - sum(clock.fixed(r) for r in rs)) /
+                              sum(r.spp for r in rs) for rs in measured])
+        spp = (budget.seconds - float(fixed)) / max(float(per_sample), 1e-12)
         if budget.power_of_two:
             spp = 2 ** max(0, round(math.log2(max(spp, 1.0))))
         spp = max(1, int(spp))

@@ -41,6 +41,7 @@ from experiments.lib import references
 from experiments.lib import samplers
 from experiments.lib import scenes
 from experiments.lib.methods import parse_method, strategies
+from integrators.strategies import integrator_type
 from experiments.lib.studies import StudySpec, register_study
 from experiments.lib.studies import suite_analysis
 from experiments.lib.studies import suite_bias
@@ -74,9 +75,10 @@ PRESETS = {
 # ------------------------------------------------------------------ options
 
 def default_methods() -> list[str]:
-    """Every vr_path strategy with and without NEE, then Mitsuba's path."""
-    names = list(strategies())
-    return [n for s in names for n in (s, f"{s}+nee")] + ["path"]
+    """Every vr_path strategy with and without NEE, every strategy that learns (its own
+    integrator, e.g. ``guided``) with NEE only, then Mitsuba's path."""
+    return [n for s in strategies() for n in
+            ((s, f"{s}+nee") if integrator_type(s) == "vr_path" else (f"{s}+nee",))] + ["path"]
 
 
 def scene_files(text: str) -> list[str]:
@@ -314,7 +316,8 @@ def comparable(cfg: suite_plan.Settings, sp) -> str:
         return f"the baseline {cfg.baseline} failed: {why}"
     if len(ok) < 2:
         return "only the baseline rendered: " + "; ".join(
-            f"{m}: {e}" for m, e in sp.failed.items())
+            [f"{m}: {e}" for m, e in sp.failed.items()] +
+            [f"its header leaves out {', '.join(sp.left_out)}"] * bool(sp.left_out))
     return ""
 
 

@@ -13,6 +13,7 @@ where too noisy, or the user's EXR) into the numbers of the pure analysis
 """
 from __future__ import annotations
 
+import fnmatch
 import math
 import os
 from dataclasses import dataclass, field, replace
@@ -100,6 +101,7 @@ class ScenePlan:
     precision_note: str = ""                      # why there is none
     jobs: dict = field(default_factory=dict)      # {budget: {Cell: [per repeat: [Job]]}}
     failed: dict = field(default_factory=dict)    # {method name: error}
+    left_out: dict = field(default_factory=dict)  # {method name: why} (header ``methods``)
 
     @property
     def methods(self) -> list[str]:
@@ -180,12 +182,32 @@ def plan_scenes(cfg: Settings) -> list[ScenePlan]:
             chunk = references.chunk_spp_for(sp.width, sp.height, cfg.reference_typical_spp)
             sp.ref = references.RefSpec(sp.info, sp.width, sp.height, sp.depth,
                                         cfg.reference_method, cfg.variant, chunk)
+        sp.left_out = left_out(cfg, sp.header)
         sp.declaration = declaration(cfg, sp)
     return plans
 
 
+def left_out(cfg: Settings, header) -> dict:
+    """{method name: why} of the run's methods that the scene's header ``methods`` leaves
+    out (the baseline is always kept: every efficiency is relative to it)."""
+    if header is None or not header.methods:
+        return {}
+    why = f"not among the scene's header methods ({', '.join(header.methods)})"
+    return {m.name: why for m in cfg.methods
+            if m.name != cfg.baseline.name and not header.renders(m.name)}
+
+
+def unmatched(cfg: Settings, header) -> list[str]:
+    """The header's ``methods`` patterns that match none of the run's methods."""
+    if header is None:
+        return []
+    return [p for p in header.methods
+            if not any(fnmatch.fnmatchcase(m.name, p) for m in cfg.methods)]
+
+
 def declaration(cfg: Settings, sp: ScenePlan) -> Declaration:
-    """The scene as the engine's declaration: every method, R repeats, equal spp, then equal
+    """The scene as the engine's declaration: every method (but those its header's
+    ``methods`` leave out, :func:`left_out`), R repeats, equal spp, then equal
     time at the cost per sample the equal-spp renders measured (the count rounded to the
     nearest power of two: Mitsuba renders a power-of-two count with another kernel than any
     other count, this keeps one kernel per cell; at most :data:`MAX_EQUAL_TIME_SPP`). Job
@@ -194,8 +216,8 @@ def declaration(cfg: Settings, sp: ScenePlan) -> Declaration:
     with its samples' per-pixel second moments (``sample_moments``: spp - 1 degrees of
     freedom per pixel for its variance, :mod:`.suite_errors`)."""
     return Declaration(
-        NAME, tuple(cfg.methods), (SceneSetup(sp.name, sp.info, (sp.width, sp.height),
-                                              sp.depth),),
+        NAME, tuple(m for m in cfg.methods if m.name not in sp.left_out),
+        (SceneSetup(sp.name, sp.info, (sp.width, sp.height), sp.depth),),
         (Budget.equal_spp(cfg.spp, SPP),
          Budget.equal_time(cfg.time_budget, SPP, TIME, power_of_two=True,
                            max_spp=MAX_EQUAL_TIME_SPP)), cfg.repeats,

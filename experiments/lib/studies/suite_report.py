@@ -141,17 +141,21 @@ def findings(results: list, failed_scenes: dict) -> list[str]:
 
 # ------------------------------------------------------------------ the matrix
 
-def matrix(results: dict, methods: list[str]) -> tuple[list, list, list, list]:
+def matrix(results: dict, methods: list[str],
+           left_out: dict | None = None) -> tuple[list, list, list, list]:
     """(values, heatmap texts, marks, table rows) of the scene x method matrix of
-    equal-time efficiency over the baseline."""
+    equal-time efficiency over the baseline (``left_out``: {scene: {method: why}}, the
+    methods a scene's header leaves out, shown as 'left out')."""
     values, texts, marks, rows = [], [], [], []
     for name, r in results.items():
         v, t, k, row = [], [], [], [name]
         for m in methods:
             c = r.cells.get(m)
             if c is None:
-                v.append(math.nan), t.append("failed" if m in r.failed else "-"), k.append(0)
-                row.append("failed" if m in r.failed else "")
+                word = ("failed" if m in r.failed else
+                        "left out" if m in (left_out or {}).get(name, {}) else "")
+                v.append(math.nan), t.append(word or "-"), k.append(0)
+                row.append(word)
                 continue
             ratio = c.relative["equal_time"]
             v.append(ratio.value if ratio.side in ("", ">", "<") else math.nan)
@@ -338,6 +342,20 @@ def timing_text(clock, analysis: tuple[float, float], cfg) -> str:
           f"thread of this process.")
 
 
+def left_out_words(cfg, sp) -> list[str]:
+    """The sentences that say which methods a scene's header leaves out, and why."""
+    out = []
+    if sp.left_out:
+        out.append(f"Its header renders only {', '.join(sp.header.methods)} (and the "
+                   f"baseline {cfg.baseline}): left out here are "
+                   f"{', '.join(sp.left_out)}.")
+    missing = suite_plan.unmatched(cfg, sp.header)
+    if missing:
+        out.append(f"Its header's methods {', '.join(missing)} match none of this run's "
+                   f"methods.")
+    return out
+
+
 def write(cfg, st, plans, numbers, refs, results, viewers, measured, failed, clock, since,
           start) -> dict:
     out, blocks = cfg.out, []
@@ -347,7 +365,8 @@ def write(cfg, st, plans, numbers, refs, results, viewers, measured, failed, clo
     found = findings(list(results.values()), failed)
     blocks.append(report.text("Findings (also at the top of the report): " + " ".join(found)))
     if results:
-        values, texts, marks, rows = matrix(results, methods)
+        values, texts, marks, rows = matrix(results, methods,
+                                            {n: sp.left_out for n, sp in by_name.items()})
         figures.matrix_heatmap(
             os.path.join(out, NAME, "matrix"), list(results), methods, values, texts, marks,
             f"Equal-time efficiency over {cfg.baseline} (relMSE; 95% interval beneath)",
@@ -405,6 +424,7 @@ def write(cfg, st, plans, numbers, refs, results, viewers, measured, failed, clo
             f"{', '.join(r.bounds()) or 'none'}."]
         if sp.header_note:
             extra.append(f"Note: {sp.header_note}.")
+        extra += left_out_words(cfg, sp)
         if bias_words(r):
             extra.append(bias_words(r))
         blocks += [report.text(lead + " ".join(sentences(r) + extra)),
@@ -426,7 +446,8 @@ def write(cfg, st, plans, numbers, refs, results, viewers, measured, failed, clo
                     "reference_spp": refs[n].spp, "reference_floor_share": r.floor_share,
                     "reference_adequate": r.reference_adequate,
                     **(r.time_ratio.fields("time_ratio") if r.time_ratio else {}),
-                    "failed": r.failed, "bias_power": r.power,
+                    "failed": r.failed, "left_out": dict(by_name[n].left_out),
+                    "bias_power": r.power,
                     "bias_power_method": r.power_method,
                     "biased": [m for m, c in r.cells.items() if c.biased]}
                    for n, r in results.items()],
