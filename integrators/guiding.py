@@ -1,17 +1,20 @@
 """Path guiding: the ``guided`` strategy and the ``vr_guided_path`` integrator that trains it.
 
 * :class:`GuidedStrategy` (registered as ``guided``): one-sample MIS of the BSDF's own
-  sampling (probability ``s``, the per-leaf BSDF share) and the learned guide of
-  :mod:`.sdtree` (probability ``1 - s``), density ``s p_bsdf + (1 - s) p_guide``. It owns
-  the learned state (:class:`~.sdtree.SDTree`). Untrained, every share is 1: plain BSDF
-  sampling.
+  sampling (probability ``s``, the BSDF share of the vertex's unit) and the learned guide
+  of :mod:`.sdtree` (probability ``1 - s``), density ``s p_bsdf + (1 - s) p_guide``. It
+  owns the learned state (:class:`~.sdtree.SDTree`). Untrained, every share is 1: plain
+  BSDF sampling. The shares are learned from the records
+  (:meth:`.sdtree.SDTree.add_moments`, :meth:`.sdtree.SDTree.choose_shares`).
 * :class:`Recorder`: per path vertex, where its record goes (leaf, direction bin), the
   radiance accumulated so far and ``1 / (beta' pdf)`` (beta' the throughput after the
   vertex's weight, before roulette), scattered into arrays indexed by depth x lane;
   after the loop, the radiance that arrived along each vertex's sampled direction is
   ``(L_end - L_vertex) / beta'`` (every emission and NEE term found further down the
   path: the suffix sum), divided by the sampling pdf as PPG weights its records, and
-  added into the tree's per-bin energies.
+  added into the tree's per-bin energies; with the BSDF's and the guide's densities at
+  the direction over the drawing density, each record also adds to its unit's second
+  moment at every candidate BSDF share.
 * :class:`GuidedPathIntegrator` (``vr_guided_path``): ``vr_path`` with the recorder and
   the executor's multi-pass hooks (``pass_schedule``, ``after_pass``, ``combine``):
   training iterations of doubling samples, each split into renders of at most
@@ -34,18 +37,22 @@ from .warps import ONE_MINUS_EPSILON
 #: Largest size of a render's record arrays (bytes): larger renders are refused.
 RECORD_CAP_BYTES = 256 * 2 ** 20
 #: Bytes per record: the target index (4), the radiance so far (12), 1 / (beta' pdf) (12),
-#: and for the BSDF share: f cos at the direction (4), p_bsdf / pdf (4), p_guide / pdf (4).
-RECORD_BYTES = 40
+#: and for the BSDF share: p_bsdf / pdf (4), p_guide / pdf (4).
+RECORD_BYTES = 36
 #: Samplers that compile the sample count into the kernel: each pass would recompile.
 BAKES_SPP = {"StratifiedSampler": "stratified", "MultijitterSampler": "multijitter",
              "OrthogonalSampler": "orthogonal", "LowDiscrepancySampler": "ldsampler"}
 INVALID = 0xFFFFFFFF
 #: Training stops (every share 1, no more records) after :data:`STOP_PATIENCE`
-#: consecutive iterations whose records say the learned shares lower the summed variance
-#: of the units' one-vertex estimators by less than this factor
-#: (:meth:`.sdtree.SDTree.share_gain`): guiding does not help.
+#: consecutive iterations whose records predict that the learned shares lower the
+#: image's per-sample variance by less than this factor against BSDF sampling
+#: (:func:`predicted_gain`): guiding does not help.
 STOP_GAIN = 1.05
 STOP_PATIENCE = 2
+#: ... and not before this iteration: guides learned from the first few samples do not
+#: show what a trained guide gains (measured on door_room: 1.01 after iterations 1, 2,
+#: 1.3 after 3, 4).
+STOP_FIRST = 3
 
 
 class GuidedStrategy(Strategy):
@@ -176,9 +183,8 @@ class Recorder:
         self.index = dr.full(mi.UInt32, INVALID, depth * lanes)
         self.radiance = dr.zeros(mi.Color3f, depth * lanes)
         self.inverse = dr.zeros(mi.Color3f, depth * lanes)
-        self.fcos = dr.zeros(mi.Float, depth * lanes)
         self.ratios = dr.zeros(mi.Vector2f, depth * lanes)
-        dr.make_opaque(self.index, self.radiance, self.inverse, self.fcos, self.ratios)
+        dr.make_opaque(self.index, self.radiance, self.inverse, self.ratios)
 
     def vertex(self, depth, si, direction, L, beta, active):
         """After vertex ``depth`` drew ``direction`` (``beta``: the throughput with its
@@ -193,19 +199,16 @@ class Recorder:
         dr.scatter(self.index, index, slot, active)
         dr.scatter(self.radiance, mi.Color3f(mi.unpolarized_spectrum(L)), slot, active)
         dr.scatter(self.inverse, inverse, slot, active)
-        # for the share: f cos (channel mean) and p_bsdf / pdf, p_guide / pdf
+        # for the share: p_bsdf / pdf, p_guide / pdf
         p_bsdf, p_guide = self.guide.drawn
         rcp = dr.rcp(dr.maximum(direction.pdf, 1e-20))
-        dr.scatter(self.fcos, dr.mean(mi.Color3f(mi.unpolarized_spectrum(direction.weight)))
-                   * direction.pdf, slot, active)
         dr.scatter(self.ratios, mi.Vector2f(p_bsdf * rcp, p_guide * rcp), slot, active)
 
     def finish(self, L, *outputs):
         """Add every vertex's record (radiance found after it / pdf) to the tree. The
         path loop's outputs (``L``, ``outputs``) and the records are evaluated first, in
         one kernel: read lazily, the loop would run again for the film."""
-        dr.eval(L, *outputs, self.index, self.radiance, self.inverse, self.fcos,
-                self.ratios)
+        dr.eval(L, *outputs, self.index, self.radiance, self.inverse, self.ratios)
         L = mi.Color3f(mi.unpolarized_spectrum(L))
         for d in range(self.depth):
             slot = d * self.lanes + self.lane
@@ -215,13 +218,14 @@ class Recorder:
             inverse = dr.gather(mi.Color3f, self.inverse, slot, valid)
             value = dr.mean((L - before) * inverse)
             value = dr.select(dr.isfinite(value), dr.maximum(value, 0.0), 0.0)
+            # what the vertex's direction brought to the pixel: beta f cos L / pdf
+            brought = dr.maximum(dr.mean(L - before), 0.0)
             dr.scatter_add(self.tree.energy, value, index, valid)
             unit = index // self.tree.bins
             dr.scatter_add(self.tree.counts, mi.UInt32(1), unit, valid)
-            # the share's statistics: x = f cos L / pdf, a = p_bsdf / pdf, b = p_guide / pdf
+            # the share's statistics: x = beta f cos L / pdf, p_bsdf / pdf, p_guide / pdf
             ratios = dr.gather(mi.Vector2f, self.ratios, slot, valid)
-            x = dr.gather(mi.Float, self.fcos, slot, valid) * value
-            self.tree.add_moments(unit, x, ratios.x, ratios.y,
+            self.tree.add_moments(unit, brought, ratios.x, ratios.y,
                                   valid & (ratios.x + ratios.y > 0))
 
 
@@ -258,6 +262,20 @@ def pass_weights(variances, spps) -> np.ndarray:
     return w / w.sum()
 
 
+def predicted_gain(sums: dict, variance: float, samples: int) -> float | None:
+    """The image's per-sample variance with every share 1 over that with the new shares,
+    predicted from an iteration's records: ``variance`` (the pixels' per-sample variance
+    measured, at the shares the records were drawn with) shifted by the records' summed
+    second moments (:meth:`.sdtree.SDTree.refine`'s ``moment_sums``: at the drawn shares,
+    at share 1, at the chosen ones) per sample (``samples``: the iteration's camera
+    samples). None when nothing was measured."""
+    if sums is None or samples <= 0 or not variance > 0:
+        return None
+    bsdf = variance + (sums["bsdf"] - sums["drawn"]) / samples
+    chosen = variance + (sums["chosen"] - sums["drawn"]) / samples
+    return float(bsdf / chosen) if chosen > 0 and bsdf > 0 else None
+
+
 def image_variance(mean_lum: np.ndarray, m2: np.ndarray, spp: int) -> float:
     """Mean over pixels of the variance of a pixel's mean luminance, from the per-pixel
     mean and mean square of the samples' luminance (``spp`` of them; inf for 1)."""
@@ -282,8 +300,14 @@ class GuidedPathIntegrator(VRPathIntegrator):
 
      * - bsdf_fraction
        - |float|
-       - Probability of drawing from the BSDF's own sampling once a leaf has learned a
-         histogram, in [0.1, 1]; the guide draws otherwise. (Default: 0.5)
+       - A fixed probability of drawing from the BSDF's own sampling once a unit has
+         learned a histogram, in [0.1, 1]; the guide draws otherwise. Absent, the share is
+         learned per unit: the candidate in 0.1, 0.2, ..., 1 of least estimated second
+         moment of the one-sample mixture, ``sum x^2 / (s a + (1 - s) b)`` over the
+         unit's records (``x``: what the recorded direction brought to the pixel,
+         ``a, b``: the BSDF's and the guide's density over the density it was drawn
+         with), 1 until a unit has been evaluated; training stops, every share 1, where
+         the records predict no gain. (Default: learned)
 
      * - directional_resolution
        - |int|
@@ -350,7 +374,8 @@ class GuidedPathIntegrator(VRPathIntegrator):
         self.sampling_strategy = GuidedStrategy(res, max_leaves)
         self.guide = self.sampling_strategy
         self._set_recording(True)
-        self._passes, self._m2, self.gains, self._stopped = [], [], [], False
+        self._passes, self._m2, self._lum, self._spp = [], [], [], []
+        self.gains, self._stopped = [], False
 
     # ------------------------------------------------------------------- render side
 
@@ -391,7 +416,7 @@ class GuidedPathIntegrator(VRPathIntegrator):
         self._iterations = iterations(spp, self.first_pass_spp)
         self._passes = [(k, n) for k, it in enumerate(self._iterations)
                         for n in split(it, self.max_pass_spp)]
-        self._m2, self.gains, self._stopped = [], [], False
+        self._m2, self._lum, self._spp, self.gains, self._stopped = [], [], [], [], False
         # per iteration, which estimator rendered it: -1 plain BSDF sampling (every share
         # 1: untrained, or training stopped), else the iteration whose refinement it uses
         self._estimator = [-1] * len(self._iterations)
@@ -401,7 +426,10 @@ class GuidedPathIntegrator(VRPathIntegrator):
     def after_pass(self, index: int, image, spp: int) -> None:
         """Keep the pass's per-pixel mean square; after an iteration's last render (not
         the last iteration's), refine the guide from its records."""
-        self._m2.append(np.array(image, dtype=np.float64)[..., -1])
+        image = np.array(image, dtype=np.float64)
+        self._m2.append(image[..., -1])
+        self._lum.append(image[..., :3].mean(axis=-1))
+        self._spp.append(spp)
         k = self._passes[index][0]
         last_of_iteration = index + 1 == len(self._passes) or self._passes[index + 1][0] != k
         if not last_of_iteration or k + 1 == len(self._iterations):
@@ -411,9 +439,10 @@ class GuidedPathIntegrator(VRPathIntegrator):
             return
         tree = self.guide.tree
         tree.refine(self.spatial_threshold * np.sqrt(2.0 ** k), self.bsdf_fraction)
-        self.gains.append(tree.gain)
+        idx = [i for i, (it, _) in enumerate(self._passes) if it == k]
+        self.gains.append(predicted_gain(tree.moment_sums, *self._pixel_moments(idx)))
         low = [g is not None and g < STOP_GAIN for g in self.gains[-STOP_PATIENCE:]]
-        if self.bsdf_fraction is None and len(low) == STOP_PATIENCE and all(low):
+        if self.bsdf_fraction is None and k >= STOP_FIRST and all(low):
             # guiding does not help anywhere: plain BSDF sampling, no more training
             tree.share[:] = 1.0
             self._stopped = True
@@ -422,6 +451,14 @@ class GuidedPathIntegrator(VRPathIntegrator):
         self._estimator[k + 1] = -1 if np.all(tree.share == 1.0) else k
         if k + 2 == len(self._iterations):     # the last iteration only renders
             self._set_recording(False)
+
+    def _pixel_moments(self, idx):
+        """(per-sample variance of the pixels' luminance averaged over pixels, samples)
+        of the renders ``idx`` (their images and mean squares, kept by after_pass)."""
+        n = sum(self._spp[i] for i in idx)
+        mean = sum(self._lum[i] * self._spp[i] for i in idx) / n
+        m2 = sum(self._m2[i] * self._spp[i] for i in idx) / n
+        return float(np.mean(np.maximum(m2 - mean ** 2, 0.0))), n * mean.size
 
     def combine(self, images: list, spps: list):
         """The iterations' images, weighted by :func:`pass_weights`; iterations rendered

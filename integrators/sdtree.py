@@ -130,26 +130,47 @@ class SDTree:
         cdf = np.cumsum(self.prob[:rows], axis=1)
         cdf /= np.maximum(cdf[:, -1:], 1e-30)
         self._cdf32[:rows] = cdf
-        self.grid_table = mi.UInt32(self.grid())
-        self.prob_table = mi.Float(self._prob32.ravel())
-        self.cdf_table = mi.Float(self._cdf32.ravel())
+        if getattr(self, "_grid_nodes", None) != self.nodes:     # the tree changed
+            self.grid_table = mi.UInt32(self.grid())
+            self._grid_nodes = self.nodes
+        if rows == self.max_units:
+            self.prob_table = mi.Float(self._prob32.ravel())
+            self.cdf_table = mi.Float(self._cdf32.ravel())
+        else:       # only the rows in use, written into the tables in place
+            index = dr.arange(mi.UInt32, rows * self.bins)
+            dr.scatter(self.prob_table, mi.Float(self._prob32[:rows].ravel()), index)
+            dr.scatter(self.cdf_table, mi.Float(self._cdf32[:rows].ravel()), index)
         dr.eval(self.grid_table, self.prob_table, self.cdf_table)
 
-    def reset_records(self) -> None:
+    def reset_records(self, rows: int | None = None) -> None:
         """Empty record accumulators (energy per unit bin, records per unit, the share
-        candidates' second moments per unit: ``unit * len(SHARES) + candidate``)."""
-        self.energy = dr.zeros(mi.Float, self.max_units * self.bins)
-        self.counts = dr.zeros(mi.UInt32, self.max_units)
-        self.moments = dr.zeros(mi.Float, self.max_units * (len(SHARES) + 1))
-        dr.make_opaque(self.energy, self.counts, self.moments)
+        candidates' second moments per unit: ``unit * (len(SHARES) + 1) + candidate``);
+        ``rows``: only the first units can hold records (zeroed in place)."""
+        if rows is None or not hasattr(self, "energy"):
+            self.energy = dr.zeros(mi.Float, self.max_units * self.bins)
+            self.counts = dr.zeros(mi.UInt32, self.max_units)
+            self.moments = dr.zeros(mi.Float, self.max_units * (len(SHARES) + 1))
+            dr.make_opaque(self.energy, self.counts, self.moments)
+            return
+        for table, width, kind in ((self.energy, self.bins, mi.Float),
+                                   (self.counts, 1, mi.UInt32),
+                                   (self.moments, len(SHARES) + 1, mi.Float)):
+            dr.scatter(table, kind(0), dr.arange(mi.UInt32, rows * width))
+        dr.eval(self.energy, self.counts, self.moments)
+
+    def _prefix(self, table, kind, n: int) -> np.ndarray:
+        """The first ``n`` entries of a device table as numpy."""
+        return np.array(dr.gather(kind, table, dr.arange(mi.UInt32, n)))
 
     def add_moments(self, unit: mi.UInt32, x: mi.Float, a: mi.Float, b: mi.Float,
                     active=True) -> None:
         """Add one record to every candidate share's second moment in ``unit``:
-        ``x^2 / (s a + (1 - s) b)``, with ``x = f cos L / q`` (q the density the record's
-        direction was drawn with), ``a = p_bsdf / q``, ``b = p_guide / q``: the importance-
-        reweighted sample of ``E[(f cos L)^2 / (q (s p_bsdf + (1 - s) p_guide))]``, the
-        second moment of the one-sample mixture at share ``s`` (Mueller 2019)."""
+        ``x^2 / (s a + (1 - s) b)``, with ``x = beta f cos L / q`` (q the density the
+        record's direction was drawn with, beta the path's throughput before the vertex:
+        what the direction brought to the pixel), ``a = p_bsdf / q``, ``b = p_guide / q``:
+        the importance-reweighted sample of ``E_q[(beta f cos L)^2 / (q p_s)]``, the
+        second moment of the one-sample mixture ``p_s = s p_bsdf + (1 - s) p_guide``
+        (Mueller 2019, weighted by what reaches the pixel). The last column sums ``x``."""
         x2 = dr.square(x)
         active = active & (x2 > 0) & dr.isfinite(x2)
         row = unit * (len(SHARES) + 1)
@@ -192,8 +213,9 @@ class SDTree:
         """The accumulated (energy (units, bins), records per unit) as numpy (the first
         ``rows`` units; all by default)."""
         rows = self.max_units if rows is None else rows
-        energy = np.array(self.energy).reshape(self.max_units, self.bins)[:rows]
-        return energy.astype(np.float64), np.array(self.counts, dtype=np.int64)[:rows]
+        energy = self._prefix(self.energy, mi.Float, rows * self.bins).reshape(rows, -1)
+        return (energy.astype(np.float64),
+                self._prefix(self.counts, mi.UInt32, rows).astype(np.int64))
 
     @staticmethod
     def choose_shares(moments: np.ndarray, counts: np.ndarray, was_learned: np.ndarray,
@@ -208,19 +230,10 @@ class SDTree:
         return np.where(ok, best, share)
 
     @staticmethod
-    def share_gain(moments: np.ndarray, counts: np.ndarray, evaluated: np.ndarray) -> float:
-        """The estimated variance of the evaluated units' one-vertex estimators, summed,
-        at share 1 over that at each unit's best share (>= 1; 1 where no unit was
-        evaluated): whether guiding helps anywhere. Per unit, n V(s) = sum x^2 / mix(s)
-        - (sum x)^2 / n."""
-        m = moments[evaluated]
-        if len(m) == 0:
-            return 1.0
-        n = np.maximum(counts[evaluated], 1)[:, None]
-        v = m[:, :len(SHARES)] - np.square(m[:, len(SHARES):]) / n
-        v = np.where(np.isfinite(v), np.maximum(v, 0.0), 0.0)
-        plain, best = v[:, -1].sum(), v.min(axis=1).sum()
-        return float(plain / best) if best > 0 else 1.0
+    def moment_at(moments: np.ndarray, share: np.ndarray) -> np.ndarray:
+        """Per unit, the summed second moment at ``share`` (one of :data:`SHARES`)."""
+        k = np.clip(np.rint(share * 10).astype(int) - 1, 0, len(SHARES) - 1)
+        return moments[np.arange(len(moments)), k]
 
     def refine(self, threshold: float, fixed_share: float | None = None) -> None:
         """Learn from the accumulated records, then reset them: new histograms where a
@@ -229,7 +242,8 @@ class SDTree:
         1 where none), then split the leaves over ``threshold`` records."""
         rows = self.leaves * CLASSES            # the units in use (records land there only)
         energy, counts = self.records(rows)
-        moments = np.array(self.moments, dtype=np.float64).reshape(self.max_units, -1)[:rows]
+        moments = self._prefix(self.moments, mi.Float, rows * (len(SHARES) + 1))
+        moments = moments.astype(np.float64).reshape(rows, -1)
         energy = np.where(np.isfinite(energy) & (energy > 0), energy, 0.0)
         total = energy.sum(axis=1)
         fresh = np.zeros(self.max_units, bool)
@@ -239,8 +253,9 @@ class SDTree:
         self.prob[fresh] = learned / learned.sum(axis=1, keepdims=True)
         was_learned = self.learned.copy()
         self.learned |= fresh
-        evaluated = was_learned[:rows] & (counts >= MIN_RECORDS)
-        self.gain = self.share_gain(moments, counts, evaluated) if evaluated.any() else None
+        # what the integrator's stop rule reads: second moments at the shares the records
+        # were drawn with, at share 1 and at the new shares (summed over units)
+        old = self.share[:rows].copy()
         if fixed_share is None:
             self.share[:rows] = self.choose_shares(moments, counts, was_learned[:rows],
                                                    self.share[:rows])
@@ -248,9 +263,14 @@ class SDTree:
         else:
             self.share = np.full(self.max_units, float(fixed_share))
         self.share[~self.learned] = 1.0
+        m = np.where(np.isfinite(moments), moments, 0.0)
+        evaluated = was_learned[:rows] & (counts >= MIN_RECORDS)
+        self.moment_sums = None if not evaluated.any() else {"drawn": float(self.moment_at(m, old).sum()),
+                            "bsdf": float(m[:, len(SHARES) - 1].sum()),
+                            "chosen": float(self.moment_at(m, self.share[:rows]).sum())}
         self._split(counts.reshape(-1, CLASSES).sum(axis=1), threshold)
         self.upload(self.leaves * CLASSES)
-        self.reset_records()
+        self.reset_records(self.leaves * CLASSES)
 
     def _split(self, counts: np.ndarray, threshold: float) -> None:
         queue = [(n, float(counts[self.leaf[n]])) for n in range(self.nodes)
