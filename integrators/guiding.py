@@ -438,6 +438,9 @@ class GuidedPathIntegrator(VRPathIntegrator):
             self._estimator[k + 1] = self._estimator[k]
             return
         tree = self.guide.tree
+        # the last trace's variables read the tables: dropped, so that the refinement
+        # writes the tables in place instead of copying them whole
+        self.guide.drawn = self.guide._delta = None
         tree.refine(self.spatial_threshold * np.sqrt(2.0 ** k), self.bsdf_fraction)
         idx = [i for i, (it, _) in enumerate(self._passes) if it == k]
         self.gains.append(predicted_gain(tree.moment_sums, *self._pixel_moments(idx)))

@@ -152,10 +152,11 @@ class SDTree:
             self.moments = dr.zeros(mi.Float, self.max_units * (len(SHARES) + 1))
             dr.make_opaque(self.energy, self.counts, self.moments)
             return
-        for table, width, kind in ((self.energy, self.bins, mi.Float),
-                                   (self.counts, 1, mi.UInt32),
-                                   (self.moments, len(SHARES) + 1, mi.Float)):
-            dr.scatter(table, kind(0), dr.arange(mi.UInt32, rows * width))
+        # in place, each table referenced once (a second reference would make the scatter
+        # copy the whole table first)
+        dr.scatter(self.energy, mi.Float(0), dr.arange(mi.UInt32, rows * self.bins))
+        dr.scatter(self.counts, mi.UInt32(0), dr.arange(mi.UInt32, rows))
+        dr.scatter(self.moments, mi.Float(0), dr.arange(mi.UInt32, rows * (len(SHARES) + 1)))
         dr.eval(self.energy, self.counts, self.moments)
 
     def _prefix(self, table, kind, n: int) -> np.ndarray:
