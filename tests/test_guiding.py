@@ -308,7 +308,7 @@ def test_shares_go_down_where_guiding_helps():
     guide (share <= 0.5), the records predict a gain over BSDF sampling and training
     goes on to the end."""
     scene = mi.load_file(str(Path(__file__).parents[1] / "scenes/guiding/door_room.xml"),
-                         width=24, height=18)
+                         width=48, height=36)
     _, _, integ = render_job(scene, {"type": "vr_guided_path", "emitter_sampling": True,
                                      "max_depth": 8}, 256, 1)
     shares = learned_shares(integ)
