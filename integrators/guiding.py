@@ -326,12 +326,12 @@ class GuidedPathIntegrator(VRPathIntegrator):
 
      * - record_depth
        - |int|
-       - Vertices per path that record (the first ones), 1 to 32. (Default: 8)
+       - Vertices per path that record (the first ones), 1 to 32. (Default: 4)
 
      * - max_pass_spp
        - |int|
        - Most samples per pixel of one render: an iteration above it is split into
-         several renders (records cost 28 bytes x record_depth per sample, at most
+         several renders (records cost 36 bytes x record_depth per sample, at most
          256 MiB per render). (Default: 64)
 
      * - first_pass_spp
@@ -368,7 +368,7 @@ class GuidedPathIntegrator(VRPathIntegrator):
         res = number("directional_resolution", 16, 2, 64)
         max_leaves = number("max_leaves", 1024, 1, 65536)
         self.spatial_threshold = number("spatial_threshold", 4000.0, 1.0, 1e12, float)
-        self.record_depth = number("record_depth", 8, 1, 32)
+        self.record_depth = number("record_depth", 4, 1, 32)
         self.max_pass_spp = number("max_pass_spp", 64, 1, 1 << 20)
         self.first_pass_spp = number("first_pass_spp", 2, 2, 1 << 20)
         self.sampling_strategy = GuidedStrategy(res, max_leaves)
