@@ -1,17 +1,20 @@
 """Path guiding: the ``guided`` strategy and the ``vr_guided_path`` integrator that trains it.
 
 * :class:`GuidedStrategy` (registered as ``guided``): one-sample MIS of the BSDF's own
-  sampling (probability ``s``, the per-leaf BSDF share) and the learned guide of
-  :mod:`.sdtree` (probability ``1 - s``), density ``s p_bsdf + (1 - s) p_guide``. It owns
-  the learned state (:class:`~.sdtree.SDTree`). Untrained, every share is 1: plain BSDF
-  sampling.
+  sampling (probability ``s``, the BSDF share of the vertex's unit) and the learned guide
+  of :mod:`.sdtree` (probability ``1 - s``), density ``s p_bsdf + (1 - s) p_guide``. It
+  owns the learned state (:class:`~.sdtree.SDTree`). Untrained, every share is 1: plain
+  BSDF sampling. The shares are learned from the records
+  (:meth:`.sdtree.SDTree.add_moments`, :meth:`.sdtree.SDTree.choose_shares`).
 * :class:`Recorder`: per path vertex, where its record goes (leaf, direction bin), the
   radiance accumulated so far and ``1 / (beta' pdf)`` (beta' the throughput after the
   vertex's weight, before roulette), scattered into arrays indexed by depth x lane;
   after the loop, the radiance that arrived along each vertex's sampled direction is
   ``(L_end - L_vertex) / beta'`` (every emission and NEE term found further down the
   path: the suffix sum), divided by the sampling pdf as PPG weights its records, and
-  added into the tree's per-bin energies.
+  added into the tree's per-bin energies; with the BSDF's and the guide's densities at
+  the direction over the drawing density, each record also adds to its unit's second
+  moment at every candidate BSDF share.
 * :class:`GuidedPathIntegrator` (``vr_guided_path``): ``vr_path`` with the recorder and
   the executor's multi-pass hooks (``pass_schedule``, ``after_pass``, ``combine``):
   training iterations of doubling samples, each split into renders of at most
@@ -33,12 +36,23 @@ from .warps import ONE_MINUS_EPSILON
 
 #: Largest size of a render's record arrays (bytes): larger renders are refused.
 RECORD_CAP_BYTES = 256 * 2 ** 20
-#: Bytes per record: the target index (4), the radiance so far (12), 1 / (beta' pdf) (12).
-RECORD_BYTES = 28
+#: Bytes per record: the target index (4), the radiance so far (12), 1 / (beta' pdf) (12),
+#: and for the BSDF share: p_bsdf / pdf (4), p_guide / pdf (4).
+RECORD_BYTES = 36
 #: Samplers that compile the sample count into the kernel: each pass would recompile.
 BAKES_SPP = {"StratifiedSampler": "stratified", "MultijitterSampler": "multijitter",
              "OrthogonalSampler": "orthogonal", "LowDiscrepancySampler": "ldsampler"}
 INVALID = 0xFFFFFFFF
+#: Training stops (every share 1, no more records) after :data:`STOP_PATIENCE`
+#: consecutive iterations whose records predict that the learned shares lower the
+#: image's per-sample variance by less than this factor against BSDF sampling
+#: (:func:`predicted_gain`): guiding does not help.
+STOP_GAIN = 1.05
+STOP_PATIENCE = 2
+#: ... and not before this iteration: guides learned from the first samples understate
+#: what a trained guide gains (door_room at 256 spp, predicted gains after iterations 1,
+#: 2: 1.06-3.2 at 48x36 and 64x48, but 1.01 at 24x18, where iterations 3, 4 show 1.3).
+STOP_FIRST = 2
 
 
 class GuidedStrategy(Strategy):
@@ -54,6 +68,9 @@ class GuidedStrategy(Strategy):
     def __init__(self, res: int = 16, max_leaves: int = 1024):
         self.tree = SDTree(res, max_leaves)
         self.share = None
+        self.drawn = None       # (p_bsdf, p_guide) of the last traced draw (the recorder's)
+        #: nonzero while a recorder needs p_guide at every drawn direction (share 1 too)
+        self.recording = dr.opaque(mi.UInt32, 0, 1)
         self.set_share(np.ones(self.tree.max_units))
 
     def set_share(self, share: np.ndarray) -> None:
@@ -65,34 +82,69 @@ class GuidedStrategy(Strategy):
         """The vertex's unit (leaf x normal class) and its BSDF share (1 for a BSDF with
         a Dirac lobe)."""
         unit = self.tree.lookup(si.p, si.n, active)
-        delta = mi.Bool(mi.has_flag(bsdf.flags(), mi.BSDFFlags.Delta))
-        return unit, dr.select(delta, 1.0, dr.gather(mi.Float, self.share, unit, active))
+        self._delta = mi.Bool(mi.has_flag(bsdf.flags(), mi.BSDFFlags.Delta))
+        return unit, dr.select(self._delta, 1.0,
+                               dr.gather(mi.Float, self.share, unit, active))
 
-    def _draw(self, bsdf, ctx, si, unit, s, sample1, sample2, active):
-        """The mixture's direction: the guide's direction is drawn first, so that one BSDF
-        call (``eval_pdf_sample``) evaluates it and draws the BSDF's own direction; for a
-        BSDF-drawn direction, value and density come from the sample (``weight x pdf``)."""
+    def _draw(self, bsdf, ctx, si, unit, s, sample1, sample2, active, wo_em=None):
+        """The mixture's direction, and with ``wo_em`` the BSDF's value and density there
+        (NEE). One BSDF call draws the BSDF's own direction (``sample``, or with
+        ``wo_em`` ``eval_pdf_sample``, the same call as plain BSDF sampling); only lanes
+        that draw from the guide evaluate the BSDF there, in a conditional that the
+        kernel skips for packets of lanes with share 1. For a BSDF-drawn direction,
+        value and density come from the sample (``weight x pdf``)."""
         use_bsdf = sample1 < s
         u_bsdf = dr.minimum(sample1 / dr.maximum(s, 1e-6), ONE_MINUS_EPSILON)
         u_guide = dr.minimum((sample1 - s) / dr.maximum(1.0 - s, 1e-6), ONE_MINUS_EPSILON)
-        guide = si.to_local(self.tree.sample(unit, u_guide, sample2, active & ~use_bsdf))
-        value_g, pdf_g, bs, weight = bsdf.eval_pdf_sample(ctx, si, guide, u_bsdf, sample2,
-                                                          active)
-        wo = dr.select(use_bsdf, bs.wo, guide)
-        value = dr.select(use_bsdf, weight * bs.pdf, value_g)
-        pdf_bsdf = dr.select(use_bsdf, bs.pdf, pdf_g)
+        em = None
+        if wo_em is None:
+            bs, weight = bsdf.sample(ctx, si, u_bsdf, sample2, active)
+        else:
+            *em, bs, weight = bsdf.eval_pdf_sample(ctx, si, wo_em, u_bsdf, sample2, active)
+        wo, value, pdf_bsdf, eta = self._guide_draw(
+            bsdf, ctx, si, unit, u_guide, sample2, active & ~use_bsdf,
+            bs.wo, weight * bs.pdf, bs.pdf, bs.eta)
         drawn = ~use_bsdf | dr.any(mi.unpolarized_spectrum(weight) != 0)
-        pdf = dr.fma(s, pdf_bsdf - (p := self.tree.pdf(unit, si.to_world(wo), active)), p)
+        p = self._guide_pdf(unit, si.to_world(wo), active & ((s < 1.0) | (self.recording != 0)))
+        pdf = dr.select(s < 1.0, dr.fma(s, pdf_bsdf - p, p), pdf_bsdf)
         pdf = dr.select(drawn, pdf, 0.0)
-        eta = dr.select(use_bsdf, bs.eta, crossing_eta(bsdf, ctx, si, wo, active & ~use_bsdf))
-        return DirectionSample(wo, pdf, direction_weight(value, pdf),
-                               use_bsdf & mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta),
-                               eta, use_bsdf & mi.has_flag(bs.sampled_type, mi.BSDFFlags.Null))
+        # for the recorder (traced in the same loop body): the two techniques' densities;
+        # 0 on BSDFs with a Dirac lobe, whose share is always 1 and not learned
+        self.drawn = (dr.select(self._delta, 0.0, pdf_bsdf), dr.select(self._delta, 0.0, p))
+        ds = DirectionSample(wo, pdf, direction_weight(value, pdf),
+                             use_bsdf & mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta),
+                             eta, use_bsdf & mi.has_flag(bs.sampled_type, mi.BSDFFlags.Null))
+        if wo_em is None:
+            return ds
+        guide = self._guide_pdf(unit, si.to_world(wo_em), active & (s < 1.0))
+        return VertexSample(ds, em[0], dr.select(s < 1.0, dr.fma(s, em[1] - guide, guide),
+                                                 em[1]))
+
+    # The guide's work only on lanes that need it: inside the render loop these are
+    # symbolic conditionals, which the LLVM backend skips for a packet of lanes that all
+    # have share 1 (directly lit scenes, once their units learned that guiding does not
+    # help); the density there is exactly the BSDF's.
+    @dr.syntax
+    def _guide_draw(self, bsdf, ctx, si, unit, u, u2, need, wo, value, pdf_bsdf, eta):
+        """On lanes ``need``: a direction from the guide, the BSDF's value and density
+        there and the index of refraction crossed; elsewhere the given ones."""
+        if need:
+            wo = si.to_local(self.tree.sample(unit, u, u2, need))
+            value, pdf_bsdf = bsdf.eval_pdf(ctx, si, wo, need)
+            eta = crossing_eta(bsdf, ctx, si, wo, need)
+        return wo, value, pdf_bsdf, eta
+
+    @dr.syntax
+    def _guide_pdf(self, unit, d, need):
+        p = mi.Float(0.0)
+        if need:
+            p = self.tree.pdf(unit, d, need)
+        return p
 
     def _eval_pdf(self, bsdf, ctx, si, unit, s, wo, active):
         value, pdf_bsdf = bsdf.eval_pdf(ctx, si, wo, active)
-        guide = self.tree.pdf(unit, si.to_world(wo), active)
-        return value, dr.fma(s, pdf_bsdf - guide, guide)
+        guide = self._guide_pdf(unit, si.to_world(wo), active & (s < 1.0))
+        return value, dr.select(s < 1.0, dr.fma(s, pdf_bsdf - guide, guide), pdf_bsdf)
 
     def sample(self, bsdf, ctx, si, sample1, sample2, active):
         unit, s = self._unit(bsdf, si, active)
@@ -105,10 +157,10 @@ class GuidedStrategy(Strategy):
         return self._eval_pdf(bsdf, ctx, si, *self._unit(bsdf, si, active), wo, active)
 
     def sample_and_eval(self, bsdf, ctx, si, sample1, sample2, wo_em, active):
-        """One unit lookup for both (the direction and the NEE direction's density)."""
+        """One unit lookup and one BSDF call for both (the direction and the NEE
+        direction's value and density), as plain BSDF sampling."""
         unit, s = self._unit(bsdf, si, active)
-        return VertexSample(self._draw(bsdf, ctx, si, unit, s, sample1, sample2, active),
-                            *self._eval_pdf(bsdf, ctx, si, unit, s, wo_em, active))
+        return self._draw(bsdf, ctx, si, unit, s, sample1, sample2, active, wo_em)
 
     def __repr__(self):
         return f"GuidedStrategy(res={self.tree.res}, max_leaves={self.tree.max_leaves})"
@@ -117,7 +169,7 @@ class GuidedStrategy(Strategy):
 class Recorder:
     """The records of one render (see the module): arrays of ``depth x lanes`` entries."""
 
-    def __init__(self, tree: SDTree, lanes: int, depth: int, on):
+    def __init__(self, guide: GuidedStrategy, lanes: int, depth: int, on):
         need = RECORD_BYTES * depth * lanes
         if need > RECORD_CAP_BYTES:
             raise ValueError(
@@ -125,13 +177,14 @@ class Recorder:
                 f"records ({lanes} samples x record_depth {depth} x {RECORD_BYTES} bytes), "
                 f"over the cap of {RECORD_CAP_BYTES // 2 ** 20} MiB: lower 'max_pass_spp' "
                 f"(the largest render of a pass) or 'record_depth', or render a smaller film")
-        self.tree, self.depth, self.on = tree, depth, on
+        self.guide, self.tree, self.depth, self.on = guide, guide.tree, depth, on
         self.lanes = dr.opaque(mi.UInt32, lanes, 1)
         self.lane = dr.arange(mi.UInt32, lanes)
         self.index = dr.full(mi.UInt32, INVALID, depth * lanes)
         self.radiance = dr.zeros(mi.Color3f, depth * lanes)
         self.inverse = dr.zeros(mi.Color3f, depth * lanes)
-        dr.make_opaque(self.index, self.radiance, self.inverse)
+        self.ratios = dr.zeros(mi.Vector2f, depth * lanes)
+        dr.make_opaque(self.index, self.radiance, self.inverse, self.ratios)
 
     def vertex(self, depth, si, direction, L, beta, active):
         """After vertex ``depth`` drew ``direction`` (``beta``: the throughput with its
@@ -146,12 +199,16 @@ class Recorder:
         dr.scatter(self.index, index, slot, active)
         dr.scatter(self.radiance, mi.Color3f(mi.unpolarized_spectrum(L)), slot, active)
         dr.scatter(self.inverse, inverse, slot, active)
+        # for the share: p_bsdf / pdf, p_guide / pdf
+        p_bsdf, p_guide = self.guide.drawn
+        rcp = dr.rcp(dr.maximum(direction.pdf, 1e-20))
+        dr.scatter(self.ratios, mi.Vector2f(p_bsdf * rcp, p_guide * rcp), slot, active)
 
     def finish(self, L, *outputs):
         """Add every vertex's record (radiance found after it / pdf) to the tree. The
         path loop's outputs (``L``, ``outputs``) and the records are evaluated first, in
         one kernel: read lazily, the loop would run again for the film."""
-        dr.eval(L, *outputs, self.index, self.radiance, self.inverse)
+        dr.eval(L, *outputs, self.index, self.radiance, self.inverse, self.ratios)
         L = mi.Color3f(mi.unpolarized_spectrum(L))
         for d in range(self.depth):
             slot = d * self.lanes + self.lane
@@ -161,8 +218,15 @@ class Recorder:
             inverse = dr.gather(mi.Color3f, self.inverse, slot, valid)
             value = dr.mean((L - before) * inverse)
             value = dr.select(dr.isfinite(value), dr.maximum(value, 0.0), 0.0)
+            # what the vertex's direction brought to the pixel: beta f cos L / pdf
+            brought = dr.maximum(dr.mean(L - before), 0.0)
             dr.scatter_add(self.tree.energy, value, index, valid)
-            dr.scatter_add(self.tree.counts, mi.UInt32(1), index // self.tree.bins, valid)
+            unit = index // self.tree.bins
+            dr.scatter_add(self.tree.counts, mi.UInt32(1), unit, valid)
+            # the share's statistics: x = beta f cos L / pdf, p_bsdf / pdf, p_guide / pdf
+            ratios = dr.gather(mi.Vector2f, self.ratios, slot, valid)
+            self.tree.add_moments(unit, brought, ratios.x, ratios.y,
+                                  valid & (ratios.x + ratios.y > 0))
 
 
 # ------------------------------------------------------------ passes and their weights
@@ -198,6 +262,20 @@ def pass_weights(variances, spps) -> np.ndarray:
     return w / w.sum()
 
 
+def predicted_gain(sums: dict, variance: float, samples: int) -> float | None:
+    """The image's per-sample variance with every share 1 over that with the new shares,
+    predicted from an iteration's records: ``variance`` (the pixels' per-sample variance
+    measured, at the shares the records were drawn with) shifted by the records' summed
+    second moments (:meth:`.sdtree.SDTree.refine`'s ``moment_sums``: at the drawn shares,
+    at share 1, at the chosen ones) per sample (``samples``: the iteration's camera
+    samples). None when nothing was measured."""
+    if sums is None or samples <= 0 or not variance > 0:
+        return None
+    bsdf = variance + (sums["bsdf"] - sums["drawn"]) / samples
+    chosen = variance + (sums["chosen"] - sums["drawn"]) / samples
+    return float(bsdf / chosen) if chosen > 0 and bsdf > 0 else None
+
+
 def image_variance(mean_lum: np.ndarray, m2: np.ndarray, spp: int) -> float:
     """Mean over pixels of the variance of a pixel's mean luminance, from the per-pixel
     mean and mean square of the samples' luminance (``spp`` of them; inf for 1)."""
@@ -222,8 +300,14 @@ class GuidedPathIntegrator(VRPathIntegrator):
 
      * - bsdf_fraction
        - |float|
-       - Probability of drawing from the BSDF's own sampling once a leaf has learned a
-         histogram, in [0.1, 1]; the guide draws otherwise. (Default: 0.5)
+       - A fixed probability of drawing from the BSDF's own sampling once a unit has
+         learned a histogram, in [0.1, 1]; the guide draws otherwise. Absent, the share is
+         learned per unit: the candidate in 0.1, 0.2, ..., 1 of least estimated second
+         moment of the one-sample mixture, ``sum x^2 / (s a + (1 - s) b)`` over the
+         unit's records (``x``: what the recorded direction brought to the pixel,
+         ``a, b``: the BSDF's and the guide's density over the density it was drawn
+         with), 1 until a unit has been evaluated; training stops, every share 1, where
+         the records predict no gain. (Default: learned)
 
      * - directional_resolution
        - |int|
@@ -242,12 +326,12 @@ class GuidedPathIntegrator(VRPathIntegrator):
 
      * - record_depth
        - |int|
-       - Vertices per path that record (the first ones), 1 to 32. (Default: 8)
+       - Vertices per path that record (the first ones), 1 to 32. (Default: 4)
 
      * - max_pass_spp
        - |int|
        - Most samples per pixel of one render: an iteration above it is split into
-         several renders (records cost 28 bytes x record_depth per sample, at most
+         several renders (records cost 36 bytes x record_depth per sample, at most
          256 MiB per render). (Default: 64)
 
      * - first_pass_spp
@@ -278,17 +362,20 @@ class GuidedPathIntegrator(VRPathIntegrator):
                                  f"{'an integer' if kind is int else 'a number'} in "
                                  f"[{low}, {high}], got {value!r}")
             return kind(value)
-        self.bsdf_fraction = number("bsdf_fraction", 0.5, 0.1, 1.0, float)
+        # None: learned per unit (sdtree.SDTree.choose_shares)
+        self.bsdf_fraction = (number("bsdf_fraction", 0.5, 0.1, 1.0, float)
+                              if "bsdf_fraction" in props else None)
         res = number("directional_resolution", 16, 2, 64)
         max_leaves = number("max_leaves", 1024, 1, 65536)
         self.spatial_threshold = number("spatial_threshold", 4000.0, 1.0, 1e12, float)
-        self.record_depth = number("record_depth", 8, 1, 32)
+        self.record_depth = number("record_depth", 4, 1, 32)
         self.max_pass_spp = number("max_pass_spp", 64, 1, 1 << 20)
         self.first_pass_spp = number("first_pass_spp", 2, 2, 1 << 20)
         self.sampling_strategy = GuidedStrategy(res, max_leaves)
         self.guide = self.sampling_strategy
-        self.recording = dr.opaque(mi.UInt32, 1, 1)
-        self._passes, self._m2 = [], []
+        self._set_recording(True)
+        self._passes, self._m2, self._lum, self._spp = [], [], [], []
+        self.gains, self._stopped = [], False
 
     # ------------------------------------------------------------------- render side
 
@@ -303,7 +390,16 @@ class GuidedPathIntegrator(VRPathIntegrator):
         tree = self.guide.tree
         if not tree.has_bbox:
             tree.set_bbox(scene.bbox())
-        return Recorder(tree, dr.width(ray.o), self.record_depth, self.recording)
+        if not self.recording:      # a kernel without records (compiled once, cached)
+            return None
+        return Recorder(self.guide, dr.width(ray.o), self.record_depth, self.guide.recording)
+
+    def _set_recording(self, on: bool) -> None:
+        """Whether the next renders record: a host switch (the render kernel without
+        records is another kernel, compiled once) mirrored in an opaque array the
+        strategy reads (it evaluates the guide's density everywhere while recording)."""
+        self.recording = bool(on)
+        self.guide.recording = dr.opaque(mi.UInt32, int(on), 1)
 
     def _aovs(self, segments, shadow_rays, result=None):
         lum = mi.Float(0.0) if result is None else dr.mean(mi.unpolarized_spectrum(result))
@@ -320,29 +416,63 @@ class GuidedPathIntegrator(VRPathIntegrator):
         self._iterations = iterations(spp, self.first_pass_spp)
         self._passes = [(k, n) for k, it in enumerate(self._iterations)
                         for n in split(it, self.max_pass_spp)]
-        self._m2 = []
-        self.recording = dr.opaque(mi.UInt32, int(len(self._iterations) > 1), 1)
+        self._m2, self._lum, self._spp, self.gains, self._stopped = [], [], [], [], False
+        # per iteration, which estimator rendered it: -1 plain BSDF sampling (every share
+        # 1: untrained, or training stopped), else the iteration whose refinement it uses
+        self._estimator = [-1] * len(self._iterations)
+        self._set_recording(len(self._iterations) > 1)
         return [n for _, n in self._passes]
 
     def after_pass(self, index: int, image, spp: int) -> None:
         """Keep the pass's per-pixel mean square; after an iteration's last render (not
         the last iteration's), refine the guide from its records."""
-        self._m2.append(np.array(image, dtype=np.float64)[..., -1])
+        image = np.array(image, dtype=np.float64)
+        self._m2.append(image[..., -1])
+        self._lum.append(image[..., :3].mean(axis=-1))
+        self._spp.append(spp)
         k = self._passes[index][0]
         last_of_iteration = index + 1 == len(self._passes) or self._passes[index + 1][0] != k
         if not last_of_iteration or k + 1 == len(self._iterations):
             return
-        self.guide.tree.refine(self.spatial_threshold * np.sqrt(2.0 ** k))
-        learned = self.guide.tree.learned
-        self.guide.set_share(np.where(learned, self.bsdf_fraction, 1.0))
+        if self._stopped:
+            self._estimator[k + 1] = self._estimator[k]
+            return
+        tree = self.guide.tree
+        # the last trace's variables read the tables: dropped, so that the refinement
+        # writes the tables in place instead of copying them whole
+        self.guide.drawn = self.guide._delta = None
+        tree.refine(self.spatial_threshold * np.sqrt(2.0 ** k), self.bsdf_fraction)
+        idx = [i for i, (it, _) in enumerate(self._passes) if it == k]
+        self.gains.append(predicted_gain(tree.moment_sums, *self._pixel_moments(idx)))
+        low = [g is not None and g < STOP_GAIN for g in self.gains[-STOP_PATIENCE:]]
+        if self.bsdf_fraction is None and k >= STOP_FIRST and all(low):
+            # guiding does not help anywhere: plain BSDF sampling, no more training
+            tree.share[:] = 1.0
+            self._stopped = True
+            self._set_recording(False)
+        self.guide.set_share(tree.share)
+        self._estimator[k + 1] = -1 if np.all(tree.share == 1.0) else k
         if k + 2 == len(self._iterations):     # the last iteration only renders
-            self.recording = dr.opaque(mi.UInt32, 0, 1)
+            self._set_recording(False)
+
+    def _pixel_moments(self, idx):
+        """(per-sample variance of the pixels' luminance averaged over pixels, samples)
+        of the renders ``idx`` (their images and mean squares, kept by after_pass)."""
+        n = sum(self._spp[i] for i in idx)
+        mean = sum(self._lum[i] * self._spp[i] for i in idx) / n
+        m2 = sum(self._m2[i] * self._spp[i] for i in idx) / n
+        return float(np.mean(np.maximum(m2 - mean ** 2, 0.0))), n * mean.size
 
     def combine(self, images: list, spps: list):
-        """The iterations' images, weighted by :func:`pass_weights`."""
+        """The iterations' images, weighted by :func:`pass_weights`; iterations rendered
+        by the same estimator (plain BSDF sampling before a unit learns and after training
+        stops; the frozen guide after it stops) are pooled first, by their samples:
+        weights estimated per identical iteration would only add noise (and, with rare
+        bright samples, favour the iterations that missed them)."""
         means, variances, counts = [], [], []
-        for k in range(len(self._iterations)):
-            idx = [i for i, (it, _) in enumerate(self._passes) if it == k and i < len(images)]
+        for e in dict.fromkeys(self._estimator):
+            idx = [i for i, (it, _) in enumerate(self._passes)
+                   if self._estimator[it] == e and i < len(images)]
             n = sum(spps[i] for i in idx)
             mean = sum(images[i] * spps[i] for i in idx) / n
             m2 = sum(self._m2[i] * spps[i] for i in idx) / n

@@ -35,6 +35,14 @@ GRID = 2 ** (MAX_DEPTH // 3)
 CLASSES = 6
 #: Records a leaf needs in a pass to get a new directional histogram.
 MIN_RECORDS = 32
+#: Candidate BSDF shares a unit chooses from (:meth:`SDTree.refine`): 0.1, 0.2, ..., 1.
+SHARES = np.round(np.arange(1, 11) / 10, 1)
+#: How the records' share statistics are added: few addresses, many records each.
+MOMENTS_MODE = dr.ReduceMode.Auto
+#: The share of a unit that just learned its first histogram (its records were evaluated
+#: against a uniform guide, which says nothing about the new one): BSDF sampling until
+#: the next iteration's records, evaluated against the learned guide, say otherwise.
+PRIOR_SHARE = 1.0
 #: Smooth each new histogram's energy with :func:`blur` (off: the raw records' shares, as
 #: the tests of what the records hold need).
 SMOOTH = False
@@ -69,6 +77,7 @@ class SDTree:
         self.nodes, self.leaves = 1, 1
         self.prob = np.full((self.max_units, self.bins), 1.0 / self.bins)
         self.learned = np.zeros(self.max_units, bool)        # has a histogram from records
+        self.share = np.ones(self.max_units)                 # BSDF share per unit
         self.lower = mi.Point3f(dr.opaque(mi.Float, 0.0, 1), dr.opaque(mi.Float, 0.0, 1),
                                 dr.opaque(mi.Float, 0.0, 1))
         self.scale = mi.Vector3f(dr.opaque(mi.Float, 1.0, 1),
@@ -108,20 +117,70 @@ class SDTree:
             stack.append((int(self.child[node]) + 1, tuple(upper), tuple(half)))
         return out.ravel()
 
-    def upload(self) -> None:
-        """The host tree as evaluated Dr.Jit arrays (fixed sizes: no recompilation)."""
-        self.grid_table = mi.UInt32(self.grid())
-        self.prob_table = mi.Float(self.prob.ravel().astype(np.float32))
-        cdf = np.cumsum(self.prob, axis=1)
+    def upload(self, rows: int | None = None) -> None:
+        """The host tree as evaluated Dr.Jit arrays (fixed sizes: no recompilation);
+        ``rows``: only the first units changed (the host work then scales with the
+        units in use, not with ``max_leaves``)."""
+        rows = self.max_units if rows is None else rows
+        if not hasattr(self, "_prob32"):
+            self._prob32 = np.empty((self.max_units, self.bins), np.float32)
+            self._cdf32 = np.empty((self.max_units, self.bins), np.float32)
+            rows = self.max_units
+        self._prob32[:rows] = self.prob[:rows]
+        cdf = np.cumsum(self.prob[:rows], axis=1)
         cdf /= np.maximum(cdf[:, -1:], 1e-30)
-        self.cdf_table = mi.Float(cdf.ravel().astype(np.float32))
+        self._cdf32[:rows] = cdf
+        if getattr(self, "_grid_nodes", None) != self.nodes:     # the tree changed
+            self.grid_table = mi.UInt32(self.grid())
+            self._grid_nodes = self.nodes
+        if rows == self.max_units:
+            self.prob_table = mi.Float(self._prob32.ravel())
+            self.cdf_table = mi.Float(self._cdf32.ravel())
+        else:       # only the rows in use, written into the tables in place
+            index = dr.arange(mi.UInt32, rows * self.bins)
+            dr.scatter(self.prob_table, mi.Float(self._prob32[:rows].ravel()), index)
+            dr.scatter(self.cdf_table, mi.Float(self._cdf32[:rows].ravel()), index)
         dr.eval(self.grid_table, self.prob_table, self.cdf_table)
 
-    def reset_records(self) -> None:
-        """Empty record accumulators (energy per unit bin, records per unit)."""
-        self.energy = dr.zeros(mi.Float, self.max_units * self.bins)
-        self.counts = dr.zeros(mi.UInt32, self.max_units)
-        dr.make_opaque(self.energy, self.counts)
+    def reset_records(self, rows: int | None = None) -> None:
+        """Empty record accumulators (energy per unit bin, records per unit, the share
+        candidates' second moments per unit: ``unit * (len(SHARES) + 1) + candidate``);
+        ``rows``: only the first units can hold records (zeroed in place)."""
+        if rows is None or not hasattr(self, "energy"):
+            self.energy = dr.zeros(mi.Float, self.max_units * self.bins)
+            self.counts = dr.zeros(mi.UInt32, self.max_units)
+            self.moments = dr.zeros(mi.Float, self.max_units * (len(SHARES) + 1))
+            dr.make_opaque(self.energy, self.counts, self.moments)
+            return
+        # in place, each table referenced once (a second reference would make the scatter
+        # copy the whole table first)
+        dr.scatter(self.energy, mi.Float(0), dr.arange(mi.UInt32, rows * self.bins))
+        dr.scatter(self.counts, mi.UInt32(0), dr.arange(mi.UInt32, rows))
+        dr.scatter(self.moments, mi.Float(0), dr.arange(mi.UInt32, rows * (len(SHARES) + 1)))
+        dr.eval(self.energy, self.counts, self.moments)
+
+    def _prefix(self, table, kind, n: int) -> np.ndarray:
+        """The first ``n`` entries of a device table as numpy."""
+        return np.array(dr.gather(kind, table, dr.arange(mi.UInt32, n)))
+
+    def add_moments(self, unit: mi.UInt32, x: mi.Float, a: mi.Float, b: mi.Float,
+                    active=True) -> None:
+        """Add one record to every candidate share's second moment in ``unit``:
+        ``x^2 / (s a + (1 - s) b)``, with ``x = beta f cos L / q`` (q the density the
+        record's direction was drawn with, beta the path's throughput before the vertex:
+        what the direction brought to the pixel), ``a = p_bsdf / q``, ``b = p_guide / q``:
+        the importance-reweighted sample of ``E_q[(beta f cos L)^2 / (q p_s)]``, the
+        second moment of the one-sample mixture ``p_s = s p_bsdf + (1 - s) p_guide``
+        (Mueller 2019, weighted by what reaches the pixel). The last column sums ``x``."""
+        x2 = dr.square(x)
+        active = active & (x2 > 0) & dr.isfinite(x2)
+        row = unit * (len(SHARES) + 1)
+        for k, share in enumerate(SHARES):
+            mix = dr.fma(float(share), a - b, b)
+            dr.scatter_add(self.moments, x2 / dr.maximum(mix, 1e-20), row + k,
+                           active & (mix > 0), mode=MOMENTS_MODE)
+        dr.scatter_add(self.moments, x, row + len(SHARES), active,     # for the mean
+                       mode=MOMENTS_MODE)
 
     def lookup(self, p: mi.Point3f, n: mi.Vector3f, active=True) -> mi.UInt32:
         """The unit (leaf x normal class) of the world point ``p`` with geometric normal
@@ -151,24 +210,68 @@ class SDTree:
 
     # -------------------------------------------------------------------- host side
 
-    def records(self) -> tuple[np.ndarray, np.ndarray]:
-        """The accumulated (energy (units, bins), records per unit) as numpy."""
-        energy = np.array(self.energy, dtype=np.float64).reshape(self.max_units, self.bins)
-        return energy, np.array(self.counts, dtype=np.int64)
+    def records(self, rows: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """The accumulated (energy (units, bins), records per unit) as numpy (the first
+        ``rows`` units; all by default)."""
+        rows = self.max_units if rows is None else rows
+        energy = self._prefix(self.energy, mi.Float, rows * self.bins).reshape(rows, -1)
+        return (energy.astype(np.float64),
+                self._prefix(self.counts, mi.UInt32, rows).astype(np.int64))
 
-    def refine(self, threshold: float) -> None:
+    @staticmethod
+    def choose_shares(moments: np.ndarray, counts: np.ndarray, was_learned: np.ndarray,
+                      share: np.ndarray) -> np.ndarray:
+        """Per unit, the candidate share (:data:`SHARES`) of least estimated second
+        moment, where the unit sampled with a learned histogram and has at least
+        :data:`MIN_RECORDS` records; ties go to the larger share (1 where no record
+        carried light). Other units keep their share."""
+        moments = np.where(np.isfinite(moments), moments, np.inf)[:, len(SHARES) - 1::-1]
+        best = SHARES[::-1][np.argmin(moments, axis=1)]
+        ok = was_learned & (counts >= MIN_RECORDS) & np.isfinite(moments.min(axis=1))
+        return np.where(ok, best, share)
+
+    @staticmethod
+    def moment_at(moments: np.ndarray, share: np.ndarray) -> np.ndarray:
+        """Per unit, the summed second moment at ``share`` (one of :data:`SHARES`)."""
+        k = np.clip(np.rint(share * 10).astype(int) - 1, 0, len(SHARES) - 1)
+        return moments[np.arange(len(moments)), k]
+
+    def refine(self, threshold: float, fixed_share: float | None = None) -> None:
         """Learn from the accumulated records, then reset them: new histograms where a
-        unit has enough records, then split the leaves over ``threshold`` records."""
-        energy, counts = self.records()
+        unit has enough records, the BSDF shares (``fixed_share`` where learned, if given;
+        else :meth:`choose_shares`, :data:`PRIOR_SHARE` for a unit's first histogram,
+        1 where none), then split the leaves over ``threshold`` records."""
+        rows = self.leaves * CLASSES            # the units in use (records land there only)
+        energy, counts = self.records(rows)
+        moments = self._prefix(self.moments, mi.Float, rows * (len(SHARES) + 1))
+        moments = moments.astype(np.float64).reshape(rows, -1)
         energy = np.where(np.isfinite(energy) & (energy > 0), energy, 0.0)
         total = energy.sum(axis=1)
-        fresh = (counts >= MIN_RECORDS) & (total > 0)
-        learned = blur(energy[fresh], self.res) if SMOOTH else energy[fresh]
+        fresh = np.zeros(self.max_units, bool)
+        fresh[:rows] = (counts >= MIN_RECORDS) & (total > 0)
+        learned = energy[fresh[:rows]]
+        learned = blur(learned, self.res) if SMOOTH else learned
         self.prob[fresh] = learned / learned.sum(axis=1, keepdims=True)
+        was_learned = self.learned.copy()
         self.learned |= fresh
+        # what the integrator's stop rule reads: second moments at the shares the records
+        # were drawn with, at share 1 and at the new shares (summed over units)
+        old = self.share[:rows].copy()
+        if fixed_share is None:
+            self.share[:rows] = self.choose_shares(moments, counts, was_learned[:rows],
+                                                   self.share[:rows])
+            self.share[self.learned & ~was_learned] = PRIOR_SHARE
+        else:
+            self.share = np.full(self.max_units, float(fixed_share))
+        self.share[~self.learned] = 1.0
+        m = np.where(np.isfinite(moments), moments, 0.0)
+        evaluated = was_learned[:rows] & (counts >= MIN_RECORDS)
+        self.moment_sums = None if not evaluated.any() else {"drawn": float(self.moment_at(m, old).sum()),
+                            "bsdf": float(m[:, len(SHARES) - 1].sum()),
+                            "chosen": float(self.moment_at(m, self.share[:rows]).sum())}
         self._split(counts.reshape(-1, CLASSES).sum(axis=1), threshold)
-        self.upload()
-        self.reset_records()
+        self.upload(self.leaves * CLASSES)
+        self.reset_records(self.leaves * CLASSES)
 
     def _split(self, counts: np.ndarray, threshold: float) -> None:
         queue = [(n, float(counts[self.leaf[n]])) for n in range(self.nodes)
@@ -188,6 +291,7 @@ class SDTree:
                 units = slice(leaf * CLASSES, (leaf + 1) * CLASSES)
                 self.prob[units] = self.prob[parent]
                 self.learned[units] = self.learned[parent]
+                self.share[units] = self.share[parent]
                 queue.append((first + k, n / 2))
             self.nodes += 2
             self.leaves += 1

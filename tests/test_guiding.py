@@ -4,6 +4,7 @@ the trained multi-pass render with Mitsuba's path (with and without NEE), the pa
 on a hand-computed case, no recompilation over a job's passes, the record cap and the
 refusals."""
 import math
+from pathlib import Path
 
 import drjit as dr
 import mitsuba as mi
@@ -248,3 +249,79 @@ def test_record_cap_and_refusals():
     with pytest.raises(ValueError, match="valid samplers for it: independent"):
         methods.parse_method("guided+nee+multijitter")
     assert methods.parse_method("guided+nee").integrator_dict()["type"] == "vr_guided_path"
+
+
+# ------------------------------------------------------------------ the learned share
+
+def test_share_moments_from_bsdf_drawn_records():
+    """Records drawn by BSDF sampling alone (share 1, as a unit's first iterations) give
+    every candidate share's second moment sum F^2 / p_s of a discrete integrand (within
+    3%), and the least one is the analytic optimum (0.6 here, neither end): the estimate
+    is importance-reweighted by the density the records were drawn with, so a unit can
+    learn to guide while it does not guide yet."""
+    rng = np.random.default_rng(5)
+    p_bsdf = np.full(16, 1 / 16)
+    p_guide = np.zeros(16)
+    p_guide[:4] = [0.5, 0.3, 0.15, 0.05]
+    f = np.full(16, 0.15)
+    f[:3] = [1.0, 0.6, 0.2]
+    truth = np.array([np.sum(f ** 2 / (s * p_bsdf + (1 - s) * p_guide)) for s in sdtree.SHARES])
+    q = p_bsdf                                          # drawn with share 1
+    i = rng.choice(16, 200_000, p=q)
+    tree = sdtree.SDTree(4, 1)
+    tree.add_moments(dr.zeros(mi.UInt32, len(i)), mi.Float(f[i] / q[i]),
+                     mi.Float(p_bsdf[i] / q[i]), mi.Float(p_guide[i] / q[i]))
+    moments = np.array(tree.moments, dtype=np.float64).reshape(tree.max_units, -1)
+    assert np.allclose(moments[0, :-1] / len(i), truth, rtol=0.03), (moments[0] / len(i), truth)
+    assert moments[0, -1] / len(i) == pytest.approx(f.sum(), rel=0.03)      # sum of x
+    counts = np.full(tree.max_units, len(i))
+    chosen = sdtree.SDTree.choose_shares(moments, counts, np.ones(tree.max_units, bool),
+                                         np.ones(tree.max_units))
+    assert chosen[0] == sdtree.SHARES[np.argmin(truth)] == 0.6
+    # a unit that never learned, or had too few records, keeps its share
+    kept = sdtree.SDTree.choose_shares(moments, counts, np.zeros(tree.max_units, bool),
+                                       np.full(tree.max_units, 0.3))
+    assert np.all(kept == 0.3)
+
+
+def learned_shares(integ):
+    tree = integ.guide.tree
+    units = np.flatnonzero(tree.learned[:tree.leaves * sdtree.CLASSES])
+    return tree.share[units]
+
+
+def test_shares_stay_bsdf_on_a_directly_lit_scene():
+    """Cornell box with NEE: guiding does not help, so every learned share ends at 1
+    (training stops), never below 0.1 on the way."""
+    scene = cbox()
+    d = {"type": "vr_guided_path", "emitter_sampling": True, "max_depth": 5,
+         "spatial_threshold": 500.0}
+    _, _, integ = render_job(scene, d, 128, 1)
+    shares = learned_shares(integ)
+    assert len(shares) > 0 and np.all(shares >= 0.1)
+    assert shares.mean() >= 0.9, np.unique(shares, return_counts=True)
+    assert integ._stopped and np.all(np.array(integ.guide.share) == 1.0)
+
+
+def test_shares_go_down_where_guiding_helps():
+    """door_room (the room lit through a door): after training some units of the room
+    guide (share <= 0.5), the records predict a gain over BSDF sampling and training
+    goes on to the end."""
+    scene = mi.load_file(str(Path(__file__).parents[1] / "scenes/guiding/door_room.xml"),
+                         width=48, height=36)
+    _, _, integ = render_job(scene, {"type": "vr_guided_path", "emitter_sampling": True,
+                                     "max_depth": 8}, 256, 1)
+    shares = learned_shares(integ)
+    assert not integ._stopped
+    assert np.all(shares >= 0.1) and np.sum(shares <= 0.5) >= 2, \
+        np.unique(shares, return_counts=True)
+    assert max(g for g in integ.gains if g) > 1.1, integ.gains
+
+
+def test_fixed_share_is_kept():
+    """With ``bsdf_fraction`` given, the share is fixed where a unit learned (no
+    learning, no stop)."""
+    _, _, integ = render_job(cbox(), {"type": "vr_guided_path", "emitter_sampling": True,
+                                      "max_depth": 4, "bsdf_fraction": 0.3}, 32, 1)
+    shares = learned_shares(integ)
+    assert len(shares) > 0 and np.all(shares == 0.3) and not integ._stopped

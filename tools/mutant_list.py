@@ -200,9 +200,8 @@ MUTANTS = [
            ("tests/test_stats.py",)),
     # ------------------------------------------------------------ path guiding
     Mutant("guide-share-missing", "integrators/guiding.py",
-           "        pdf = dr.fma(s, pdf_bsdf - (p := self.tree.pdf(unit, si.to_world(wo), "
-           "active)), p)",
-           "        pdf = (1.0 - s) * self.tree.pdf(unit, si.to_world(wo), active)",
+           "        pdf = dr.select(s < 1.0, dr.fma(s, pdf_bsdf - p, p), pdf_bsdf)",
+           "        pdf = dr.select(s < 1.0, (1.0 - s) * p, pdf_bsdf)",
            "the guided mixture's density without the BSDF's share (only the guide's part)",
            ("tests/test_guiding.py::test_drawn_pdf_and_weights",)),
     Mutant("guide-bin-solid-angle", "integrators/guide_warps.py",
@@ -224,6 +223,14 @@ MUTANTS = [
            "records' radiance not divided by the sampling pdf (the guide learns the "
            "radiance times the density that sampled it)",
            ("tests/test_guiding.py::test_training_learns_the_sky_from_the_floor",)),
+    Mutant("guide-share-no-reweighting", "integrators/sdtree.py",
+           "            dr.scatter_add(self.moments, x2 / dr.maximum(mix, 1e-20), row + k,",
+           "            dr.scatter_add(self.moments, x2 / dr.maximum(dr.square(mix), 1e-20), "
+           "row + k,",
+           "the learned BSDF share's second moments averaged as if the records had been drawn "
+           "from each candidate mixture ((F / p_s)^2), not reweighted by the density q they "
+           "were drawn with (F^2 / (q p_s))",
+           ("tests/test_guiding.py::test_share_moments_from_bsdf_drawn_records",)),
     # ------------------------------------------------------------ the bias test
     Mutant("welch-one-side", "experiments/lib/bias.py",
            "    se2 = np.maximum(va + vb, 1e-300)\n",
