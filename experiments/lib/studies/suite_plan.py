@@ -230,13 +230,14 @@ def time_scale(sp: ScenePlan) -> float:
     return max(sp.header.budget if sp.header is not None else 1.0, sp.precision or 1.0)
 
 
-def precision_scale(cfg: Settings, engine: Engine, sp: ScenePlan,
-                    ref: np.ndarray) -> tuple[float | None, str]:
+def precision_scale(cfg: Settings, engine: Engine, sp: ScenePlan) -> tuple[float | None, str]:
     """The factor of ``--time-budget`` that the scene's equal-time renders need for the
     expected relMSE of the baseline and of the timed pair (:data:`.suite_analysis.TIMED_PAIR`,
     those of them in the run) to be known to :data:`PRECISION` (relative standard error,
-    pooled over the repeats), predicted from their equal-spp renders (their pixels'
-    variances against ``ref``, :mod:`.suite_errors`): the standard error falls as
+    pooled over the repeats), predicted from their equal-spp renders alone (their pixels'
+    variances over their own mean image's squares, :mod:`.suite_errors`: a function of
+    stored renders, so that a rerun or a longer reference plans the same counts): the
+    standard error falls as
     1/sqrt(samples), so the factor is (the largest se at the unscaled equal-time count /
     PRECISION)^2, rounded up to a power of two (the counts stay powers of two), between 1
     and :data:`MAX_PRECISION_SCALE`. (None, why) where the baseline's pixels are not
@@ -247,7 +248,7 @@ def precision_scale(cfg: Settings, engine: Engine, sp: ScenePlan,
                       f"sampler or a filter other than a box)")
     names = [m.name for m in sp.declaration.methods
              if m.name in (baseline.name,) + suite_analysis.TIMED_PAIR and precise(m, sp.box)]
-    errors = [e for e in (_equal_time_error(engine, sp, name, ref) for name in names)
+    errors = [e for e in (_equal_time_error(engine, sp, name) for name in names)
               if e is not None]
     if baseline.name in sp.failed or not errors:
         return None, f"the baseline {baseline.name} has no equal-spp error"
@@ -262,20 +263,21 @@ def scale_for(error: float, precision: float = PRECISION,
     return float(min(cap, 2 ** max(0, math.ceil(math.log2(max(scale, 1.0))))))
 
 
-def _equal_time_error(engine: Engine, sp: ScenePlan, method: str,
-                      ref: np.ndarray) -> float | None:
+def _equal_time_error(engine: Engine, sp: ScenePlan, method: str) -> float | None:
     """The relative standard error of a cell's pooled expected relMSE predicted at its
     unscaled equal-time count from its equal-spp renders (None: no usable renders)."""
     runs = [engine.study.results(jobs)
             for jobs in sp.jobs.get(SPP, {}).get(sp.cell(method, SPP), [])]
     if method in sp.failed or not runs:
         return None
-    maps = []
+    accs = []
     for results in runs:
-        acc = Accumulator.empty(*np.asarray(ref).shape[:2])
+        acc = Accumulator.empty(*results[0].image.shape[:2])
         for r in results:
             acc.add_result(r)
-        maps.append(suite_errors.pixel_map(acc.variance_of_mean(), ref))
+        accs.append(acc)
+    mean = np.mean([a.mean for a in accs], axis=0)
+    maps = [suite_errors.pixel_map(a.variance_of_mean(), mean) for a in accs]
     value, var = suite_errors.pooled(maps)
     if not (value > 0 and math.isfinite(var)):
         return None
