@@ -178,3 +178,19 @@ def test_a_method_that_learns_is_tested_on_its_renders_spread_not_its_pixels():
     from experiments.lib.methods import parse_method
     assert parse_method("guided+nee").learns and not parse_method("bsdf+nee").learns
     assert not parse_method("path").learns
+
+
+def test_a_failed_calibration_makes_the_scenes_biased_verdicts_untestable():
+    """The method that renders the reference is tested against it too: where it fails its
+    own test (heavy tails or a disagreement: the reference or the variances are not to be
+    trusted), no other method of the scene is called biased; where it passes, verdicts
+    stand; unbiased and untestable cells are kept as they are."""
+    ok, bad = suite_bias.CellBias("unbiased"), suite_bias.CellBias("biased", delta=(0.1,))
+    tails = suite_bias.CellBias("untestable", "heavy_tails")
+    kept = suite_bias.calibrated({"path": ok, "mine": bad}, "path")
+    assert kept["mine"].status == "biased"
+    for own in (tails, suite_bias.CellBias("biased")):
+        out = suite_bias.calibrated({"path": own, "mine": bad, "other": ok}, "path")
+        assert out["mine"].status == "untestable" and out["mine"].reason == "calibration"
+        assert out["mine"].delta == (0.1,) and out["other"].status == "unbiased"
+    assert suite_bias.calibrated({"mine": bad}, "path")["mine"].status == "biased"

@@ -264,4 +264,10 @@ MUTANTS = [
            "the precision rule's factor not squared (the standard error falls as "
            "1/sqrt(samples)): scenes ruled by rare samples get too few",
            ("tests/test_suite_errors.py",)),
+    Mutant("bias-calibration-ignored", "experiments/lib/studies/suite_bias.py",
+           "    if own is None or own.status == \"unbiased\":",
+           "    if True:",
+           "the test's own calibration ignored: where the reference method fails its own test "
+           "(a heavy-tailed reference), other methods are still called biased against it",
+           ("tests/test_suite_bias.py",)),
 ]

@@ -365,18 +365,20 @@ def render(cfg: suite_plan.Settings, engine: Engine, refs: references.ReferenceS
         for batch in ([groups] if cfg.executor is not None else [[g] for g in groups]):
             clock.time("renders", suite_plan.run_budget, engine, batch, suite_plan.SPP,
                        f"{NAME}: equal spp")
-            clock.time("precision rule", precision, cfg, engine, unit)
+            clock.time("precision rule", precision, cfg, engine, refs, unit)
             clock.time("renders", suite_plan.run_budget, engine, batch, suite_plan.TIME,
                        f"{NAME}: equal time")
         adequate(cfg, engine, refs, unit, clock)
 
 
-def precision(cfg: suite_plan.Settings, engine: Engine, plans) -> None:
+def precision(cfg: suite_plan.Settings, engine: Engine, refs: references.ReferenceStore,
+              plans) -> None:
     """Each scene's equal-time factor from its baseline's equal-spp renders, once
     (:func:`.suite_plan.precision_scale`; the first group of a scene holds the baseline)."""
     for sp in plans:
         if sp.precision is None and not sp.precision_note and not sp.error:
-            sp.precision, sp.precision_note = suite_plan.precision_scale(cfg, engine, sp)
+            sp.precision, sp.precision_note = suite_plan.precision_scale(
+                cfg, engine, sp, suite_plan.first_chunk(refs, sp))
 
 
 def run_suite(cfg: suite_plan.Settings) -> dict:

@@ -20,6 +20,7 @@ The result is data (:class:`CellBias`); the words are the report's (:mod:`.suite
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
 from dataclasses import dataclass
 
@@ -36,7 +37,7 @@ TAILS_SHARE = 0.05
 MIN_PER_HALF = 2
 #: Why a cell is untestable (keys of summary.json's ``biased_reason``).
 REASONS = ("deterministic", "user_reference", "too_few_renders", "unequal_counts",
-           "heavy_tails")
+           "heavy_tails", "calibration")
 
 
 @dataclass(frozen=True)
@@ -145,6 +146,19 @@ def check_cell(method, budgets: list, chunks: np.ndarray | None, box: bool, ref_
     if tails > TAILS_SHARE:
         return CellBias("untestable", "heavy_tails", **base)
     return CellBias("unbiased" if agreement.passed else "biased", **base)
+
+
+def calibrated(cells: dict, reference_method: str) -> dict:
+    """``cells`` ({method name: CellBias} of one scene) with the test's own calibration
+    applied: where the method that renders the reference is among them and its own test
+    does not pass (its renders disagree with its own reference, or their tails void the
+    test), the reference or the test's variances are not to be trusted on this scene, and
+    every ``biased`` verdict there becomes untestable (``calibration``), its numbers kept."""
+    own = cells.get(reference_method)
+    if own is None or own.status == "unbiased":
+        return cells
+    return {name: dataclasses.replace(c, status="untestable", reason="calibration")
+            if c.status == "biased" else c for name, c in cells.items()}
 
 
 def flag_overlay(image: np.ndarray, flagged: np.ndarray, block: int = bias.BLOCK) -> np.ndarray:

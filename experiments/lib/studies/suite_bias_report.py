@@ -21,7 +21,9 @@ UNTESTABLE = {"deterministic": "a deterministic sampler (no independent renders)
               "too_few_renders": "too few renders (fewer than 2 per budget)",
               "unequal_counts": "renders of unequal sample counts within a budget",
               "heavy_tails": "heavy tails (one sample rules the variance of many "
-                             "blocks: the test's size is void)"}
+                             "blocks: the test's size is void)",
+              "calibration": "its calibration failed (the method that renders the reference "
+                             "did not pass its own test on this scene)"}
 BIAS_FINDING = (
     "Bias test (every cell against its scene's reference, per {{ block }}x{{ block }} block "
     "and channel and pooled over the image, Welch, {{ level | pct }} family-wise over the run): "

@@ -230,14 +230,16 @@ def time_scale(sp: ScenePlan) -> float:
     return max(sp.header.budget if sp.header is not None else 1.0, sp.precision or 1.0)
 
 
-def precision_scale(cfg: Settings, engine: Engine, sp: ScenePlan) -> tuple[float | None, str]:
+def precision_scale(cfg: Settings, engine: Engine, sp: ScenePlan,
+                    ref: np.ndarray) -> tuple[float | None, str]:
     """The factor of ``--time-budget`` that the scene's equal-time renders need for the
     expected relMSE of the baseline and of the timed pair (:data:`.suite_analysis.TIMED_PAIR`,
     those of them in the run) to be known to :data:`PRECISION` (relative standard error,
-    pooled over the repeats), predicted from their equal-spp renders alone (their pixels'
-    variances over their own mean image's squares, :mod:`.suite_errors`: a function of
-    stored renders, so that a rerun or a longer reference plans the same counts): the
-    standard error falls as
+    pooled over the repeats), predicted from their equal-spp renders (their pixels'
+    variances over ``ref``'s squares, :mod:`.suite_errors`; ``ref``: the reference's first
+    chunk, the same in every run, so that a rerun or a longer reference plans the same
+    counts; not the renders' own mean, whose fireflies would shrink their own weights):
+    the standard error falls as
     1/sqrt(samples), so the factor is (the largest se at the unscaled equal-time count /
     PRECISION)^2, rounded up to a power of two (the counts stay powers of two), between 1
     and :data:`MAX_PRECISION_SCALE`. (None, why) where the baseline's pixels are not
@@ -248,7 +250,7 @@ def precision_scale(cfg: Settings, engine: Engine, sp: ScenePlan) -> tuple[float
                       f"sampler or a filter other than a box)")
     names = [m.name for m in sp.declaration.methods
              if m.name in (baseline.name,) + suite_analysis.TIMED_PAIR and precise(m, sp.box)]
-    errors = [e for e in (_equal_time_error(engine, sp, name) for name in names)
+    errors = [e for e in (_equal_time_error(engine, sp, name, ref) for name in names)
               if e is not None]
     if baseline.name in sp.failed or not errors:
         return None, f"the baseline {baseline.name} has no equal-spp error"
@@ -263,21 +265,20 @@ def scale_for(error: float, precision: float = PRECISION,
     return float(min(cap, 2 ** max(0, math.ceil(math.log2(max(scale, 1.0))))))
 
 
-def _equal_time_error(engine: Engine, sp: ScenePlan, method: str) -> float | None:
+def _equal_time_error(engine: Engine, sp: ScenePlan, method: str,
+                      ref: np.ndarray) -> float | None:
     """The relative standard error of a cell's pooled expected relMSE predicted at its
     unscaled equal-time count from its equal-spp renders (None: no usable renders)."""
     runs = [engine.study.results(jobs)
             for jobs in sp.jobs.get(SPP, {}).get(sp.cell(method, SPP), [])]
     if method in sp.failed or not runs:
         return None
-    accs = []
+    maps = []
     for results in runs:
         acc = Accumulator.empty(*results[0].image.shape[:2])
         for r in results:
             acc.add_result(r)
-        accs.append(acc)
-    mean = np.mean([a.mean for a in accs], axis=0)
-    maps = [suite_errors.pixel_map(a.variance_of_mean(), mean) for a in accs]
+        maps.append(suite_errors.pixel_map(acc.variance_of_mean(), ref))
     value, var = suite_errors.pooled(maps)
     if not (value > 0 and math.isfinite(var)):
         return None
@@ -383,6 +384,12 @@ def render_references(refs: references.ReferenceStore, cfg: Settings, plans: lis
     return done
 
 
+def first_chunk(refs: references.ReferenceStore, sp: ScenePlan) -> np.ndarray:
+    """The image of the scene's reference's first chunk (the user's EXR where given): the
+    same in every run of the scene, whatever its reference's length."""
+    return reference_of(refs, sp, sp.ref.chunk if sp.user_ref is None else None).image
+
+
 def reference_of(refs: references.ReferenceStore, sp: ScenePlan,
                  spp: int | None) -> references.Reference:
     """The scene's reference: the user's EXR, or the store's (``spp``: enough chunks for
@@ -462,6 +469,10 @@ def measure_scene(cfg: Settings, st: Study, sp: ScenePlan, measured: Measurement
         cells[name] = suite_analysis.Cell(name, runs, tuple(x / px * 1e9 for x in b),
                                           overhead(st, sp, name), methods[name].deterministic,
                                           tested)
+    if alpha is not None and sp.user_ref is None:
+        checked = suite_bias.calibrated({n: c.block_bias for n, c in cells.items()},
+                                        cfg.reference_method.name)
+        cells = {n: replace(c, block_bias=checked[n]) for n, c in cells.items()}
     floor = suite_analysis.Floor(ref.relmse_floor or 0.0,
                                  float(np.mean(rej_floors)) if rej_floors else 0.0,
                                  ref.mse_floor or 0.0, ref.floor_known)
