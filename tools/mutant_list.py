@@ -270,4 +270,10 @@ MUTANTS = [
            "the test's own calibration ignored: where the reference method fails its own test "
            "(a heavy-tailed reference), other methods are still called biased against it",
            ("tests/test_suite_bias.py",)),
+    Mutant("cost-spike-unclipped", "experiments/lib/studies/suite_errors.py",
+           "terms[1] + [(stats.winsorized_variance(dev) / k, k - 1)]",
+           "terms[1] + [(float(dev.var(ddof=1)) / k, k - 1)]",
+           "the paired costs' plain variance: one render slowed 2x by the machine widens an "
+           "A/A efficiency interval to hi/lo ~2",
+           ("tests/test_suite_errors.py",)),
 ]

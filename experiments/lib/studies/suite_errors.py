@@ -25,7 +25,9 @@ The cost side of an efficiency pairs the two methods' renders (same repeat, same
 timing group renders them one after the other, :func:`.suite_plan.interleaved`), so that the
 machine's load, shared by both, cancels in their ratio: the ratio of the mean seconds (as the
 tables give them) with the variance of its log from the 2R paired renders' relative
-deviations of their costs per sample (delta method), Student's t on 2R - 1 degrees of
+deviations of their costs per sample (delta method; winsorized at 5 robust standard
+deviations, :func:`.stats.winsorized_variance`: a lone render slowed 2x by the machine, seen
+in about 1% of renders, would otherwise rule the interval), Student's t on 2R - 1 degrees of
 freedom. Cells of QMC samplers or other filters keep the repeat-based relMSE
 (:mod:`.suite_analysis`).
 """
@@ -106,5 +108,5 @@ def efficiency(a, b, level: float = stats.LEVEL) -> stats.Estimate | None:
     # delta method from the paired renders' relative deviations
     k, dev = ca.size, cb / cb.mean() - ca / ca.mean()
     log_value = terms[0] + math.log(float(np.mean(b.seconds)) / float(np.mean(a.seconds)))
-    return stats.log_interval(log_value, terms[1] + [(float(dev.var(ddof=1)) / k, k - 1)],
+    return stats.log_interval(log_value, terms[1] + [(stats.winsorized_variance(dev) / k, k - 1)],
                               min(len(a.relmse), len(b.relmse)), level)
