@@ -13,30 +13,33 @@ SQUARES = ("m2.R", "m2.G", "m2.B")
 
 
 class MomentsIntegrator(mi.SamplingIntegrator):
-    """Renders with a nested integrator and adds the per-pixel mean of each sample's squared
-    R, G and B (AOVs ``m2.R``, ``m2.G``, ``m2.B``, after the nested integrator's own AOVs).
+    r"""
+    .. _integrator-vr_moments:
+
+    Sample moments (:monosp:`vr_moments`)
+    -------------------------------------
+
+    .. pluginparameters::
+
+     * - nested
+       - |integrator|
+       - The integrator whose samples are measured (required): a sampling integrator
+         such as ``path`` or ``vr_path``.
+
+    Renders with the nested integrator and adds the per-pixel mean of each sample's
+    squared R, G and B (AOVs ``m2.R``, ``m2.G``, ``m2.B``, after the nested integrator's
+    own AOVs). Mitsuba's own ``moment`` integrator gives the second moments of the colour
+    as XYZ; per-channel RGB variances need the RGB squares.
 
     Under a box filter (radius 0.5) with the ``independent`` sampler each sample lands in
     one pixel with weight 1, so a pixel's ``m2`` and colour are the means of its samples'
-    squares and values: ``(m2 - mean^2) / (spp - 1)`` estimates the variance of the pixel's
-    mean with ``spp - 1`` degrees of freedom (what the experiments' accumulators keep as
-    every sample its own pass). Under another filter or a sampler whose samples are not
-    independent these are not a sample variance.
+    squares and values: ``(m2 - mean^2) / (spp - 1)`` estimates the variance of the
+    pixel's mean with ``spp - 1`` degrees of freedom (the experiments' accumulators keep it
+    as every sample its own pass). Under another filter, or a sampler whose samples are not
+    independent, these are not a sample variance.
 
-    The wrapper adds three AOV channels per sample to the film (on the 2-core machine about
-    5% of the time of a depth-2 sample of a small scene); compare methods only with both
-    wrapped or both not.
-
-    .. list-table::
-       :header-rows: 1
-
-       * - Parameter
-         - Type
-         - Description
-       * - nested
-         - integrator
-         - The integrator whose samples are measured (required): a sampling integrator
-           such as ``path`` or ``vr_path``.
+    The three AOV channels cost no measurable kernel time on the 2-core machine (grazing,
+    128 spp: 21.8 against 21.6 ns per sample); compare methods both wrapped or both not.
     """
 
     def __init__(self, props: mi.Properties):
