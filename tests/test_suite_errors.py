@@ -213,3 +213,23 @@ def test_a_lone_slow_render_does_not_rule_the_cost_interval_and_coverage_holds()
                                     _runs((0.01, 1e-12), 64, cb, [64 * cb.mean()] * 3))
         hits += e.lo <= 1.0 <= e.hi
     assert 365 <= hits <= 396, hits
+
+
+def test_vr_moments_adds_the_squares_after_the_nested_image_and_refuses_no_nested():
+    """vr_moments: the nested integrator's image unchanged (same seed, same samples) in
+    front, the squares' means behind (never below the squared mean: Jensen), and a clear error without a
+    nested integrator."""
+    import mitsuba as mi
+    import integrators  # noqa: F401
+    mi.set_variant(VARIANT)
+    scene = mi.load_file(scenes.path("suite/cbox.xml"), width=16, height=12)
+    nested = {"type": "vr_path", "strategy": "bsdf", "emitter_sampling": True}
+    wrapped = mi.load_dict({"type": "vr_moments", "nested": nested})
+    assert list(wrapped.aov_names()) == ["m2.R", "m2.G", "m2.B"]
+    image = np.array(mi.render(scene, integrator=wrapped, spp=8, seed=3), dtype=np.float64)
+    plain = np.array(mi.render(scene, integrator=mi.load_dict(nested), spp=8, seed=3))
+    assert image.shape[-1] == plain.shape[-1] + 3
+    assert np.allclose(image[..., :plain.shape[-1]], plain, rtol=1e-5, atol=1e-6)
+    assert np.all(image[..., -3:] >= image[..., :3] ** 2 * (1 - 1e-4) - 1e-7)
+    with pytest.raises(Exception, match="exactly one nested"):
+        mi.load_dict({"type": "vr_moments"})
