@@ -421,6 +421,7 @@ class GuidedPathIntegrator(VRPathIntegrator):
         # 1: untrained, or training stopped), else the iteration whose refinement it uses
         self._estimator = [-1] * len(self._iterations)
         self._set_recording(len(self._iterations) > 1)
+        self.sampling_strategy = self.guide
         return [n for _, n in self._passes]
 
     def after_pass(self, index: int, image, spp: int) -> None:
@@ -446,10 +447,13 @@ class GuidedPathIntegrator(VRPathIntegrator):
         self.gains.append(predicted_gain(tree.moment_sums, *self._pixel_moments(idx)))
         low = [g is not None and g < STOP_GAIN for g in self.gains[-STOP_PATIENCE:]]
         if self.bsdf_fraction is None and k >= STOP_FIRST and all(low):
-            # guiding does not help anywhere: plain BSDF sampling, no more training
+            # guiding does not help anywhere: plain BSDF sampling, no more training; the
+            # rest renders with vr_path's own bsdf strategy (its kernel: the same estimator
+            # as every share 1, without the guide's lookups and dispatch)
             tree.share[:] = 1.0
             self._stopped = True
             self._set_recording(False)
+            self.sampling_strategy = strategies.get("bsdf")
         self.guide.set_share(tree.share)
         self._estimator[k + 1] = -1 if np.all(tree.share == 1.0) else k
         if k + 2 == len(self._iterations):     # the last iteration only renders

@@ -303,6 +303,33 @@ def test_shares_stay_bsdf_on_a_directly_lit_scene():
     assert integ._stopped and np.all(np.array(integ.guide.share) == 1.0)
 
 
+def test_a_stopped_guide_renders_with_vr_paths_own_bsdf_kernel():
+    """Once training stops (cbox with NEE), the rest renders as vr_path's bsdf+nee: a pass
+    after the stop gives the very image vr_path with the bsdf strategy gives for the same
+    seed (the same estimator without the guide's lookups and dispatch, equal but for the
+    last bits of the film's multithreaded sums); the next job starts
+    from the guide again."""
+    scene = cbox()
+    d = {"type": "vr_guided_path", "emitter_sampling": True, "max_depth": 5}
+    integ = mi.load_dict(d)
+    schedule = integ.pass_schedule(128)
+    for i, k in enumerate(schedule):
+        image = mi.render(scene, integrator=integ, spp=k, seed=i)
+        integ.after_pass(i, image, k)
+        if integ._stopped:
+            break
+    assert integ._stopped and integ.sampling_strategy.__class__.__name__ != "GuidedStrategy"
+    k = schedule[i + 1]
+    guided = np.array(mi.render(scene, integrator=integ, spp=k, seed=77))[..., :3]
+    plain = mi.load_dict({"type": "vr_path", "strategy": "bsdf", "emitter_sampling": True,
+                          "max_depth": 5})
+    # equal to the last bits of the film's multithreaded sums
+    assert np.allclose(guided, np.array(mi.render(scene, integrator=plain, spp=k,
+                                                  seed=77))[..., :3], rtol=1e-5, atol=1e-7)
+    integ.pass_schedule(64)
+    assert integ.sampling_strategy is integ.guide
+
+
 def test_shares_go_down_where_guiding_helps():
     """door_room (the room lit through a door): after training some units of the room
     guide (share <= 0.5), the records predict a gain over BSDF sampling and training
