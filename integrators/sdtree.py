@@ -225,7 +225,7 @@ class SDTree:
         moment, where the unit sampled with a learned histogram and has at least
         :data:`MIN_RECORDS` records; ties go to the larger share (1 where no record
         carried light). Other units keep their share."""
-        moments = np.where(np.isfinite(moments), moments, np.inf)[:, len(SHARES) - 1::-1]
+        moments = np.where(np.isfinite(moments), moments, np.inf)[:, :len(SHARES)][:, ::-1]
         best = SHARES[::-1][np.argmin(moments, axis=1)]
         ok = was_learned & (counts >= MIN_RECORDS) & np.isfinite(moments.min(axis=1))
         return np.where(ok, best, share)
