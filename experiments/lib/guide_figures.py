@@ -267,8 +267,7 @@ class GuideFigure:
                 f"outlines; the learned BSDF share of that unit ({self.guided_share:.0%} of "
                 f"the pixels use the guide, share < 1). Beneath: the picked units' learned "
                 f"directional densities over the sphere of world directions (equal-area: "
-                f"azimuth about z, cos theta to z; cyan: the unit's normal class direction). "
-                f"PDF beside it.")
+                f"azimuth about z, cos theta to z; cyan: the unit's normal class direction).")
 
 
 def guide_figure(stem: str, scene_path: str, width: int, height: int,
