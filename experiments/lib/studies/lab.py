@@ -247,8 +247,15 @@ def report_guide(out: str, gcfg: lab_guide.GuideConfig, m: lab_guide.Measured) -
         f"of {len(m.specs)} pixels (the learned units the guide is used most in), with the "
         f"scene's BSDF there and the camera direction as the incident one: the same tiles, "
         f"chi-square, mass and albedo checks as the other panels (the whole local sphere, "
-        f"the shading normal up). Its rows are in the warp tables below; each point is a "
-        f"configuration of its own.")]
+        f"the shading normal up). Its rows join the warps' conclusion and the mass and "
+        f"albedo checks below, each point a configuration of its own."),
+        report.write_table(
+            out, f"{NAME}/frozen_guide", WARP_HEADER,
+            [[r[h] if not isinstance(r[h], float) else float(f"{r[h]:.6g}") for h in WARP_HEADER]
+             for r in m.rows], f"The frozen guide's panels (p_value: chi-square test of the "
+                               f"histogram against the strategy's density; grid "
+                               f"{lab_warps.PanelSpec.res} x {lab_warps.PanelSpec.res} cells, "
+                               f"{gcfg.ires} x {gcfg.ires} points per cell)")]
 
 
 # ------------------------------------------------------------- point sets
