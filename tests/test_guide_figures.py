@@ -71,12 +71,17 @@ def test_guide_figure_writes_its_files_on_a_tiny_film(tmp_path):
 
 def test_suite_draws_the_guide_only_where_a_guiding_method_rendered():
     cfg = types.SimpleNamespace(methods=[parse_method(m) for m in ("path", "guided+nee")])
-    scene = types.SimpleNamespace(methods=["path", "guided+nee"], failed={})
+    header = types.SimpleNamespace(favours=("guided+nee*",))
+    scene = types.SimpleNamespace(methods=["path", "guided+nee"], failed={}, header=header)
     assert suite_report.guide_method(cfg, scene).name == "guided+nee"
-    scene.failed = {"guided+nee": "boom"}
+    scene.header = None                                  # a user's scene: no hypothesis
+    assert suite_report.guide_method(cfg, scene).name == "guided+nee"
+    scene.header = types.SimpleNamespace(favours=("bsdf+nee*", "path"))
+    assert suite_report.guide_method(cfg, scene) is None     # not a guiding scene
+    scene.header, scene.failed = header, {"guided+nee": "boom"}
     assert suite_report.guide_method(cfg, scene) is None
-    assert suite_report.guide_method(cfg, types.SimpleNamespace(methods=["path"],
-                                                                failed={})) is None
+    assert suite_report.guide_method(cfg, types.SimpleNamespace(
+        methods=["path"], failed={}, header=header)) is None
 
 
 class Scaled(strategies.Strategy):

@@ -271,10 +271,13 @@ def viewer_block(cfg, sp, measured, r: suite_analysis.SceneResult, ref) -> dict:
 
 def guide_method(cfg, sp):
     """The first of the scene's rendered methods that trains a guide (its integrator is
-    ``vr_guided_path``), or None."""
+    ``vr_guided_path``) and that its header favours (any such method in a scene whose
+    header favours none: a user's scene), or None: one training job per guiding scene."""
+    favours = getattr(sp.header, "favours", ()) if sp.header else ()
     for m in cfg.methods:
         if (m.name in sp.methods and m.name not in sp.failed
-                and m.integrator_dict().get("type") == "vr_guided_path"):
+                and m.integrator_dict().get("type") == "vr_guided_path"
+                and (not favours or suite_analysis.matching(favours, [m.name]))):
             return m
     return None
 
