@@ -144,45 +144,50 @@ def variates(count: int, seed: int, dim: int = 3):
     return out
 
 
-def sample_func(strategy: str, bsdf, wi, domain=None, path_module=None):
+def sample_func(strategy, bsdf, wi, domain=None, path_module=None, site=None):
     """``u -> (wo, weight)`` for mitsuba.chi2: ``vr_path``'s own direction sampling,
     weight 1 where a direction was drawn (inside ``domain``), 0 elsewhere (parked
-    at the domain's axis)."""
+    at the domain's axis). ``strategy``: a name or a strategy object; ``site``:
+    ``n -> n`` surface interactions (default :func:`interaction` with ``wi``)."""
     import drjit as dr
     import mitsuba as mi
     path = path_module or _path()
     domain = domain or EqualAreaDomain()
     ctx = mi.BSDFContext()
     ptr = mi.BSDFPtr(bsdf)
+    site = site or (lambda n: interaction(wi, n))
 
     def sample(u):
-        ds = path.sample_direction(strategy, ptr, ctx, interaction(wi, dr.width(u)), u.x,
+        ds = path.sample_direction(strategy, ptr, ctx, site(dr.width(u)), u.x,
                                    mi.Point2f(u.y, u.z))
         wo = dr.select(ds.pdf > 0, ds.wo, dr.normalize(mi.Vector3f(*domain.axis)))
         return domain.restrict(wo, dr.select(ds.pdf > 0, 1.0, 0.0))
     return sample
 
 
-def pdf_func(strategy: str, bsdf, wi, path_module=None):
-    """``wo -> density`` reported by the strategy (``direction_pdf``)."""
+def pdf_func(strategy, bsdf, wi, path_module=None, site=None):
+    """``wo -> density`` reported by the strategy (``direction_pdf``); ``site`` as in
+    :func:`sample_func`."""
     import drjit as dr
     import mitsuba as mi
     path = path_module or _path()
     ctx = mi.BSDFContext()
+    site = site or (lambda n: interaction(wi, n))
 
     def pdf(wo):
-        return path.direction_pdf(strategy, bsdf, ctx, interaction(wi, dr.width(wo)), wo)
+        return path.direction_pdf(strategy, bsdf, ctx, site(dr.width(wo)), wo)
     return pdf
 
 
-def fcos_func(bsdf, wi):
-    """``wo -> f * cos`` (``bsdf.eval``, mean over RGB)."""
+def fcos_func(bsdf, wi, site=None):
+    """``wo -> f * cos`` (``bsdf.eval``, mean over RGB); ``site`` as in :func:`sample_func`."""
     import drjit as dr
     import mitsuba as mi
     ctx = mi.BSDFContext()
+    site = site or (lambda n: interaction(wi, n))
 
     def fcos(wo):
-        value = bsdf.eval(ctx, interaction(wi, dr.width(wo)), wo)
+        value = bsdf.eval(ctx, site(dr.width(wo)), wo)
         return dr.mean(mi.unpolarized_spectrum(value))
     return fcos
 
@@ -251,17 +256,23 @@ def drjit_order(expected: np.ndarray) -> np.ndarray:
 
 # ----------------------------------------------------------------- panel
 
-def compute(spec: PanelSpec, path_module=None) -> dict:
-    """Every array and number of one panel (see the module docs)."""
+def compute(spec: PanelSpec, path_module=None, strategy=None, bsdf=None, site=None) -> dict:
+    """Every array and number of one panel (see the module docs). By default the
+    strategy named ``spec.strategy`` on ``spec.bsdf`` at the z-up interaction of
+    ``spec.incidence_deg``; ``strategy`` (an object: its state, e.g. a trained guide),
+    ``bsdf`` (an instantiated BSDF) and ``site`` (``n -> n`` surface interactions, e.g. at a
+    scene point: :mod:`.lab_guide`) replace them."""
     import drjit as dr
     import mitsuba as mi
     path = path_module or _path()
-    bsdf = mi.load_dict(spec.bsdf)
+    strategy = spec.strategy if strategy is None else strategy
+    bsdf = mi.load_dict(spec.bsdf) if bsdf is None else bsdf
     wi = incident(spec.incidence_deg)
+    site = site or (lambda count: interaction(wi, count))
     u = variates(spec.samples, spec.seed)
     n = spec.samples
     ctx = mi.BSDFContext()
-    ds = path.sample_direction(spec.strategy, mi.BSDFPtr(bsdf), ctx, interaction(wi, n),
+    ds = path.sample_direction(strategy, mi.BSDFPtr(bsdf), ctx, site(n),
                                u.x, mi.Point2f(u.y, u.z))
     drawn = ds.pdf > 0
     domain = domain_for(spec)
@@ -275,16 +286,18 @@ def compute(spec: PanelSpec, path_module=None) -> dict:
     counted_np = np.asarray(counted)
     w = np.asarray(weight, np.float64)
     hist = histogram(np.asarray(cells), counted_np.astype(np.float64), spec.res)
-    expected = tabulate(domain, pdf_func(spec.strategy, bsdf, wi, path), n, spec.res, spec.ires)
-    fcos = tabulate(domain, fcos_func(bsdf, wi), 1, spec.res, spec.ires)
+    pdf = pdf_func(strategy, bsdf, wi, path, site)
+    expected = tabulate(domain, pdf, n, spec.res, spec.ires)
+    fcos = tabulate(domain, fcos_func(bsdf, wi, site), 1, spec.res, spec.ires)
     stat, dof, p = chi2_test(hist, expected, drjit_order(expected))
-    pdf_at = pdf_func(spec.strategy, bsdf, wi, path)(wo)       # pdf where each was drawn
+    pdf_at = pdf(wo)                                           # pdf where each was drawn
     ratio = dr.select(drawn, ds.pdf / dr.maximum(pdf_at, 1e-30), 1.0)
     mass, mass_error = lab_mass.sphere_integral(
-        tabulate, domain, pdf_func(spec.strategy, bsdf, wi, path), spec.res, spec.ires,
+        tabulate, domain, pdf, spec.res, spec.ires,
         float(np.sum(expected, dtype=np.float64)) / n)
     albedo, albedo_error = lab_mass.sphere_integral(
-        tabulate, domain, fcos_func(bsdf, wi), spec.res, spec.ires, np.sum(fcos, dtype=np.float64))
+        tabulate, domain, fcos_func(bsdf, wi, site), spec.res, spec.ires,
+        np.sum(fcos, dtype=np.float64))
     mean_w = float(np.mean(w))
     second = float(np.mean(w * w))
     rel_var = second / mean_w ** 2 - 1.0 if mean_w > 0 else math.inf

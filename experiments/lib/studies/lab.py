@@ -29,7 +29,8 @@ import time
 
 import numpy as np
 
-from experiments.lib import cli, figures, files, lab_figures, lab_mass, lab_points, lab_warps
+from experiments.lib import cli, figures, files, lab_figures, lab_guide, lab_mass, lab_points
+from experiments.lib import lab_warps
 from experiments.lib import report, screen_space
 from experiments.lib.studies import lab_checks_report
 from experiments.lib.engine import Cell, Engine
@@ -63,6 +64,12 @@ class Config:
     screen_depth: int = 2
     screen_samplers: tuple | None = None     # None: the sampler study's default labels
     screen_reference_spp: int = sampler_comparison_plan.SCREEN_REFERENCE_SPP
+    #: the frozen guide's panels (lab_guide): the scene it trains on (None: none), film,
+    #: training spp, surface points
+    guide_scene: str | None = lab_guide.SCENE
+    guide_film: tuple = lab_guide.FILM
+    guide_spp: int = lab_guide.SPP
+    guide_sites: int = lab_guide.SITES
 
     def sampler_labels(self) -> list[str]:
         return list(self.samplers or lab_points.samplers())
@@ -80,7 +87,8 @@ FULL = Config()
 #: so that run_all's quick run renders it once.
 QUICK = Config(bsdfs=(lab_warps.BSDFS[1], lab_warps.BSDFS[-1]), incidences=(60.0,),
                counts=(64,), pixels=(4, 4), samples=QUICK_SAMPLES, screen_resolution=(16, 8),
-               screen_counts=(4,), screen_reference_spp=16)
+               screen_counts=(4,), screen_reference_spp=16, guide_film=(24, 18),
+               guide_spp=64, guide_sites=1)
 
 
 def build_parser() -> cli.Parser:
@@ -203,6 +211,51 @@ def report_warps(out: str, cfg: Config, m: WarpsMeasured, found: lab_warps.Findi
         f"configurations the strategy's Var[w]/E[w]^2 is the lowest"),
         report.text("\n\n".join(found.sentences))]
     return blocks
+
+
+def guide_config(cfg: Config) -> lab_guide.GuideConfig | None:
+    """The frozen guide's settings (the lab's samples per panel and seed), or None."""
+    if not cfg.guide_scene:
+        return None
+    scene = cfg.guide_scene
+    if not os.path.isabs(scene):
+        scene = os.path.join(os.path.dirname(os.path.abspath(lab_guide.__file__)), "..", "..",
+                             scene)
+    return lab_guide.GuideConfig(os.path.normpath(scene), cfg.guide_film[0], cfg.guide_film[1],
+                                 cfg.guide_spp, cfg.seed, cfg.guide_sites, cfg.samples)
+
+
+def report_guide(out: str, gcfg: lab_guide.GuideConfig, m: lab_guide.Measured) -> list:
+    """The frozen guide's mosaic (the warp panels' five tiles per surface point)."""
+    out_dir = os.path.join(out, NAME)
+    if not m.specs:
+        return [report.text(f"{gcfg.label()}: no surface point to check (no camera ray "
+                            f"hit a BSDF without a Dirac lobe).")]
+    tiles = [(f"{s.bsdf_label}\n{s.incidence_deg:g}°  p={m.panels[s.key()]['p_value']:.2g}  "
+              f"Var/E²={m.panels[s.key()]['rel_variance']:.3g}", m.panels[s.key()])
+             for s in m.specs]
+    lab_figures.warp_mosaic(os.path.join(out_dir, "warps_frozen_guide.png"),
+                            f"{gcfg.label()}: the trained strategy at scene points", tiles)
+    how = ("read from the lab's cache" if m.cached else
+           f"trained in {m.train_seconds:.1f} s, panels computed in "
+           f"{m.seconds - m.train_seconds:.1f} s")
+    return [report.image(
+        f"{NAME}/warps_frozen_guide.png",
+        f"{gcfg.label()}: a guide trained by vr_guided_path ({gcfg.method}, {gcfg.spp} spp at "
+        f"{gcfg.width}x{gcfg.height}; {how}), frozen, and its strategy (the learned "
+        f"histograms and BSDF shares) checked as a warp at the first hits of the camera rays "
+        f"of {len(m.specs)} pixels (the learned units the guide is used most in), with the "
+        f"scene's BSDF there and the camera direction as the incident one: the same tiles, "
+        f"chi-square, mass and albedo checks as the other panels (the whole local sphere, "
+        f"the shading normal up). Its rows join the warps' conclusion and the mass and "
+        f"albedo checks below, each point a configuration of its own."),
+        report.write_table(
+            out, f"{NAME}/frozen_guide", WARP_HEADER,
+            [[r[h] if not isinstance(r[h], float) else float(f"{r[h]:.6g}") for h in WARP_HEADER]
+             for r in m.rows], f"The frozen guide's panels (p_value: chi-square test of the "
+                               f"histogram against the strategy's density; grid "
+                               f"{lab_warps.PanelSpec.res} x {lab_warps.PanelSpec.res} cells, "
+                               f"{gcfg.ires} x {gcfg.ires} points per cell)")]
 
 
 # ------------------------------------------------------------- point sets
@@ -440,7 +493,11 @@ def run(args) -> None:
     cfg, out = settings.config, settings.out
     out_dir = os.path.join(out, NAME)
     warps = measure_warps(plan_warps(cfg), os.path.join(out_dir, "cache", "warps"))
-    warp_found, checks = lab_warps.analyse(warps.rows), lab_mass.analyse(warps.rows)
+    gcfg = guide_config(cfg)
+    guide = (lab_guide.measure(gcfg, os.path.join(out_dir, "cache", "warps"))
+             if gcfg else None)
+    rows = warps.rows + (guide.rows if guide else [])
+    warp_found, checks = lab_warps.analyse(rows), lab_mass.analyse(rows)
     warp_seconds = time.perf_counter() - start
     points = measure_points(plan_points(cfg), os.path.join(out_dir, "cache", "points"))
     point_found = analyse_points(points, cfg.counts[0])
@@ -449,7 +506,8 @@ def run(args) -> None:
     screen = measure_screen(engine, cfg, plan_screen(engine, cfg, settings.reference))
     screen_seconds = time.perf_counter() - start - warp_seconds - point_seconds
     blocks = ([report.text(GUIDE)] + report_warps(out, cfg, warps, warp_found)
-              + lab_checks_report.report_checks(out, checks, [r["p_value"] for r in warps.rows],
+              + (report_guide(out, gcfg, guide) if guide else [])
+              + lab_checks_report.report_checks(out, checks, [r["p_value"] for r in rows],
                                                 warp_found.alpha)
               + report_points(out, cfg, points, point_found)
               + report_screen(out, cfg, screen))
@@ -467,6 +525,11 @@ def run(args) -> None:
                                       f"{', '.join(map(str, cfg.screen_counts))} spp, "
                                       f"reference {cfg.screen_reference_spp} spp of "
                                       f"{settings.reference}; {screen_source(screen)}",
+                "frozen guide": (f"{gcfg.label()}: {gcfg.method}, {gcfg.spp} spp at "
+                                 f"{gcfg.width}x{gcfg.height}, {len(guide.specs)} surface "
+                                 f"points, training {guide.train_seconds:.1f} s"
+                                 + (" (panels cached)" if guide.cached else "")
+                                 if guide else "none"),
                 "variant": settings.variant, "quick": settings.quick,
                 "wall time (s)": f"warps {warp_seconds:.1f}, point sets {point_seconds:.1f}, "
                                  f"screen space {screen_seconds:.1f} (panels and point sets "
@@ -476,7 +539,8 @@ def run(args) -> None:
                          "point sets", ORDER, described, blocks, settings.variant,
                          time.perf_counter() - start)
     files.write_json(os.path.join(out_dir, "summary.json"), {
-        "warps": warps.rows, "warp_conclusion": warp_found.sentences,
+        "warps": warps.rows, "frozen_guide": guide.rows if guide else [],
+        "warp_conclusion": warp_found.sentences,
         "warp_table": [dataclasses.asdict(r) for r in warp_found.rows],
         "mass_albedo": {"z": checks.z, "tests": checks.tests, "sentences": lab_checks_report
                         .sentences(checks), "panels": [dataclasses.asdict(r) for r in checks.rows]},

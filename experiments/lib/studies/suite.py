@@ -389,6 +389,7 @@ def run_suite(cfg: suite_plan.Settings) -> dict:
     refs = references.ReferenceStore(cfg.reference_root)
     plans = suite_plan.plan_scenes(cfg)
     render(cfg, engine, refs, plans, clock)
+    guides = clock.time("guide figures", suite_report.guide_blocks, cfg, plans)
     wall, cpu = time.perf_counter(), time.process_time()
     numbers, results, viewers, ref_images, measured = {}, {}, {}, {}, {}
     failed = {sp.name: sp.error for sp in plans if sp.error}
@@ -406,7 +407,7 @@ def run_suite(cfg: suite_plan.Settings) -> dict:
         viewers[sp.name] = suite_report.viewer_block(cfg, sp, measured[sp.name],
                                                      results[sp.name], ref)
     return suite_report.write(cfg, engine.study, plans, numbers, ref_images, results, viewers,
-                              measured, failed, clock, (wall, cpu), start)
+                              measured, failed, clock, (wall, cpu), start, guides)
 
 
 def run(args) -> None:

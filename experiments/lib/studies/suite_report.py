@@ -269,6 +269,46 @@ def viewer_block(cfg, sp, measured, r: suite_analysis.SceneResult, ref) -> dict:
                          + (" Red: the blocks the bias test flags." if maps else ""), notes)
 
 
+def guide_method(cfg, sp):
+    """The first of the scene's rendered methods that trains a guide (its integrator is
+    ``vr_guided_path``) and that its header favours (any such method in a scene whose
+    header favours none: a user's scene), or None: one training job per guiding scene."""
+    favours = getattr(sp.header, "favours", ()) if sp.header else ()
+    for m in cfg.methods:
+        if (m.name in sp.methods and m.name not in sp.failed
+                and m.integrator_dict().get("type") == "vr_guided_path"
+                and (not favours or suite_analysis.matching(favours, [m.name]))):
+            return m
+    return None
+
+
+def guide_blocks(cfg, plans) -> dict:
+    """Per scene where a guiding method rendered: a figure of the guide it learns
+    (:func:`.guide_figures.guide_figure`: one training job of
+    :data:`.guide_figures.TRAIN_SPP` spp on the scene's film), as a report block; a figure
+    that fails gives a line saying why (the comparison stands without it)."""
+    from .. import guide_figures
+    out = {}
+    for sp in plans:
+        method = None if sp.error else guide_method(cfg, sp)
+        if method is None:
+            continue
+        stem = os.path.join(cfg.out, NAME, "guides", sp.name)
+        try:
+            fig = guide_figures.guide_figure(stem, sp.path, sp.width, sp.height, method,
+                                             guide_figures.TRAIN_SPP, cfg.seed, sp.depth,
+                                             title=f"{sp.name}: the guide {method} learns")
+        except Exception as error:      # noqa: BLE001 (a figure never stops the suite)
+            out[sp.name] = report.text(f"{sp.name}: the guide figure failed: "
+                                       f"{type(error).__name__}: {error}")
+            continue
+        out[sp.name] = report.image(
+            f"{NAME}/guides/{sp.name}.png",
+            fig.caption(sp.name, sp.width, sp.height, guide_figures.TRAIN_SPP, method.name)
+            + f" PDF: {NAME}/guides/{sp.name}.pdf")
+    return out
+
+
 # ------------------------------------------------------------------ the section
 
 def scaled(plans) -> str:
@@ -357,7 +397,7 @@ def left_out_words(cfg, sp) -> list[str]:
 
 
 def write(cfg, st, plans, numbers, refs, results, viewers, measured, failed, clock, since,
-          start) -> dict:
+          start, guides: dict | None = None) -> dict:
     out, blocks = cfg.out, []
     by_name = {sp.name: sp for sp in plans}
     methods = [m.name for m in cfg.methods]
@@ -429,6 +469,8 @@ def write(cfg, st, plans, numbers, refs, results, viewers, measured, failed, clo
             extra.append(bias_words(r))
         blocks += [report.text(lead + " ".join(sentences(r) + extra)),
                    viewers[name], crop_block(cfg, sp, measured[name], r, ref)]
+        if (guides or {}).get(name):
+            blocks.append(guides[name])
     fails = [[n, "(scene)", e] for n, e in failed.items()]
     fails += [[n, m, e] for n, r in results.items() for m, e in r.failed.items()]
     if fails:
