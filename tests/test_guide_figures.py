@@ -70,7 +70,8 @@ def test_guide_figure_writes_its_files_on_a_tiny_film(tmp_path):
 
 
 def test_suite_draws_the_guide_only_where_a_guiding_method_rendered():
-    cfg = types.SimpleNamespace(methods=[parse_method(m) for m in ("path", "guided+nee")])
+    cfg = types.SimpleNamespace(methods=[parse_method(m) for m in ("path", "guided+nee")],
+                                baseline=parse_method("path"))
     header = types.SimpleNamespace(favours=("guided+nee*",))
     scene = types.SimpleNamespace(methods=["path", "guided+nee"], failed={}, header=header)
     assert suite_report.guide_method(cfg, scene).name == "guided+nee"
@@ -78,6 +79,8 @@ def test_suite_draws_the_guide_only_where_a_guiding_method_rendered():
     assert suite_report.guide_method(cfg, scene).name == "guided+nee"
     scene.header = types.SimpleNamespace(favours=("bsdf+nee*", "path"))
     assert suite_report.guide_method(cfg, scene) is None     # not a guiding scene
+    scene.header = types.SimpleNamespace(favours=("*+nee*",))
+    assert suite_report.guide_method(cfg, scene) is None     # matches bsdf+nee too
     scene.header, scene.failed = header, {"guided+nee": "boom"}
     assert suite_report.guide_method(cfg, scene) is None
     assert suite_report.guide_method(cfg, types.SimpleNamespace(

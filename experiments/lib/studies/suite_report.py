@@ -2,6 +2,7 @@
 the sentences, the findings box (summary.json) and the section in index.html."""
 from __future__ import annotations
 
+import fnmatch
 import math
 import os
 import time
@@ -271,13 +272,17 @@ def viewer_block(cfg, sp, measured, r: suite_analysis.SceneResult, ref) -> dict:
 
 def guide_method(cfg, sp):
     """The first of the scene's rendered methods that trains a guide (its integrator is
-    ``vr_guided_path``) and that its header favours (any such method in a scene whose
-    header favours none: a user's scene), or None: one training job per guiding scene."""
+    ``vr_guided_path``) and that its header favours by name (a pattern that does not also
+    match the baseline or ``bsdf+nee``: ``*+nee*`` is not a guiding scene's; any such
+    method in a scene without a header: a user's scene), or None: one training job per
+    guiding scene."""
     favours = getattr(sp.header, "favours", ()) if sp.header else ()
+    generic = {cfg.baseline.name, "bsdf+nee"}
+    own = tuple(p for p in favours if not any(fnmatch.fnmatchcase(g, p) for g in generic))
     for m in cfg.methods:
         if (m.name in sp.methods and m.name not in sp.failed
                 and m.integrator_dict().get("type") == "vr_guided_path"
-                and (not favours or suite_analysis.matching(favours, [m.name]))):
+                and (sp.header is None or suite_analysis.matching(own, [m.name]))):
             return m
     return None
 
