@@ -239,10 +239,8 @@ def precision_scale(cfg: Settings, engine: Engine, sp: ScenePlan,
     variances over ``ref``'s squares, :mod:`.suite_errors`; ``ref``: the reference's first
     chunk, the same in every run, so that a rerun or a longer reference plans the same
     counts; not the renders' own mean, whose fireflies would shrink their own weights):
-    the standard error falls as
-    1/sqrt(samples), so the factor is (the largest se at the unscaled equal-time count /
-    PRECISION)^2, rounded up to a power of two (the counts stay powers of two), between 1
-    and :data:`MAX_PRECISION_SCALE`. (None, why) where the baseline's pixels are not
+    the standard error falls as 1/sqrt(samples), so the factor is :func:`scale_for` of the
+    largest one predicted at the unscaled equal-time count. (None, why) where the baseline's pixels are not
     independent estimates or it has no equal-spp renders."""
     baseline = cfg.baseline
     if not precise(baseline, sp.box):
