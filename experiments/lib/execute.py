@@ -171,7 +171,7 @@ def _view(job: Job, variant: str) -> View:
     # the first pass, so that the timed render does not compile again
     warm = fresh_integrator(job)
     if isinstance(warm, MultiPass):
-        _render_job(view, warm, job)
+        render_passes(view, warm, job)
     else:
         _render(view, warm, spp, 0x5EED, sequence_state(job, 0))
     _views[key] = view
@@ -280,7 +280,7 @@ class Timed(NamedTuple):
     compiled: int                # passes during which a kernel compiled
 
 
-def _render_job(view: View, integrator, job: Job) -> Timed:
+def render_passes(view: View, integrator, job: Job) -> Timed:
     """Every pass of ``job`` with ``integrator``: the memory-bounded passes of
     :meth:`.jobs.Job.passes`, or a :class:`MultiPass` method's own schedule with its hooks
     between them (their CPU time measured on this thread, the kernels they launch synced
@@ -341,7 +341,7 @@ def run_job(job: Job, variant: str) -> JobResult:
         mi.set_variant(variant)
     view = _view(job, variant)
     for attempt in range(WARM_TRIES):
-        timed = _render_job(view, fresh_integrator(job), job)
+        timed = render_passes(view, fresh_integrator(job), job)
         if not timed.compiled:
             break
     return JobResult(image=timed.image.astype(np.float32), sq=timed.sq, spp=timed.spp,

@@ -68,9 +68,9 @@ def train(scene_path: str, width: int, height: int, method: str | Method = "guid
     ``width`` x ``height`` film in the integrator's own passes (``pass_schedule``,
     ``after_pass``, ``combine``): the guide trains as in a suite job, then is frozen (the
     last iteration records nothing)."""
-    import drjit as dr
     import mitsuba as mi
-    from .scenes import load_scene
+    from . import execute, plan
+    from .scenes import load_scene, read_scene
     method = parse_method(method) if isinstance(method, str) else method
     start = time.perf_counter()
     spec = method.integrator_dict(depth)
@@ -80,16 +80,11 @@ def train(scene_path: str, width: int, height: int, method: str | Method = "guid
     scene = load_scene(scene_path, width, height, method, depth)
     sensor = scene.sensors()[0]
     integ = mi.load_dict(spec)
-    schedule = integ.pass_schedule(spp)
-    images = []
-    for i, k in enumerate(schedule):
-        image = mi.render(scene, sensor=sensor, integrator=integ, spp=k,
-                          seed=seed * 1000 + i)
-        dr.eval(image)
-        integ.after_pass(i, image, k)
-        images.append(np.array(image, dtype=np.float64)[..., :3])
-    combined = np.asarray(integ.combine(images, schedule), dtype=np.float64)
-    return Trained(integ, scene, sensor, combined, time.perf_counter() - start, spp,
+    job = plan.make_job("guide-figure", read_scene(scene_path), method, width, height, spp,
+                        seed, depth, mi.variant())
+    # the executor's own multi-pass loop (its seeds, hooks and combination)
+    timed = execute.render_passes(execute.View(scene, sensor), integ, job)
+    return Trained(integ, scene, sensor, timed.image, time.perf_counter() - start, spp,
                    method.name)
 
 
