@@ -28,7 +28,7 @@ import mitsuba as mi
 import numpy as np
 
 from . import strategies
-from .path import VRPathIntegrator
+from .path import RR_MAX_PROBABILITY, VRPathIntegrator
 from .sdtree import SDTree
 from .strategies import (DirectionSample, Strategy, VertexSample, crossing_eta,
                          direction_weight)
@@ -37,8 +37,18 @@ from .warps import ONE_MINUS_EPSILON
 #: Largest size of a render's record arrays (bytes): larger renders are refused.
 RECORD_CAP_BYTES = 256 * 2 ** 20
 #: Bytes per record: the target index (4), the radiance so far (12), 1 / (beta' pdf) (12),
-#: and for the BSDF share: p_bsdf / pdf (4), p_guide / pdf (4).
-RECORD_BYTES = 36
+#: for the BSDF share: p_bsdf / pdf (4), p_guide / pdf (4), and for the roulette's
+#: estimate of the reflected radiance: 1 / beta (4), the vertex's NEE / beta (4).
+RECORD_BYTES = 44
+#: The guided Russian roulette (Vorba and Krivanek 2016, "Adjoint-driven Russian roulette
+#: and splitting", as Open PGL's ``GuidedRussianRoulette``): a path survives a vertex with
+#: probability ``WINDOW x beta x L_r / I`` (``beta`` the throughput that reaches the vertex,
+#: ``L_r`` its unit's learned radiance reflected by what follows the vertex, ``I`` the
+#: pixel's, estimated at the path's first vertex), the lower end of a weight window of
+#: width 5 (``2 / (1 + 5)``), clamped to [:data:`MIN_SURVIVAL`, 0.95].
+WINDOW = 3.0
+MIN_SURVIVAL = 0.05
+ROULETTES = ("adjoint", "throughput")
 #: Samplers that compile the sample count into the kernel: each pass would recompile.
 BAKES_SPP = {"StratifiedSampler": "stratified", "MultijitterSampler": "multijitter",
              "OrthogonalSampler": "orthogonal", "LowDiscrepancySampler": "ldsampler"}
@@ -184,21 +194,29 @@ class Recorder:
         self.radiance = dr.zeros(mi.Color3f, depth * lanes)
         self.inverse = dr.zeros(mi.Color3f, depth * lanes)
         self.ratios = dr.zeros(mi.Vector2f, depth * lanes)
-        dr.make_opaque(self.index, self.radiance, self.inverse, self.ratios)
+        self.reflected = dr.zeros(mi.Vector2f, depth * lanes)
+        dr.make_opaque(self.index, self.radiance, self.inverse, self.ratios, self.reflected)
 
-    def vertex(self, depth, si, direction, L, beta, active):
-        """After vertex ``depth`` drew ``direction`` (``beta``: the throughput with its
-        weight, ``L``: the radiance with the vertex's own NEE)."""
+    def vertex(self, depth, si, direction, L, L_arrived, beta, active):
+        """After vertex ``depth`` drew ``direction`` (``beta``: the throughput that reached
+        the vertex, ``L``: the radiance with the vertex's own NEE, ``L_arrived``: before it)."""
         active = active & ~direction.delta & (direction.pdf > 0) & (depth < self.depth) \
             & (self.on != 0)
         leaf = self.tree.lookup(si.p, si.n, active)
         index = self.tree.record_index(leaf, si.to_world(direction.wo))
-        scale = mi.Color3f(mi.unpolarized_spectrum(beta)) * direction.pdf
+        beta = mi.Color3f(mi.unpolarized_spectrum(beta))
+        scale = beta * mi.Color3f(mi.unpolarized_spectrum(direction.weight)) * direction.pdf
         inverse = dr.select(scale > 0, dr.rcp(scale), 0.0)
         slot = depth * self.lanes + self.lane
+        L = mi.Color3f(mi.unpolarized_spectrum(L))
         dr.scatter(self.index, index, slot, active)
-        dr.scatter(self.radiance, mi.Color3f(mi.unpolarized_spectrum(L)), slot, active)
+        dr.scatter(self.radiance, L, slot, active)
         dr.scatter(self.inverse, inverse, slot, active)
+        # for the roulette: 1 / beta and the vertex's NEE / beta (channel means)
+        b = dr.mean(beta)
+        rcp_b = dr.select(b > 0, dr.rcp(b), 0.0)
+        nee = dr.mean(L - mi.Color3f(mi.unpolarized_spectrum(L_arrived))) * rcp_b
+        dr.scatter(self.reflected, mi.Vector2f(rcp_b, nee), slot, active)
         # for the share: p_bsdf / pdf, p_guide / pdf
         p_bsdf, p_guide = self.guide.drawn
         rcp = dr.rcp(dr.maximum(direction.pdf, 1e-20))
@@ -227,6 +245,31 @@ class Recorder:
             ratios = dr.gather(mi.Vector2f, self.ratios, slot, valid)
             self.tree.add_moments(unit, brought, ratios.x, ratios.y,
                                   valid & (ratios.x + ratios.y > 0))
+            # the roulette's: the radiance the vertex reflects after its NEE, and its NEE
+            reflected = dr.gather(mi.Vector2f, self.reflected, slot, valid)
+            self.tree.add_reflected(unit, brought * reflected.x, reflected.y,
+                                    valid & (reflected.x > 0))
+
+
+class Roulette:
+    """The guided Russian roulette (:data:`WINDOW`): survival probabilities from the
+    units' learned reflected radiance (:meth:`.sdtree.SDTree.reflected_at`)."""
+
+    def __init__(self, tree):
+        self.tree = tree
+
+    def survival(self, depth, si, beta, reference, active):
+        """(the probability that the path goes on after vertex ``depth``, 0 where the
+        throughput rule decides: its unit or the pixel has no estimate; the pixel's
+        estimate, set at the first vertex). ``beta``: the throughput reaching the vertex."""
+        unit = self.tree.lookup(si.p, si.n, active)
+        after, nee = self.tree.reflected_at(unit, active)
+        reference = dr.select(active & (depth == 0), dr.select(after >= 0, after + nee, 0.0),
+                              reference)
+        b = dr.mean(mi.unpolarized_spectrum(beta))
+        q = dr.clip(WINDOW * b * after / dr.maximum(reference, 1e-30), MIN_SURVIVAL,
+                    RR_MAX_PROBABILITY)
+        return dr.select(active & (after >= 0) & (reference > 0), q, 0.0), reference
 
 
 # ------------------------------------------------------------ passes and their weights
@@ -371,6 +414,10 @@ class GuidedPathIntegrator(VRPathIntegrator):
         self.record_depth = number("record_depth", 4, 1, 32)
         self.max_pass_spp = number("max_pass_spp", 64, 1, 1 << 20)
         self.first_pass_spp = number("first_pass_spp", 2, 2, 1 << 20)
+        self.roulette = props.get("roulette", "adjoint")
+        if self.roulette not in ROULETTES:
+            raise ValueError(f"vr_guided_path: 'roulette' must be one of "
+                             f"{', '.join(ROULETTES)}, got {self.roulette!r}")
         self.sampling_strategy = GuidedStrategy(res, max_leaves)
         self.guide = self.sampling_strategy
         self._set_recording(True)
@@ -393,6 +440,13 @@ class GuidedPathIntegrator(VRPathIntegrator):
         if not self.recording:      # a kernel without records (compiled once, cached)
             return None
         return Recorder(self.guide, dr.width(ray.o), self.record_depth, self.guide.recording)
+
+    def _roulette(self):
+        """The guided roulette while the guide is in use (``roulette`` adjoint), else None
+        (vr_path's throughput rule; after training stops the kernel is vr_path's own)."""
+        if self.roulette != "adjoint" or self._stopped:
+            return None
+        return Roulette(self.guide.tree)
 
     def _set_recording(self, on: bool) -> None:
         """Whether the next renders record: a host switch (the render kernel without

@@ -306,6 +306,9 @@ class VRPathIntegrator(mi.SamplingIntegrator):
         active = mi.Bool(active)
         recorder = self._recorder(scene, sampler, ray)   # learning integrators only
         record = recorder is not None
+        roulette = self._roulette()             # None: the throughput rule below
+        guided_rr = roulette is not None
+        rr_reference = mi.Float(0.0)            # the roulette's estimate of the pixel
 
         while dr.hint(active, label="vr_path"):
             si = scene.ray_intersect(ray, ray_flags=mi.RayFlags.All,
@@ -333,6 +336,8 @@ class VRPathIntegrator(mi.SamplingIntegrator):
             bsdf = si.bsdf(ray)
             flags = bsdf.flags()
 
+            L_arrived = L                       # before this vertex's NEE (recorder)
+
             # ------------------------------------------ next-event estimation
             if dr.hint(nee, mode='scalar'):
                 active_em = active_next & mi.has_flag(flags, mi.BSDFFlags.Smooth)
@@ -356,6 +361,12 @@ class VRPathIntegrator(mi.SamplingIntegrator):
                                              active_next)
 
             # ------------------------------------------------ next direction
+            if dr.hint(record, mode='scalar'):
+                recorder.vertex(depth, si, direction, L, L_arrived, beta, active_next)
+            survival = mi.Float(0.0)
+            if dr.hint(guided_rr, mode='scalar'):
+                survival, rr_reference = roulette.survival(depth, si, beta, rr_reference,
+                                                           active_next)
             valid_ray |= on & si.is_valid() & ~direction.null
             ray = dr.select(skip, si.spawn_ray(ray.d), si.spawn_ray(si.to_world(direction.wo)))
             beta *= dr.select(active_next, direction.weight, dr.select(skip, 1.0, 0.0))
@@ -364,8 +375,6 @@ class VRPathIntegrator(mi.SamplingIntegrator):
                 prev_it = dr.select(skip, prev_it, mi.Interaction3f(si))
             prev_pdf = dr.select(skip, prev_pdf, direction.pdf)
             prev_delta = dr.select(skip, prev_delta, direction.delta)
-            if dr.hint(record, mode='scalar'):
-                recorder.vertex(depth, si, direction, L, beta, active_next)
             depth[si.is_valid() & ~skip] += 1
 
             # ------------------------------------------------- Russian roulette
@@ -374,6 +383,8 @@ class VRPathIntegrator(mi.SamplingIntegrator):
             beta_max = dr.max(mi.unpolarized_spectrum(beta))
             rr_active = depth >= self.rr_depth
             rr_prob = dr.minimum(beta_max * dr.square(eta), RR_MAX_PROBABILITY)
+            if dr.hint(guided_rr, mode='scalar'):
+                rr_prob = dr.select(survival > 0, survival, rr_prob)
             rr_continue = sampler.next_1d(active_next) < rr_prob
             beta[rr_active] *= dr.rcp(dr.maximum(rr_prob, warps.PDF_EPSILON))
             active = skip | (active_next & (~rr_active | rr_continue) & (beta_max > 0)
@@ -387,6 +398,13 @@ class VRPathIntegrator(mi.SamplingIntegrator):
     def _recorder(self, scene, sampler, ray):
         """What records the path's vertices for a learning subclass (``vertex`` after a
         direction is drawn, ``finish`` with the path's radiance); None here."""
+        return None
+
+    def _roulette(self):
+        """What sets the Russian roulette's survival probability for a learning subclass
+        (``survival(depth, si, beta, reference, active)`` before the direction's weight
+        is applied: a probability, or 0 for the throughput rule, and the pixel estimate
+        carried along the path); None here (the throughput rule)."""
         return None
 
     def _aovs(self, segments, shadow_rays, result=None):

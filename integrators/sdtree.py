@@ -78,6 +78,9 @@ class SDTree:
         self.prob = np.full((self.max_units, self.bins), 1.0 / self.bins)
         self.learned = np.zeros(self.max_units, bool)        # has a histogram from records
         self.share = np.ones(self.max_units)                 # BSDF share per unit
+        # per unit: the radiance reflected after the vertex's NEE and by its NEE, per unit
+        # throughput (the roulette's estimate; -1: none yet)
+        self.reflected = np.full((self.max_units, 2), -1.0)
         self.lower = mi.Point3f(dr.opaque(mi.Float, 0.0, 1), dr.opaque(mi.Float, 0.0, 1),
                                 dr.opaque(mi.Float, 0.0, 1))
         self.scale = mi.Vector3f(dr.opaque(mi.Float, 1.0, 1),
@@ -133,6 +136,7 @@ class SDTree:
         if getattr(self, "_grid_nodes", None) != self.nodes:     # the tree changed
             self.grid_table = mi.UInt32(self.grid())
             self._grid_nodes = self.nodes
+        self.reflected_table = mi.Float(self.reflected.ravel().astype(np.float32))
         if rows == self.max_units:
             self.prob_table = mi.Float(self._prob32.ravel())
             self.cdf_table = mi.Float(self._cdf32.ravel())
@@ -140,7 +144,7 @@ class SDTree:
             index = dr.arange(mi.UInt32, rows * self.bins)
             dr.scatter(self.prob_table, mi.Float(self._prob32[:rows].ravel()), index)
             dr.scatter(self.cdf_table, mi.Float(self._cdf32[:rows].ravel()), index)
-        dr.eval(self.grid_table, self.prob_table, self.cdf_table)
+        dr.eval(self.grid_table, self.prob_table, self.cdf_table, self.reflected_table)
 
     def reset_records(self, rows: int | None = None) -> None:
         """Empty record accumulators (energy per unit bin, records per unit, the share
@@ -150,14 +154,16 @@ class SDTree:
             self.energy = dr.zeros(mi.Float, self.max_units * self.bins)
             self.counts = dr.zeros(mi.UInt32, self.max_units)
             self.moments = dr.zeros(mi.Float, self.max_units * (len(SHARES) + 1))
-            dr.make_opaque(self.energy, self.counts, self.moments)
+            self.reflected_sums = dr.zeros(mi.Float, self.max_units * 2)
+            dr.make_opaque(self.energy, self.counts, self.moments, self.reflected_sums)
             return
         # in place, each table referenced once (a second reference would make the scatter
         # copy the whole table first)
         dr.scatter(self.energy, mi.Float(0), dr.arange(mi.UInt32, rows * self.bins))
         dr.scatter(self.counts, mi.UInt32(0), dr.arange(mi.UInt32, rows))
         dr.scatter(self.moments, mi.Float(0), dr.arange(mi.UInt32, rows * (len(SHARES) + 1)))
-        dr.eval(self.energy, self.counts, self.moments)
+        dr.scatter(self.reflected_sums, mi.Float(0), dr.arange(mi.UInt32, rows * 2))
+        dr.eval(self.energy, self.counts, self.moments, self.reflected_sums)
 
     def _prefix(self, table, kind, n: int) -> np.ndarray:
         """The first ``n`` entries of a device table as numpy."""
@@ -181,6 +187,20 @@ class SDTree:
                            active & (mix > 0), mode=MOMENTS_MODE)
         dr.scatter_add(self.moments, x, row + len(SHARES), active,     # for the mean
                        mode=MOMENTS_MODE)
+
+    def add_reflected(self, unit: mi.UInt32, after: mi.Float, nee: mi.Float,
+                      active=True) -> None:
+        """Add one record's reflected radiance per unit throughput (what the vertex's
+        direction brought, and its NEE) to ``unit``'s sums (means: :meth:`refine`)."""
+        row = unit * 2
+        dr.scatter_add(self.reflected_sums, after, row, active, mode=MOMENTS_MODE)
+        dr.scatter_add(self.reflected_sums, nee, row + 1, active, mode=MOMENTS_MODE)
+
+    def reflected_at(self, unit: mi.UInt32, active=True) -> tuple[mi.Float, mi.Float]:
+        """``unit``'s learned (radiance reflected after the NEE, by the NEE) per unit
+        throughput; -1 where it has none yet."""
+        return (dr.gather(mi.Float, self.reflected_table, unit * 2, active),
+                dr.gather(mi.Float, self.reflected_table, unit * 2 + 1, active))
 
     def lookup(self, p: mi.Point3f, n: mi.Vector3f, active=True) -> mi.UInt32:
         """The unit (leaf x normal class) of the world point ``p`` with geometric normal
@@ -264,6 +284,10 @@ class SDTree:
         else:
             self.share = np.full(self.max_units, float(fixed_share))
         self.share[~self.learned] = 1.0
+        sums = self._prefix(self.reflected_sums, mi.Float, rows * 2).reshape(rows, 2)
+        enough = (counts >= MIN_RECORDS) & np.all(np.isfinite(sums), axis=1)
+        self.reflected[:rows][enough] = np.maximum(sums[enough], 0.0) \
+            / counts[enough, None]
         m = np.where(np.isfinite(moments), moments, 0.0)
         evaluated = was_learned[:rows] & (counts >= MIN_RECORDS)
         self.moment_sums = None if not evaluated.any() else {"drawn": float(self.moment_at(m, old).sum()),
@@ -292,6 +316,7 @@ class SDTree:
                 self.prob[units] = self.prob[parent]
                 self.learned[units] = self.learned[parent]
                 self.share[units] = self.share[parent]
+                self.reflected[units] = self.reflected[parent]
                 queue.append((first + k, n / 2))
             self.nodes += 2
             self.leaves += 1
