@@ -374,12 +374,21 @@ class GuidedPathIntegrator(VRPathIntegrator):
      * - max_pass_spp
        - |int|
        - Most samples per pixel of one render: an iteration above it is split into
-         several renders (records cost 36 bytes x record_depth per sample, at most
+         several renders (records cost 44 bytes x record_depth per sample, at most
          256 MiB per render). (Default: 64)
 
      * - first_pass_spp
        - |int|
        - Samples per pixel of the first iteration (then doubled), >= 2. (Default: 2)
+
+     * - roulette
+       - |string|
+       - ``adjoint``: while the guide is in use, a path past ``rr_depth`` survives a
+         vertex with probability ``3 beta L_r / I`` clamped to [0.05, 0.95] (``L_r`` the
+         radiance its unit learned to reflect after the vertex's NEE, per unit throughput;
+         ``I`` the pixel's, learned at the path's first vertex: Vorba and Krivanek's
+         adjoint-driven roulette), the throughput rule where a unit has no estimate yet;
+         ``throughput``: ``vr_path``'s rule. (Default: ``adjoint``)
 
     and every parameter of ``vr_path`` (``max_depth``, ``rr_depth``, ``hide_emitters``,
     ``emitter_sampling``). See docs/guiding.md for the method, its costs and when it loses.

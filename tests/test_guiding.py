@@ -184,6 +184,47 @@ def test_training_learns_the_sky_from_the_floor(nee, monkeypatch):
         (upper / upper.sum(), sky_band_shares(nee))
 
 
+@pytest.mark.parametrize("nee", [True, False])
+def test_units_learn_the_floor_s_reflected_radiance(nee):
+    """The roulette's estimate per unit: a diffuse floor (albedo 0.5) under a constant
+    sky of radiance 1 reflects L_o = 0.5 towards every direction. With NEE (the sky
+    sampled uniformly, pdf 1 / (4 pi), against cosine sampling, c / pi, power heuristic)
+    the NEE's part is 0.5 / pi * 2 pi * int_0^1 c / (1 + 16 c^2) dc = 0.5 ln(17) / 16,
+    the direction brings the rest; without NEE the direction brings all of it."""
+    _, _, integ = render_job(plane_under_sky(), {"type": "vr_guided_path", "max_depth": 3,
+                                                 "emitter_sampling": nee,
+                                                 "directional_resolution": RES,
+                                                 # the direction pdf stays cos / pi
+                                                 "bsdf_fraction": 1.0}, 62, 1)
+    tree = integ.guide.tree
+    units = np.flatnonzero(tree.learned[:tree.leaves * sdtree.CLASSES])
+    assert len(units) > 0
+    after, by_nee = tree.reflected[units].T
+    expected = 0.5 * math.log(17) / 16 if nee else 0.0
+    assert np.allclose(by_nee, expected, rtol=0.03, atol=1e-6), by_nee
+    assert np.allclose(after, 0.5 - expected, rtol=0.03), after
+
+
+def test_roulette_survival_by_hand():
+    """Survival ``3 beta L_after / I``, I (after + NEE) at the path's first vertex,
+    clamped to [0.05, 0.95]; 0 (the throughput rule) where the unit or the pixel has no
+    estimate. One leaf: the unit is the normal's class (+x 0, +y 2, -z 5)."""
+    g = guiding.GuidedStrategy(RES, 1)
+    g.tree.reflected[:] = -1.0
+    g.tree.reflected[0] = (2.0, 1.0)
+    g.tree.reflected[2] = (0.5, 0.25)
+    g.tree.upload()
+    si = dr.zeros(mi.SurfaceInteraction3f, 6)
+    si.p = mi.Point3f(0.5)
+    si.n = mi.Vector3f([1, 0, 0, 0, 0, 0], [0, 1, 1, 0, 1, 0], [0, 0, 0, -1, 0, -1])
+    depth = mi.UInt32([0, 3, 3, 3, 3, 0])
+    beta = mi.Spectrum(mi.Float([1, 0.4, 0.01, 1, 1, 1]))
+    reference = mi.Float([0, 3, 3, 3, 0, 0])
+    q, ref = guiding.Roulette(g.tree).survival(depth, si, beta, reference, mi.Bool(True))
+    assert np.allclose(np.array(ref), [3, 3, 3, 3, 0, 0])
+    assert np.allclose(np.array(q), [0.95, 0.2, 0.05, 0, 0, 0])
+
+
 def cbox(delta=False):
     """Mitsuba's Cornell box at 16 x 16; ``delta``: the tall box a mirror and the small
     box ``plastic`` (a Dirac lobe beside a diffuse one): share 1 per lane there."""
@@ -195,14 +236,17 @@ def cbox(delta=False):
     return mi.load_dict(d)
 
 
-@pytest.mark.parametrize("nee,spp,delta", [(True, 32, False), (False, 96, False),
-                                           (True, 32, True)])
-def test_blocks_agree_with_path(nee, spp, delta):
+@pytest.mark.parametrize("nee,spp,delta,rr", [(True, 32, False, 5), (False, 96, False, 5),
+                                              (True, 32, True, 5), (True, 32, False, 2)])
+def test_blocks_agree_with_path(nee, spp, delta, rr):
+    """rr 5: no roulette before max_depth 5 ends the path; rr 2: the guided roulette's
+    (after the first refinement) against path's throughput rule, max_depth 8."""
     scene, k = cbox(delta), 8
-    guided = {"type": "vr_guided_path", "emitter_sampling": nee, "max_depth": 5,
+    depth = {"max_depth": 5 if rr == 5 else 8, "rr_depth": rr}
+    guided = {"type": "vr_guided_path", "emitter_sampling": nee, **depth,
               "directional_resolution": RES, "spatial_threshold": 500.0}
     images = np.stack([render_job(scene, guided, spp, 10 + s)[0] for s in range(k)])
-    path = mi.load_dict({"type": "path", "max_depth": 5})
+    path = mi.load_dict({"type": "path", **depth})
     ref = np.stack([np.array(mi.render(scene, integrator=path, spp=4 * spp, seed=500 + s),
                              dtype=np.float64)[..., :3] for s in range(k)])
     agreement = _blocks.agree(_blocks.summarize(images), _blocks.summarize(ref), 0.005, 0.005)
@@ -243,8 +287,10 @@ def test_record_cap_and_refusals():
     with pytest.raises(Exception) as error:
         mi.render(mi.load_dict(strat))
     assert "independent" in str(error.value) + str(error.value.__cause__)
-    for bad in ({"bsdf_fraction": 0.05}, {"directional_resolution": 1}, {"strategy": "bsdf"}):
-        with pytest.raises(Exception, match="bsdf_fraction|directional_resolution|learns"):
+    for bad in ({"bsdf_fraction": 0.05}, {"directional_resolution": 1}, {"strategy": "bsdf"},
+                {"roulette": "weight_window"}):
+        with pytest.raises(Exception,
+                           match="bsdf_fraction|directional_resolution|learns|adjoint, throughput"):
             mi.load_dict({"type": "vr_guided_path", **bad})
     with pytest.raises(ValueError, match="valid samplers for it: independent"):
         methods.parse_method("guided+nee+multijitter")

@@ -231,6 +231,25 @@ MUTANTS = [
            "from each candidate mixture ((F / p_s)^2), not reweighted by the density q they "
            "were drawn with (F^2 / (q p_s))",
            ("tests/test_guiding.py::test_share_moments_from_bsdf_drawn_records",)),
+    Mutant("guide-roulette-unclamped", "integrators/guiding.py",
+           "        q = dr.clip(WINDOW * b * after / dr.maximum(reference, 1e-30), MIN_SURVIVAL,\n"
+           "                    RR_MAX_PROBABILITY)",
+           "        q = dr.maximum(WINDOW * b * after / dr.maximum(reference, 1e-30), MIN_SURVIVAL)",
+           "the guided roulette's survival not clamped below 1: a path whose continuation "
+           "matters goes on for sure but its throughput is still divided by the 'probability' "
+           "(> 1), darkening what it brings",
+           ("tests/test_guiding.py::test_roulette_survival_by_hand",
+            "tests/test_guiding.py::test_blocks_agree_with_path")),
+    Mutant("guide-roulette-weight", "integrators/path.py",
+           "                rr_prob = dr.select(survival > 0, survival, rr_prob)\n"
+           "            rr_continue = sampler.next_1d(active_next) < rr_prob\n",
+           "                rr_continue = sampler.next_1d(active_next) < dr.select(\n"
+           "                    survival > 0, survival, rr_prob)\n"
+           "            else:\n"
+           "                rr_continue = sampler.next_1d(active_next) < rr_prob\n",
+           "the guided roulette decides with its own survival probability but the survivors "
+           "are divided by the throughput rule's",
+           ("tests/test_guiding.py::test_blocks_agree_with_path",)),
     # ------------------------------------------------------------ the bias test
     Mutant("welch-one-side", "experiments/lib/bias.py",
            "    se2 = np.maximum(va + vb, 1e-300)\n",
