@@ -192,7 +192,10 @@ class MultiPass(Protocol):
     * ``after_pass(index, image, spp)``: host work after pass ``index`` (learning from it;
       ``image`` the pass's mean as a Dr.Jit tensor);
     * ``combine(images, spps)``: the job's image from every pass's (a numpy (H, W, 3)
-      array; e.g. a weighted mean).
+      array; e.g. a weighted mean);
+    * optionally ``combined_variance()``: the per-pixel variance (H, W, 3) of what
+      ``combine`` returned, which the per-pixel errors then use (without it the job is one
+      pass: its errors come from its repeats against the reference).
 
     Passes are rendered with seeds ``derive_seed(job.seed, index)``; a job of such a method
     is never split further for memory (its schedule is its passes)."""
@@ -323,12 +326,23 @@ def render_passes(view: View, integrator, job: Job) -> Timed:
         kernels += kernel
         compiled += compiled_now > 0
     mean /= done
+    # a MultiPass method's passes are not samples of one estimator (a guide's untrained
+    # and trained passes): one pass of the combined image, so that no per-pixel variance
+    # comes from their spread, unless the method states its own (combined_variance)
+    passes = 1 if multi else done if per_sample else len(times)
     if multi:
         start = time.thread_time()
         mean = np.asarray(integrator.combine(images, spps), dtype=np.float64)
         host += time.thread_time() - start
-    return Timed(mean, sq, done, done if per_sample else len(times), times, cpu, kernels,
-                 host, compiled)
+        sq = done * mean * mean
+        variance = getattr(integrator, "combined_variance", None)
+        if variance is not None and done > 1:
+            # the method's own per-pixel variance of its combined image, written as every
+            # sample a pass of sq, so that Accumulator.variance_of_mean returns it:
+            # sq = n mean^2 + V n (n - 1)
+            passes = done
+            sq = sq + np.asarray(variance(), np.float64) * done * (done - 1)
+    return Timed(mean, sq, done, passes, times, cpu, kernels, host, compiled)
 
 
 def run_job(job: Job, variant: str) -> JobResult:
