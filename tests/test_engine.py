@@ -220,3 +220,20 @@ def test_errors_and_efficiencies_are_measured_above_the_references_floor():
     ratio = measured.efficiency(Cell("s", "a", "equal-spp"), Cell("s", "b", "equal-spp"))
     assert ratio.value == pytest.approx(2.0, rel=1e-3) and ratio.lo > 1.5
     assert measured.error(Cell("s", "a", "equal-spp")).value == pytest.approx(0.01, rel=1e-3)
+
+
+def test_a_zsobol_job_split_into_passes_is_one_sequence():
+    """A job of a sampler that must know its sequence's length (zsobol), split into passes
+    (for memory, or by ``pass_spp``), renders the same samples as the job in one pass (the
+    split once failed: a pass beyond the first did not fit the sequence of its own count)."""
+    from experiments.lib import execute, plan
+    info, method = SCENES[0].info, parse_method("bsdf+nee+zsobol:owen")
+
+    def job(pass_spp):
+        return plan.make_job(f"zsobol-split/{pass_spp}", info, method, 16, 8, 16, 3,
+                             Depth(3), VARIANT, pass_spp=pass_spp)
+    split, whole = job(4), job(0)
+    assert split.passes() == [4, 4, 4, 4] and whole.passes() == [16]
+    a = execute.run_job(split, VARIANT).image
+    b = execute.run_job(whole, VARIANT).image
+    assert np.allclose(a, b, rtol=1e-5, atol=1e-6), np.abs(a - b).max()

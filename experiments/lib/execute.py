@@ -209,11 +209,14 @@ class MultiPass(Protocol):
 
 def sequence_state(job: Job, done: int) -> dict | None:
     """The sampler attributes that make a pass of ``job`` continue its sequence after the
-    ``done`` samples its earlier passes took (None: the sampler reseeds instead)."""
+    ``done`` samples its earlier passes took (None: the sampler reseeds instead). The
+    sequence's length: the job's ``sequence_spp``, else its own samples (a job split into
+    passes for memory is one sequence: zsobol needs its length declared)."""
     spec = job.method.sampler_spec
     if not spec.continues_sequence:
         return None
-    return spec.sequence_attributes(job.sample_offset + done, job.sequence_spp)
+    return spec.sequence_attributes(job.sample_offset + done,
+                                    job.sequence_spp or job.sample_offset + job.spp)
 
 
 def set_sequence_state(sensor, state: dict) -> None:
