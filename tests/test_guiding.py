@@ -276,6 +276,39 @@ def test_pass_weights_by_hand():
     assert guiding.split(100, 64) == [50, 50]
 
 
+def test_combined_image_and_its_variance_by_hand():
+    """Two groups: untrained (2 samples, per-pixel mean 1, mean square 2: variance of the
+    mean (2 - 1) / 1 = 1) and trained (4 samples, mean 2, mean square 4.75: 0.25);
+    weights 1 : 4 -> 0.2, 0.8; image 0.2 + 1.6 = 1.8; its variance 0.04 x 1 + 0.64 x 0.25
+    = 0.2."""
+    integ = mi.load_dict({"type": "vr_guided_path"})
+    integ._passes, integ._estimator, integ._spp = [(0, 2), (1, 4)], [-1, 0], [2, 4]
+    integ._m2 = [np.full((1, 1, 3), 2.0), np.full((1, 1, 3), 4.75)]
+    images = [np.full((1, 1, 3), 1.0), np.full((1, 1, 3), 2.0)]
+    image = integ.combine(images, [2, 4])
+    assert np.allclose(integ.weights, [0.2, 0.8])
+    assert np.allclose(image, 1.8) and np.allclose(integ.combined_variance(), 0.2)
+
+
+def test_the_executor_takes_the_combined_variance():
+    """A guided job's per-pixel variance (what the suite's errors use) is the integrator's
+    combined_variance, not the spread of its passes."""
+    from _paths import scene_path
+    from experiments.lib import execute, plan
+    from experiments.lib.jobs import Accumulator
+    from experiments.lib.scenes import read_scene
+    job = plan.make_job("combined-variance", read_scene(scene_path("cbox.xml")),
+                        methods.parse_method("guided+nee"), 16, 8, 32, 1, methods.Depth(4),
+                        mi.variant())
+    integ = execute.fresh_integrator(job)
+    timed = execute.render_passes(execute._view(job, mi.variant()), integ, job)
+    acc = Accumulator.empty(8, 16)
+    acc.add(timed.image, timed.spp, sq=timed.sq, passes=timed.passes)
+    assert timed.passes == 32
+    assert np.allclose(acc.variance_of_mean(), integ.combined_variance(), rtol=1e-6,
+                       atol=1e-12)
+
+
 def test_record_cap_and_refusals():
     scene = cbox()
     big = mi.load_dict({"type": "vr_guided_path", "max_pass_spp": 4096, "record_depth": 32})
