@@ -218,8 +218,9 @@ MUTANTS = [
            "vertices found included, instead of what arrived along its direction",
            ("tests/test_guiding.py::test_training_learns_the_sky_from_the_floor",)),
     Mutant("guide-record-no-pdf", "integrators/guiding.py",
-           "        scale = mi.Color3f(mi.unpolarized_spectrum(beta)) * direction.pdf",
-           "        scale = mi.Color3f(mi.unpolarized_spectrum(beta))",
+           "        scale = beta * mi.Color3f(mi.unpolarized_spectrum(direction.weight)) "
+           "* direction.pdf",
+           "        scale = beta * mi.Color3f(mi.unpolarized_spectrum(direction.weight))",
            "records' radiance not divided by the sampling pdf (the guide learns the "
            "radiance times the density that sampled it)",
            ("tests/test_guiding.py::test_training_learns_the_sky_from_the_floor",)),
