@@ -225,14 +225,15 @@ def test_errors_and_efficiencies_are_measured_above_the_references_floor():
 def test_a_zsobol_job_split_into_passes_is_one_sequence():
     """A job of a sampler that must know its sequence's length (zsobol), split into passes
     (for memory, or by ``pass_spp``), renders the same samples as the job in one pass (the
-    split once failed: a pass beyond the first did not fit the sequence of its own count)."""
+    split once failed: a pass beyond the first did not fit the sequence of its own count;
+    then a pass of 6 took 8 samples of the sequence, zsobol's rounding)."""
     from experiments.lib import execute, plan
     info, method = SCENES[0].info, parse_method("bsdf+nee+zsobol:owen")
 
     def job(pass_spp):
         return plan.make_job(f"zsobol-split/{pass_spp}", info, method, 16, 8, 16, 3,
                              Depth(3), VARIANT, pass_spp=pass_spp)
-    split, whole = job(4), job(0)
+    split, whole = job(6), job(0)      # passes of a power of two: 6 -> 4
     assert split.passes() == [4, 4, 4, 4] and whole.passes() == [16]
     a = execute.run_job(split, VARIANT).image
     b = execute.run_job(whole, VARIANT).image

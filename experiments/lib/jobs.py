@@ -56,9 +56,14 @@ class Job:
                                   # pass for the per-pixel variances (independent, box)
 
     def passes(self) -> list[int]:
-        """The spp of each pass of this job."""
+        """The spp of each pass of this job. A sampler that continues one sequence over the
+        passes gets passes of a power of two (but the last): zsobol rounds a render's count
+        up to one (a Sobol' net), so a pass of another count would take more of the
+        sequence than the job has."""
         cap = max(1, MAX_LANES // (self.width * self.height))
         cap = min(cap, self.pass_spp) if self.pass_spp else cap
+        if getattr(self.method, "continues_sequence", False):
+            cap = 1 << (cap.bit_length() - 1)
         return [min(cap, self.spp - s) for s in range(0, self.spp, cap)]
 
 
