@@ -162,6 +162,19 @@ def sky_band_shares(nee):
     return bands / bands.sum()
 
 
+def trained_under_sky(nee):
+    """(the tree, its learned units) after a 62-spp job on :func:`plane_under_sky`, the
+    BSDF share fixed at 1 (the direction pdf stays cos / pi)."""
+    _, _, integ = render_job(plane_under_sky(), {"type": "vr_guided_path", "max_depth": 3,
+                                                 "emitter_sampling": nee,
+                                                 "directional_resolution": RES,
+                                                 "bsdf_fraction": 1.0}, 62, 1)
+    tree = integ.guide.tree
+    learned = np.flatnonzero(tree.learned[:tree.leaves * sdtree.CLASSES])
+    assert len(learned) > 0
+    return tree, learned
+
+
 @pytest.mark.parametrize("nee", [False, True])
 def test_training_learns_the_sky_from_the_floor(nee, monkeypatch):
     """After training, the floor's histograms hold the radiance that arrived along each
@@ -169,14 +182,7 @@ def test_training_learns_the_sky_from_the_floor(nee, monkeypatch):
     :func:`sky_band_shares` (NEE found at the vertex itself is not along its direction),
     and nothing from below."""
     monkeypatch.setattr(sdtree, "SMOOTH", False)    # the raw records' shares
-    _, _, integ = render_job(plane_under_sky(), {"type": "vr_guided_path", "max_depth": 3,
-                                                 "emitter_sampling": nee,
-                                                 "directional_resolution": RES,
-                                                 # the direction pdf stays cos / pi
-                                                 "bsdf_fraction": 1.0}, 62, 1)
-    tree = integ.guide.tree
-    learned = np.flatnonzero(tree.learned[:tree.leaves * sdtree.CLASSES])
-    assert len(learned) > 0
+    tree, learned = trained_under_sky(nee)
     prob = tree.prob[learned].mean(axis=0).reshape(RES, RES)
     assert prob[:RES // 2].sum() < 1e-6                     # nothing from below
     upper = prob[RES // 2:].sum(axis=1)                    # per cos theta band
@@ -191,14 +197,7 @@ def test_units_learn_the_floor_s_reflected_radiance(nee):
     sampled uniformly, pdf 1 / (4 pi), against cosine sampling, c / pi, power heuristic)
     the NEE's part is 0.5 / pi * 2 pi * int_0^1 c / (1 + 16 c^2) dc = 0.5 ln(17) / 16,
     the direction brings the rest; without NEE the direction brings all of it."""
-    _, _, integ = render_job(plane_under_sky(), {"type": "vr_guided_path", "max_depth": 3,
-                                                 "emitter_sampling": nee,
-                                                 "directional_resolution": RES,
-                                                 # the direction pdf stays cos / pi
-                                                 "bsdf_fraction": 1.0}, 62, 1)
-    tree = integ.guide.tree
-    units = np.flatnonzero(tree.learned[:tree.leaves * sdtree.CLASSES])
-    assert len(units) > 0
+    tree, units = trained_under_sky(nee)
     after, by_nee = tree.reflected[units].T
     expected = 0.5 * math.log(17) / 16 if nee else 0.0
     assert np.allclose(by_nee, expected, rtol=0.03, atol=1e-6), by_nee
