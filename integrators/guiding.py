@@ -337,10 +337,6 @@ def pixel_variance(mean: np.ndarray, m2: np.ndarray, spp: int) -> np.ndarray:
     return np.maximum(m2 - mean ** 2, 0.0) / (spp - 1)
 
 
-def image_variance(mean: np.ndarray, m2: np.ndarray, spp: int) -> float:
-    """Mean over pixels (and channels) of :func:`pixel_variance`."""
-    return float(np.mean(pixel_variance(mean, m2, spp)))
-
 
 class GuidedPathIntegrator(VRPathIntegrator):
     r"""

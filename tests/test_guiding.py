@@ -270,7 +270,8 @@ def test_pass_weights_by_hand():
     assert np.allclose(guiding.pass_weights([0.04, 0.01], [2, 4]), [0.2, 0.8])
     assert np.allclose(guiding.pass_weights([0.0, 0.01], [2, 4]), [1 / 3, 2 / 3])
     mean, m2 = np.array([[1.0, 2.0]]), np.array([[1.5, 4.0]])
-    assert guiding.image_variance(mean, m2, 3) == pytest.approx((0.5 + 0.0) / 2 / 2)
+    assert np.allclose(guiding.pixel_variance(mean, m2, 3), [[0.5 / 2, 0.0]])
+    assert np.all(np.isinf(guiding.pixel_variance(mean, m2, 1)))
     assert guiding.iterations(64) == [2, 4, 8, 16, 34]
     assert guiding.split(100, 64) == [50, 50]
 
