@@ -88,6 +88,7 @@ class GuidedStrategy(Strategy):
     def __init__(self, res: int = 16, max_leaves: int = 1024):
         self.tree = SDTree(res, max_leaves)
         self.share = None
+        self.unit = None        # the last traced vertex's unit (recorder, roulette)
         self.drawn = None       # (p_bsdf, p_guide) of the last traced draw (the recorder's)
         #: nonzero while a recorder needs p_guide at every drawn direction (share 1 too)
         self.recording = dr.opaque(mi.UInt32, 0, 1)
@@ -102,6 +103,7 @@ class GuidedStrategy(Strategy):
         """The vertex's unit (leaf x normal class) and its BSDF share (1 for a BSDF with
         a Dirac lobe)."""
         unit = self.tree.lookup(si.p, si.n, active)
+        self.unit = unit            # the vertex's unit, for the recorder and the roulette
         self._delta = mi.Bool(mi.has_flag(bsdf.flags(), mi.BSDFFlags.Delta))
         return unit, dr.select(self._delta, 1.0,
                                dr.gather(mi.Float, self.share, unit, active))
@@ -212,8 +214,8 @@ class Recorder:
         the vertex, ``L``: the radiance with the vertex's own NEE, ``L_arrived``: before it)."""
         active = active & ~direction.delta & (direction.pdf > 0) & (depth < self.depth) \
             & (self.on != 0)
-        leaf = self.tree.lookup(si.p, si.n, active)
-        index = self.tree.record_index(leaf, si.to_world(direction.wo))
+        # the unit the strategy looked up for this vertex's direction
+        index = self.tree.record_index(self.guide.unit, si.to_world(direction.wo))
         beta = mi.Color3f(mi.unpolarized_spectrum(beta))
         scale = beta * mi.Color3f(mi.unpolarized_spectrum(direction.weight)) * direction.pdf
         inverse = dr.select(scale > 0, dr.rcp(scale), 0.0)
@@ -265,15 +267,15 @@ class Roulette:
     """The guided Russian roulette (:data:`WINDOW`): survival probabilities from the
     units' learned reflected radiance (:meth:`.sdtree.SDTree.reflected_at`)."""
 
-    def __init__(self, tree):
-        self.tree = tree
+    def __init__(self, guide: GuidedStrategy):
+        self.guide, self.tree = guide, guide.tree
 
     def survival(self, depth, si, beta, reference, active):
         """(the probability that the path goes on after vertex ``depth``, 0 where the
         throughput rule decides: its unit or the pixel has no estimate; the pixel's
         estimate, set at the first vertex). ``beta``: the throughput reaching the vertex."""
-        unit = self.tree.lookup(si.p, si.n, active)
-        after, nee = self.tree.reflected_at(unit, active)
+        # the unit the strategy looked up for this vertex's direction
+        after, nee = self.tree.reflected_at(self.guide.unit, active)
         reference = dr.select(active & (depth == 0), dr.select(after >= 0, after + nee, 0.0),
                               reference)
         b = dr.mean(mi.unpolarized_spectrum(beta))
@@ -466,7 +468,7 @@ class GuidedPathIntegrator(VRPathIntegrator):
         (vr_path's throughput rule; after training stops the kernel is vr_path's own)."""
         if self.roulette != "adjoint" or self._stopped:
             return None
-        return Roulette(self.guide.tree)
+        return Roulette(self.guide)
 
     def _set_recording(self, on: bool) -> None:
         """Whether the next renders record: a host switch (the render kernel without
@@ -517,7 +519,7 @@ class GuidedPathIntegrator(VRPathIntegrator):
         tree = self.guide.tree
         # the last trace's variables read the tables: dropped, so that the refinement
         # writes the tables in place instead of copying them whole
-        self.guide.drawn = self.guide._delta = None
+        self.guide.drawn = self.guide._delta = self.guide.unit = None
         tree.refine(self.spatial_threshold * np.sqrt(2.0 ** k), self.bsdf_fraction)
         idx = [i for i, (it, _) in enumerate(self._passes) if it == k]
         self.gains.append(predicted_gain(tree.moment_sums, *self._pixel_moments(idx)))

@@ -219,7 +219,8 @@ def test_roulette_survival_by_hand():
     depth = mi.UInt32([0, 3, 3, 3, 3, 0])
     beta = mi.Spectrum(mi.Float([1, 0.4, 0.01, 1, 1, 1]))
     reference = mi.Float([0, 3, 3, 3, 0, 0])
-    q, ref = guiding.Roulette(g.tree).survival(depth, si, beta, reference, mi.Bool(True))
+    g.unit = g.tree.lookup(si.p, si.n)          # as the strategy's draw at the vertex
+    q, ref = guiding.Roulette(g).survival(depth, si, beta, reference, mi.Bool(True))
     assert np.allclose(np.array(ref), [3, 3, 3, 3, 0, 0])
     assert np.allclose(np.array(q), [0.95, 0.2, 0.05, 0, 0, 0])
 
