@@ -331,12 +331,18 @@ def predicted_gain(sums: dict, variance: float, samples: int) -> float | None:
     return float(bsdf / chosen) if chosen > 0 and bsdf > 0 else None
 
 
+def sample_spread(mean: np.ndarray, m2: np.ndarray) -> np.ndarray:
+    """Per pixel and channel, the samples' spread from their mean and mean square:
+    m2 - mean^2 (0 where rounding makes it negative)."""
+    return np.maximum(m2 - mean ** 2, 0.0)
+
+
 def pixel_variance(mean: np.ndarray, m2: np.ndarray, spp: int) -> np.ndarray:
     """Per pixel and channel, the variance of the mean of ``spp`` samples, from their mean
     and mean square: (m2 - mean^2) / (spp - 1) (inf for one sample)."""
     if spp < 2:
         return np.full(np.shape(mean), np.inf)
-    return np.maximum(m2 - mean ** 2, 0.0) / (spp - 1)
+    return sample_spread(mean, m2) / (spp - 1)
 
 
 
@@ -544,7 +550,7 @@ class GuidedPathIntegrator(VRPathIntegrator):
         n = sum(self._spp[i] for i in idx)
         mean = sum(self._mean[i] * self._spp[i] for i in idx) / n
         m2 = sum(self._m2[i] * self._spp[i] for i in idx) / n
-        return float(np.mean(np.maximum(m2 - mean ** 2, 0.0))), n * mean[..., 0].size
+        return float(np.mean(sample_spread(mean, m2))), n * mean[..., 0].size
 
     def combine(self, images: list, spps: list):
         """The iterations' images, weighted by :func:`pass_weights`; iterations rendered
