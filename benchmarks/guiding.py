@@ -93,7 +93,7 @@ def _final_share(result, spp: int) -> float:
 def measure(scene: str = SCENE, width: int = WIDTH, height: int = HEIGHT,
             path_spp: int = PATH_SPP, repeats: int = REPEATS, methods=(GUIDED,),
             reference_spp: int = REFERENCE_SPP, chunk_spp: int = CHUNK_SPP,
-            log=print) -> dict:
+            pilots: int = PILOTS, log=print) -> dict:
     """Every number of the module help, as a dict (see :func:`rows`)."""
     start = time.perf_counter()
     info = read_scene(scene)
@@ -108,9 +108,9 @@ def measure(scene: str = SCENE, width: int = WIDTH, height: int = HEIGHT,
         return r, metrics.relmse(r.image.astype(np.float64), ref) - floor
 
     # pilots (untimed by the comparison): each method's cost at path's count over path's,
-    # the median of PILOTS rounds that alternate with path's renders
+    # the median of ``pilots`` rounds that alternate with path's renders
     ratios = {m: [] for m in methods}
-    for k in range(PILOTS):
+    for k in range(pilots):
         for m in methods:
             path_cost = clock.cost(run("path", path_spp, -1 - k)[0])
             ratios[m].append(path_cost / clock.cost(run(m, path_spp, -1 - k)[0]))
@@ -171,7 +171,10 @@ def quick_settings(quick: bool) -> dict:
     """:func:`measure`'s settings for ``benchmarks.run`` (``--quick``: a check that it runs)."""
     if not quick:
         return {}
-    return {"width": 16, "height": 12, "path_spp": 64, "repeats": 2, "reference_spp": 4096}
+    # guided+nee's count (path's time, about 600 spp) stays above its min_train_spp (256)
+    # and min_train_samples (2^20): it trains
+    return {"width": 64, "height": 48, "path_spp": 1024, "repeats": 2, "reference_spp": 1024,
+            "pilots": 1}
 
 
 def note(res: dict) -> str:

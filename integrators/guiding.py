@@ -23,6 +23,8 @@
 """
 from __future__ import annotations
 
+import warnings
+
 import drjit as dr
 import mitsuba as mi
 import numpy as np
@@ -37,9 +39,10 @@ from .warps import ONE_MINUS_EPSILON
 #: Largest size of a render's record arrays (bytes): larger renders are refused.
 RECORD_CAP_BYTES = 256 * 2 ** 20
 #: Bytes per record: the target index (4), the radiance so far (12), 1 / (beta' pdf) (12),
-#: for the BSDF share: p_bsdf / pdf (4), p_guide / pdf (4), and for the roulette's
-#: estimate of the reflected radiance: 1 / beta (4), the vertex's NEE / beta (4).
-RECORD_BYTES = 44
+#: the emission its direction found that NEE samples too (12), for the BSDF share:
+#: p_bsdf / pdf (4), p_guide / pdf (4), and for the roulette's estimate of the reflected
+#: radiance: 1 / beta (4), the vertex's NEE / beta (4).
+RECORD_BYTES = 56
 #: The guided Russian roulette (Vorba and Krivanek 2016, "Adjoint-driven Russian roulette
 #: and splitting", as Open PGL's ``GuidedRussianRoulette``): a path survives a vertex with
 #: probability ``WINDOW x beta x L_r / I`` (``beta`` the throughput that reaches the vertex,
@@ -73,6 +76,18 @@ STOP_PATIENCE = 2
 #: what a trained guide gains (door_room at 256 spp, predicted gains after iterations 1,
 #: 2: 1.06-3.2 at 48x36 and 64x48, but 1.01 at 24x18, where iterations 3, 4 show 1.3).
 STOP_FIRST = 2
+#: A job trains only with at least :data:`MIN_TRAIN_SPP` samples per pixel and
+#: :data:`MIN_TRAIN_SAMPLES` samples in all (``min_train_spp``, ``min_train_samples``); a
+#: smaller one renders with plain BSDF sampling, and says so. Training has costs that do
+#: not shrink with the job: the iterations up to the first stop decision (2 + 4 + 8 = 14
+#: spp at the default first pass) record, at 300-400 ns per sample more than vr_path's
+#: kernel (1.3-7x its time on the suite's scenes), and each refinement takes 1.5-2.5 ms of
+#: host work. Where guiding does not help, the 14 spp are over 1/20 of a job below 256
+#: spp, and the host work alone over 1/10 of a job below 2^20 samples at the cheapest
+#: suite scenes' 50 ns per sample (grazing at 48x24 and 256 spp trained: 0.56 of
+#: bsdf+nee's efficiency).
+MIN_TRAIN_SPP = 256
+MIN_TRAIN_SAMPLES = 2 ** 20
 
 
 class GuidedStrategy(Strategy):
@@ -205,9 +220,11 @@ class Recorder:
         self.index = dr.full(mi.UInt32, INVALID, depth * lanes)
         self.radiance = dr.zeros(mi.Color3f, depth * lanes)
         self.inverse = dr.zeros(mi.Color3f, depth * lanes)
+        self.direct = dr.zeros(mi.Color3f, depth * lanes)
         self.ratios = dr.zeros(mi.Vector2f, depth * lanes)
         self.reflected = dr.zeros(mi.Vector2f, depth * lanes)
-        dr.make_opaque(self.index, self.radiance, self.inverse, self.ratios, self.reflected)
+        dr.make_opaque(self.index, self.radiance, self.inverse, self.direct, self.ratios,
+                       self.reflected)
 
     def vertex(self, depth, si, direction, L, L_arrived, beta, active):
         """After vertex ``depth`` drew ``direction`` (``beta``: the throughput that reached
@@ -234,22 +251,37 @@ class Recorder:
         rcp = dr.rcp(dr.maximum(direction.pdf, 1e-20))
         dr.scatter(self.ratios, mi.Vector2f(p_bsdf * rcp, p_guide * rcp), slot, active)
 
+    def emitted(self, depth, emitted, active):
+        """The emission found at vertex ``depth`` (MIS-weighted against NEE) by the
+        direction vertex ``depth - 1`` drew: that vertex's NEE samples the same light, so
+        its record leaves it out (the guide learns the light NEE cannot find; where it
+        learned direct light too, its records would rate the mixture with the drawn
+        direction's MIS weight, which a denser guide lowers, and overrate the guide)."""
+        active = active & (depth > 0) & (depth <= self.depth) & (self.on != 0)
+        slot = (depth - 1) * self.lanes + self.lane
+        dr.scatter_add(self.direct, mi.Color3f(mi.unpolarized_spectrum(emitted)), slot, active)
+
     def finish(self, L, *outputs):
         """Add every vertex's record (radiance found after it / pdf) to the tree. The
         path loop's outputs (``L``, ``outputs``) and the records are evaluated first, in
         one kernel: read lazily, the loop would run again for the film."""
-        dr.eval(L, *outputs, self.index, self.radiance, self.inverse, self.ratios)
+        dr.eval(L, *outputs, self.index, self.radiance, self.inverse, self.direct,
+                self.ratios)
         L = mi.Color3f(mi.unpolarized_spectrum(L))
         for d in range(self.depth):
             slot = d * self.lanes + self.lane
             index = dr.gather(mi.UInt32, self.index, slot)
             valid = index != INVALID
-            before = dr.gather(mi.Color3f, self.radiance, slot, valid)
+            after = L - dr.gather(mi.Color3f, self.radiance, slot, valid)
+            learned = after - dr.gather(mi.Color3f, self.direct, slot, valid)
+            # where the direct emission was all of it, the difference is rounding
+            learned = dr.select(learned > 1e-4 * after, learned, 0.0)
             inverse = dr.gather(mi.Color3f, self.inverse, slot, valid)
-            value = dr.mean((L - before) * inverse)
+            value = dr.mean(learned * inverse)
             value = dr.select(dr.isfinite(value), dr.maximum(value, 0.0), 0.0)
-            # what the vertex's direction brought to the pixel: beta f cos L / pdf
-            brought = dr.maximum(dr.mean(L - before), 0.0)
+            # what the vertex's direction brought to the pixel (beta f cos L / pdf), less
+            # the emission it found that NEE samples too
+            brought = dr.maximum(dr.mean(learned), 0.0)
             dr.scatter_add(self.tree.energy, value, index, valid)
             unit = index // self.tree.bins
             dr.scatter_add(self.tree.counts, mi.UInt32(1), unit, valid)
@@ -257,10 +289,11 @@ class Recorder:
             ratios = dr.gather(mi.Vector2f, self.ratios, slot, valid)
             self.tree.add_moments(unit, brought, ratios.x, ratios.y,
                                   valid & (ratios.x + ratios.y > 0))
-            # the roulette's: the radiance the vertex reflects after its NEE, and its NEE
+            # the roulette's: the radiance the vertex reflects after its NEE (all of it:
+            # the path goes on for the emission too), and its NEE
             reflected = dr.gather(mi.Vector2f, self.reflected, slot, valid)
-            self.tree.add_reflected(unit, brought * reflected.x, reflected.y,
-                                    valid & (reflected.x > 0))
+            self.tree.add_reflected(unit, dr.maximum(dr.mean(after), 0.0) * reflected.x,
+                                    reflected.y, valid & (reflected.x > 0))
 
 
 class Roulette:
@@ -400,6 +433,15 @@ class GuidedPathIntegrator(VRPathIntegrator):
        - |int|
        - Samples per pixel of the first iteration (then doubled), >= 2. (Default: 2)
 
+     * - min_train_spp, min_train_samples
+       - |int|
+       - A job trains only with at least ``min_train_spp`` samples per pixel (>= 2) and
+         ``min_train_samples`` samples in all (pixels x spp, >= 1); a smaller one is
+         plain BSDF sampling (``vr_path``'s ``bsdf`` strategy), with a warning: before
+         training can first stop (14 spp at the default ``first_pass_spp``) its records
+         and refinements cost the same where guiding does not help.
+         (Default: 256, 1048576)
+
      * - roulette
        - |string|
        - ``adjoint``: while the guide is in use, a path past ``rr_depth`` survives a
@@ -442,6 +484,8 @@ class GuidedPathIntegrator(VRPathIntegrator):
         self.record_depth = number("record_depth", 4, 1, 32)
         self.max_pass_spp = number("max_pass_spp", 64, 1, 1 << 20)
         self.first_pass_spp = number("first_pass_spp", 2, 2, 1 << 20)
+        self.min_train_spp = number("min_train_spp", MIN_TRAIN_SPP, 2, 1 << 30)
+        self.min_train_samples = number("min_train_samples", MIN_TRAIN_SAMPLES, 1, 1 << 40)
         self.roulette = props.get("roulette", "adjoint")
         if self.roulette not in ROULETTES:
             raise ValueError(f"vr_guided_path: 'roulette' must be one of "
@@ -494,18 +538,32 @@ class GuidedPathIntegrator(VRPathIntegrator):
 
     # ------------------------------------------------------------------ multi-pass
 
-    def pass_schedule(self, spp: int) -> list:
+    def pass_schedule(self, spp: int, pixels: int) -> list:
         """Iterations of doubling samples (:func:`iterations`), each split into renders
-        of at most ``max_pass_spp`` (:func:`split`): a function of ``spp`` alone."""
-        self._iterations = iterations(spp, self.first_pass_spp)
+        of at most ``max_pass_spp`` (:func:`split`): a function of ``spp`` and the film's
+        ``pixels`` alone; one iteration without training below ``min_train_spp`` or
+        ``min_train_samples``."""
+        small = [f"{spp} spp is below 'min_train_spp' ({self.min_train_spp})"] \
+            if spp < self.min_train_spp else []
+        if spp * pixels < self.min_train_samples:
+            small.append(f"{spp} spp x {pixels} pixels is below 'min_train_samples' "
+                         f"({self.min_train_samples})")
+        trains = not small
+        if small:
+            warnings.warn(f"vr_guided_path: {' and '.join(small)}: no training, plain BSDF "
+                          f"sampling (vr_path's bsdf strategy)", stacklevel=2)
+        self._iterations = iterations(spp, self.first_pass_spp) if trains else [spp]
         self._passes = [(k, n) for k, it in enumerate(self._iterations)
                         for n in split(it, self.max_pass_spp)]
-        self._m2, self._mean, self._spp, self.gains, self._stopped = [], [], [], [], False
+        self._m2, self._mean, self._spp, self.gains = [], [], [], []
         # per iteration, which estimator rendered it: -1 plain BSDF sampling (every share
         # 1: untrained, or training stopped), else the iteration whose refinement it uses
         self._estimator = [-1] * len(self._iterations)
-        self._set_recording(len(self._iterations) > 1)
-        self.sampling_strategy = self.guide
+        trains = len(self._iterations) > 1
+        self._set_recording(trains)
+        # without training: vr_path's own bsdf strategy and roulette (its kernel)
+        self._stopped = not trains
+        self.sampling_strategy = self.guide if trains else strategies.get("bsdf")
         return [n for _, n in self._passes]
 
     def after_pass(self, index: int, image, spp: int) -> None:
@@ -528,7 +586,10 @@ class GuidedPathIntegrator(VRPathIntegrator):
         self.guide.drawn = self.guide._delta = self.guide.unit = None
         tree.refine(self.spatial_threshold * np.sqrt(2.0 ** k), self.bsdf_fraction)
         idx = [i for i, (it, _) in enumerate(self._passes) if it == k]
-        self.gains.append(predicted_gain(tree.moment_sums, *self._pixel_moments(idx)))
+        gain = predicted_gain(tree.moment_sums, *self._pixel_moments(idx))
+        # no unit learned anything (every record dark: all its light found by NEE): the
+        # guide is the BSDF's own sampling, no gain
+        self.gains.append(1.0 if gain is None and not tree.learned.any() else gain)
         low = [g is not None and g < STOP_GAIN for g in self.gains[-STOP_PATIENCE:]]
         if self.bsdf_fraction is None and k >= STOP_FIRST and all(low):
             # guiding does not help anywhere: plain BSDF sampling, no more training; the

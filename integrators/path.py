@@ -330,7 +330,11 @@ class VRPathIntegrator(mi.SamplingIntegrator):
                 ds = mi.DirectionSample3f(scene, si, prev_it)
                 em_pdf = scene.pdf_emitter_direction(prev_it, ds, visible & ~prev_delta)
                 w_dir = dr.select(prev_delta, 1.0, warps.power_heuristic(prev_pdf, em_pdf))
-            L = dr.select(visible, L + beta * emitter.eval(si, visible) * w_dir, L)
+            emitted = beta * emitter.eval(si, visible) * w_dir
+            L = dr.select(visible, L + emitted, L)
+            if dr.hint(record & nee, mode='scalar'):
+                # light that the previous vertex's NEE samples too (MIS): not learned
+                recorder.emitted(depth, emitted, visible & ~prev_delta)
 
             active_next = on & si.is_valid() & (depth + 1 < max_depth)
             bsdf = si.bsdf(ray)

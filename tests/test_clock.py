@@ -93,7 +93,7 @@ def two_pass():
         def sample(self, scene, sampler, ray, medium=None, active=True):
             return self.inner.sample(scene, sampler, ray, medium, active)
 
-        def pass_schedule(self, spp):
+        def pass_schedule(self, spp, pixels):
             return [spp - spp // 8, spp // 8]
 
         def after_pass(self, index, image, spp):

@@ -124,9 +124,10 @@ def test_learning_recovers_a_known_field(monkeypatch):
 # ------------------------------------------------------------------ renders in passes
 
 def render_job(scene, integrator_dict, spp, seed):
-    """A job as the executor renders a MultiPass method: (image, compiled per pass)."""
-    integ = mi.load_dict(integrator_dict)
-    schedule = integ.pass_schedule(spp)
+    """A job as the executor renders a MultiPass method: (image, compiled per pass). It
+    trains whatever its counts (``min_train_spp`` 2, ``min_train_samples`` 1 unless given)."""
+    integ = mi.load_dict({"min_train_spp": 2, "min_train_samples": 1, **integrator_dict})
+    schedule = integ.pass_schedule(spp, dr.prod(scene.sensors()[0].film().size()))
     images, compiled = [], []
     for i, k in enumerate(schedule):
         dr.set_flag(dr.JitFlag.KernelHistory, True)
@@ -151,15 +152,10 @@ def plane_under_sky():
                    "film": {"type": "hdrfilm", "width": 16, "height": 16}}})
 
 
-def sky_band_shares(nee):
+def sky_band_shares():
     """The share of each cos(theta) band of the upper hemisphere in what the floor should
-    learn: uniform without NEE; with NEE the sky found by a cosine-sampled direction is
-    weighted by the power heuristic against the sky's uniform sampling (pdfs c / pi and
-    1 / (4 pi)): w(c) = c^2 / (c^2 + 1/16)."""
-    c = (np.arange(RES // 2 * 1000) + 0.5) / (RES // 2 * 1000)
-    w = c ** 2 / (c ** 2 + 1 / 16) if nee else np.ones_like(c)
-    bands = w.reshape(RES // 2, 1000).sum(axis=1)
-    return bands / bands.sum()
+    learn without NEE: uniform."""
+    return np.full(RES // 2, 1.0 / (RES // 2))
 
 
 def trained_under_sky(nee):
@@ -170,24 +166,29 @@ def trained_under_sky(nee):
                                                  "directional_resolution": RES,
                                                  "bsdf_fraction": 1.0}, 62, 1)
     tree = integ.guide.tree
-    learned = np.flatnonzero(tree.learned[:tree.leaves * sdtree.CLASSES])
-    assert len(learned) > 0
-    return tree, learned
+    return tree, np.flatnonzero(tree.learned[:tree.leaves * sdtree.CLASSES])
 
 
-@pytest.mark.parametrize("nee", [False, True])
-def test_training_learns_the_sky_from_the_floor(nee, monkeypatch):
-    """After training, the floor's histograms hold the radiance that arrived along each
-    vertex's own direction, divided by its pdf: per cos theta band the shares of
-    :func:`sky_band_shares` (NEE found at the vertex itself is not along its direction),
-    and nothing from below."""
+def test_training_learns_the_sky_from_the_floor(monkeypatch):
+    """After training without NEE, the floor's histograms hold the radiance that arrived
+    along each vertex's own direction, divided by its pdf: per cos theta band the shares
+    of :func:`sky_band_shares`, and nothing from below."""
     monkeypatch.setattr(sdtree, "SMOOTH", False)    # the raw records' shares
-    tree, learned = trained_under_sky(nee)
+    tree, learned = trained_under_sky(False)
+    assert len(learned) > 0
     prob = tree.prob[learned].mean(axis=0).reshape(RES, RES)
     assert prob[:RES // 2].sum() < 1e-6                     # nothing from below
     upper = prob[RES // 2:].sum(axis=1)                    # per cos theta band
-    assert np.allclose(upper / upper.sum(), sky_band_shares(nee), rtol=0.1, atol=0.01), \
-        (upper / upper.sum(), sky_band_shares(nee))
+    assert np.allclose(upper / upper.sum(), sky_band_shares(), rtol=0.1, atol=0.01), \
+        (upper / upper.sum(), sky_band_shares())
+
+
+def test_with_nee_the_guide_leaves_out_the_light_nee_samples():
+    """With NEE the sky that a floor vertex's direction finds is the sky its NEE samples
+    (MIS-weighted: the power heuristic against cosine sampling): no record carries it, so
+    no unit learns a histogram and training stops (the guide is the BSDF's own sampling)."""
+    tree, learned = trained_under_sky(True)
+    assert len(learned) == 0 and tree.prob.shape[0] > 0
 
 
 @pytest.mark.parametrize("nee", [True, False])
@@ -301,11 +302,13 @@ def test_the_executor_takes_the_combined_variance():
     job = plan.make_job("combined-variance", read_scene(scene_path("cbox.xml")),
                         methods.parse_method("guided+nee"), 16, 8, 32, 1, methods.Depth(4),
                         mi.variant())
-    integ = execute.fresh_integrator(job)
+    # a fixed share: training never stops, so that the job has several groups
+    integ = mi.load_dict({**job.method.integrator_dict(methods.Depth(4)), "bsdf_fraction": 0.5,
+                          "min_train_spp": 2, "min_train_samples": 1})
     timed = execute.render_passes(execute._view(job, mi.variant()), integ, job)
     acc = Accumulator.empty(8, 16)
     acc.add(timed.image, timed.spp, sq=timed.sq, passes=timed.passes)
-    assert timed.passes == 32
+    assert timed.passes == 32 and len(integ.weights) > 1
     assert np.allclose(acc.variance_of_mean(), integ.combined_variance(), rtol=1e-6,
                        atol=1e-12)
 
@@ -322,9 +325,10 @@ def test_record_cap_and_refusals():
         mi.render(mi.load_dict(strat))
     assert "independent" in str(error.value) + str(error.value.__cause__)
     for bad in ({"bsdf_fraction": 0.05}, {"directional_resolution": 1}, {"strategy": "bsdf"},
-                {"roulette": "weight_window"}):
-        with pytest.raises(Exception,
-                           match="bsdf_fraction|directional_resolution|learns|adjoint, throughput"):
+                {"roulette": "weight_window"}, {"min_train_spp": 1},
+                {"min_train_samples": 0}):
+        with pytest.raises(Exception, match="bsdf_fraction|directional_resolution|learns|"
+                                            "adjoint, throughput|'min_train_s(pp|amples)' must be"):
             mi.load_dict({"type": "vr_guided_path", **bad})
     with pytest.raises(ValueError, match="valid samplers for it: independent"):
         methods.parse_method("guided+nee+multijitter")
@@ -390,9 +394,10 @@ def test_a_stopped_guide_renders_with_vr_paths_own_bsdf_kernel():
     last bits of the film's multithreaded sums); the next job starts
     from the guide again."""
     scene = cbox()
-    d = {"type": "vr_guided_path", "emitter_sampling": True, "max_depth": 5}
+    d = {"type": "vr_guided_path", "emitter_sampling": True, "max_depth": 5,
+         "min_train_spp": 128, "min_train_samples": 1}
     integ = mi.load_dict(d)
-    schedule = integ.pass_schedule(128)
+    schedule = integ.pass_schedule(128, 64 * 32)
     for i, k in enumerate(schedule):
         image = mi.render(scene, integrator=integ, spp=k, seed=i)
         integ.after_pass(i, image, k)
@@ -406,8 +411,41 @@ def test_a_stopped_guide_renders_with_vr_paths_own_bsdf_kernel():
     # equal to the last bits of the film's multithreaded sums
     assert np.allclose(guided, np.array(mi.render(scene, integrator=plain, spp=k,
                                                   seed=77))[..., :3], rtol=1e-5, atol=1e-7)
-    integ.pass_schedule(64)
+    integ.pass_schedule(128, 64 * 32)
     assert integ.sampling_strategy is integ.guide
+
+
+def test_a_job_below_min_train_spp_is_vr_paths_bsdf_and_says_so():
+    """Below ``min_train_spp`` or ``min_train_samples`` a job trains nothing: one
+    iteration without records, with vr_path's bsdf strategy and roulette, the very image
+    vr_path's bsdf+nee gives for the same seed (but for the last bits of the film's
+    multithreaded sums), and a warning that names the counts and the thresholds. At both
+    thresholds it trains."""
+    scene = cbox()
+    pixels = int(dr.prod(scene.sensors()[0].film().size()))
+    d = {"type": "vr_guided_path", "emitter_sampling": True, "max_depth": 5}
+    integ = mi.load_dict(d)
+    assert integ.min_train_spp == guiding.MIN_TRAIN_SPP == 256
+    assert integ.min_train_samples == guiding.MIN_TRAIN_SAMPLES == 2 ** 20
+    with pytest.warns(UserWarning, match=r"32 spp is below 'min_train_spp' \(256\) and 32 "
+                                         rf"spp x {pixels} pixels is below 'min_train_samples'"):
+        schedule = integ.pass_schedule(32, pixels)
+    assert schedule == [32] and not integ.recording and integ._stopped
+    image = mi.render(scene, integrator=integ, spp=32, seed=5)
+    integ.after_pass(0, image, 32)
+    guided = integ.combine([np.array(image, dtype=np.float64)[..., :3]], schedule)
+    plain = mi.load_dict({"type": "vr_path", "strategy": "bsdf", "emitter_sampling": True,
+                          "max_depth": 5})
+    assert np.allclose(guided, np.array(mi.render(scene, integrator=plain, spp=32,
+                                                  seed=5))[..., :3], rtol=1e-5, atol=1e-7)
+    assert integ.gains == [] and np.all(np.array(integ.guide.share) == 1.0)
+    # each rule alone
+    with pytest.warns(UserWarning, match=r"^vr_guided_path: 256 spp x 100 pixels is below"):
+        assert integ.pass_schedule(256, 100) == [64] * 4 and not integ.recording
+    with pytest.warns(UserWarning, match=r"^vr_guided_path: 128 spp is below 'min_train_spp' "
+                                         r"\(256\): no training"):
+        integ.pass_schedule(128, 2 ** 20)
+    assert len(integ.pass_schedule(256, 2 ** 12)) > 1 and integ.recording and not integ._stopped
 
 
 def test_shares_go_down_where_guiding_helps():

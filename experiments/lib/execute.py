@@ -187,8 +187,9 @@ class MultiPass(Protocol):
     executor renders each pass with ``mi.render`` and calls the hooks between them; the
     clock (:mod:`.clock`) counts the kernels of every pass and the CPU time of the hooks.
 
-    * ``pass_schedule(spp)``: the samples per pixel of each pass for a job of ``spp`` (a
-      function of the count alone, never of time), summing to ``spp``;
+    * ``pass_schedule(spp, pixels)``: the samples per pixel of each pass for a job of
+      ``spp`` on a film of ``pixels`` (a function of the counts alone, never of time),
+      summing to ``spp``;
     * ``after_pass(index, image, spp)``: host work after pass ``index`` (learning from it;
       ``image`` the pass's mean as a Dr.Jit tensor);
     * ``combine(images, spps)``: the job's image from every pass's (a numpy (H, W, 3)
@@ -200,7 +201,7 @@ class MultiPass(Protocol):
     Passes are rendered with seeds ``derive_seed(job.seed, index)``; a job of such a method
     is never split further for memory (its schedule is its passes)."""
 
-    def pass_schedule(self, spp: int) -> list: ...
+    def pass_schedule(self, spp: int, pixels: int) -> list: ...
 
     def after_pass(self, index: int, image, spp: int) -> None: ...
 
@@ -297,7 +298,8 @@ def render_passes(view: View, integrator, job: Job) -> Timed:
     multi = isinstance(integrator, MultiPass)
     per_sample = isinstance(integrator, moments.MomentsIntegrator)
     continues = job.method.continues_sequence
-    schedule = integrator.pass_schedule(job.spp) if multi else job.passes()
+    schedule = integrator.pass_schedule(job.spp, job.width * job.height) if multi \
+        else job.passes()
     mean = np.zeros((job.height, job.width, 3))
     sq = np.zeros_like(mean)
     images, spps = [], []

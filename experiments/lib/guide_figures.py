@@ -79,7 +79,8 @@ def train(scene_path: str, width: int, height: int, method: str | Method = "guid
                          f"(integrator {spec.get('type')}, not vr_guided_path)")
     scene = load_scene(scene_path, width, height, method, depth)
     sensor = scene.sensors()[0]
-    integ = mi.load_dict(spec)
+    # a figure of the guide trains whatever its count
+    integ = mi.load_dict({**spec, "min_train_spp": 2, "min_train_samples": 1})
     job = plan.make_job("guide-figure", read_scene(scene_path), method, width, height, spp,
                         seed, depth, mi.variant())
     # the executor's own multi-pass loop (its seeds, hooks and combination)
