@@ -426,7 +426,7 @@ class GuidedPathIntegrator(VRPathIntegrator):
      * - max_pass_spp
        - |int|
        - Most samples per pixel of one render: an iteration above it is split into
-         several renders (records cost 44 bytes x record_depth per sample, at most
+         several renders (records cost 56 bytes x record_depth per sample, at most
          256 MiB per render). (Default: 64)
 
      * - first_pass_spp
