@@ -171,9 +171,9 @@ def quick_settings(quick: bool) -> dict:
     """:func:`measure`'s settings for ``benchmarks.run`` (``--quick``: a check that it runs)."""
     if not quick:
         return {}
-    # guided+nee's count (path's time, about 600 spp) stays above its min_train_spp (256)
+    # guided+nee's count (path's time, about 450 spp) stays above its min_train_spp (256)
     # and min_train_samples (2^20): it trains
-    return {"width": 64, "height": 48, "path_spp": 1024, "repeats": 2, "reference_spp": 1024,
+    return {"width": 64, "height": 48, "path_spp": 768, "repeats": 2, "reference_spp": 768,
             "pilots": 1}
 
 

@@ -260,6 +260,31 @@ def test_hypothesis_held_failed_or_undecided():
         .verdict.status == "untestable"
 
 
+def test_a_learning_method_is_compared_with_its_plain_counterpart():
+    """guided+nee against bsdf+nee (the same method without learning), per scene, pooled
+    (geometric mean) over the scenes whose header does not favour it only: on one scene
+    half of bsdf+nee's efficiency (twice its error at the same time), on another twice;
+    the favoured scene is left out of the mean. A scene without bsdf+nee has no ratio."""
+    from experiments.lib.methods import parse_method
+    assert parse_method("guided+nee+zsobol:owen").plain == "bsdf+nee+zsobol:owen"
+    assert parse_method("bsdf+nee").plain is None and parse_method("path").plain is None
+    worse = A.analyse_scene(numbers({"path": list(TIGHT), "bsdf+nee": list(TIGHT),
+                                     "guided+nee": [2 * x for x in TIGHT]}))
+    better = A.analyse_scene(numbers({"path": list(TIGHT), "bsdf+nee": list(TIGHT),
+                                      "guided+nee": [0.5 * x for x in TIGHT]}))
+    favoured = A.analyse_scene(numbers({"path": list(TIGHT), "bsdf+nee": list(TIGHT),
+                                        "guided+nee": [0.01 * x for x in TIGHT]},
+                                       favours=("guided+nee*",), over=("path",)))
+    alone = A.analyse_scene(numbers({"path": list(TIGHT), "guided+nee": list(TIGHT)}))
+    assert worse.learned["guided+nee"][0].value == pytest.approx(0.5)
+    assert favoured.learned["guided+nee"][1] and not worse.learned["guided+nee"][1]
+    assert alone.learned == {}
+    rows, mean, n = A.learned_over_plain([worse, better, favoured, alone])["guided+nee"]
+    assert [s for s, _ in rows] == ["s", "s"] and n == 2 and mean == pytest.approx(1.0)
+    rows, mean, n = A.learned_over_plain([worse, favoured])["guided+nee"]
+    assert mean == pytest.approx(0.5) and n == 1
+
+
 def test_an_error_below_the_references_noise_is_a_bound_not_nan():
     floor = 0.5
     below = [0.45, 0.52, 0.49]                      # raw errors: no more than the floor

@@ -89,6 +89,13 @@ class Method:
         return self.strategy is not None and self.integrator != "vr_path"
 
     @property
+    def plain(self) -> str | None:
+        """A learning method's counterpart without the learning: the same name with the
+        BSDF's own sampling (``bsdf``) in place of its strategy (``guided+nee`` ->
+        ``bsdf+nee``); None for a method that does not learn."""
+        return "bsdf" + self.name[len(self.strategy):] if self.learns else None
+
+    @property
     def sampler_spec(self) -> samplers.SamplerSpec:
         return samplers.get(self.sampler)
 

@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import stats
+from ..methods import parse_method
 from . import suite_errors
 
 g = stats.g
@@ -313,6 +314,9 @@ class SceneResult:
     power: float | None = None    # smallest bias detected ~90%: the calibration cell's
     power_method: str = ""        # the calibration method (or the cell with the best power)
     calibration: str = ""         # the reference's own method
+    #: {learning method: (its equal-time efficiency over its counterpart without learning,
+    #: Method.plain, whether the scene's header favours it)}
+    learned: dict = field(default_factory=dict)
 
     @property
     def reference_adequate(self) -> bool:
@@ -368,9 +372,28 @@ def analyse_scene(numbers: SceneNumbers) -> SceneResult:
                   if a in cells and b in cells else None)
     share = floor_share(numbers)
     power, power_method = scene_power(cells, numbers.calibration)
+    favoured = set(matching(numbers.favours, list(cells)))
+    learned = {m: (compare(m, plain), m in favoured) for m in cells
+               if (plain := parse_method(m).plain) in cells}
     return SceneResult(numbers.name, base, results, ranking, verdict, time_ratio, share,
                        floor.known, dict(numbers.failed), power, power_method,
-                       numbers.calibration)
+                       numbers.calibration, learned)
+
+
+def learned_over_plain(results: list[SceneResult]) -> dict:
+    """{learning method: ([(scene, Ratio over its plain counterpart)] on the scenes whose
+    header does not favour it, the geometric mean of those that are intervals, how many)}:
+    what learning costs where it should not help (issue 31's "other bundled scenes")."""
+    out = {}
+    for r in results:
+        for m, (ratio, favoured) in r.learned.items():
+            if not favoured:
+                out.setdefault(m, []).append((r.name, ratio))
+    summary = {}
+    for m, rows in out.items():
+        logs = [math.log(x.value) for _, x in rows if x.side == "" and x.value > 0]
+        summary[m] = (rows, math.exp(sum(logs) / len(logs)) if logs else math.nan, len(logs))
+    return summary
 
 
 def scene_power(cells: dict, calibration: str) -> tuple:

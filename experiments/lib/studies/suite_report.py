@@ -11,6 +11,7 @@ import numpy as np
 
 from .. import figures, files, metrics, prose, report, stats
 from ..execute import VIEW_CACHE
+from ..methods import parse_method
 from . import suite_analysis, suite_bias, suite_plan
 from .suite_bias_report import (BLOCK_HEADER, bias_finding, bias_words, block_bias_rows,
                                 names)
@@ -113,6 +114,11 @@ def findings(results: list, failed_scenes: dict) -> list[str]:
         out.append(f"Geometric mean of the equal-time efficiency over {results[0].baseline} "
                    f"across scenes: " + ", ".join(f"{m} {g(gm[m][0])} ({gm[m][1]} scenes)"
                                                   for m in shown) + ".")
+    for m, (rows, mean, n) in suite_analysis.learned_over_plain(results).items():
+        plain = parse_method(m).plain
+        out.append(f"{m} over {plain} (equal-time efficiency) on the scenes that do not "
+                   f"favour it: " + ", ".join(f"{s} {x.short()}" for s, x in rows)
+                   + f"; geometric mean {g(mean)} ({n} scenes).")
     status = {}
     for r in results:
         status.setdefault(r.verdict.status, []).append(r.name)
