@@ -425,8 +425,8 @@ class GuidedPathIntegrator(VRPathIntegrator):
 
      * - max_pass_spp
        - |int|
-       - Most samples per pixel of one render: an iteration above it is split into
-         several renders (records cost 56 bytes x record_depth per sample, at most
+       - Most samples per pixel of one render of a training job: an iteration above it is
+         split into several renders (records cost 56 bytes x record_depth per sample, at most
          256 MiB per render). (Default: 64)
 
      * - first_pass_spp
@@ -553,8 +553,10 @@ class GuidedPathIntegrator(VRPathIntegrator):
             warnings.warn(f"vr_guided_path: {' and '.join(small)}: no training, plain BSDF "
                           f"sampling (vr_path's bsdf strategy)", stacklevel=2)
         self._iterations = iterations(spp, self.first_pass_spp) if trains else [spp]
+        # renders of at most max_pass_spp; without training one pass (the executor splits
+        # a pass over its lane cap), as vr_path's bsdf+nee renders
         self._passes = [(k, n) for k, it in enumerate(self._iterations)
-                        for n in split(it, self.max_pass_spp)]
+                        for n in (split(it, self.max_pass_spp) if trains else [it])]
         self._m2, self._mean, self._spp, self.gains = [], [], [], []
         # per iteration, which estimator rendered it: -1 plain BSDF sampling (every share
         # 1: untrained, or training stopped), else the iteration whose refinement it uses

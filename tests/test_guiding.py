@@ -313,6 +313,32 @@ def test_the_executor_takes_the_combined_variance():
                        atol=1e-12)
 
 
+def test_the_executor_splits_a_pass_over_its_lane_cap(monkeypatch):
+    """A job's pass over the executor's lane cap (here 16x8 pixels x 8 spp) renders in
+    several renders averaged into one pass (seeds derive_seed(seed, pass) then
+    derive_seed(seed, pass, part)): a job below min_train_spp is one pass of 32 spp, four
+    renders of 8, the mean of the very images vr_path's bsdf+nee gives for those seeds."""
+    from _paths import scene_path
+    from experiments.lib import execute, jobs, plan
+    from experiments.lib.scenes import read_scene
+    job = plan.make_job("lane-cap", read_scene(scene_path("cbox.xml")),
+                        methods.parse_method("guided+nee"), 16, 8, 32, 3, methods.Depth(4),
+                        mi.variant())
+    monkeypatch.setattr(jobs, "MAX_LANES", 16 * 8 * 8)
+    assert job.split_lanes(32) == [8] * 4 and job.split_lanes(20) == [8, 8, 4]
+    view = execute._view(job, mi.variant())
+    with pytest.warns(UserWarning, match="min_train_spp"):
+        timed = execute.render_passes(view, execute.fresh_integrator(job), job)
+    assert timed.spp == 32 and len(timed.pass_seconds) == 1
+    plain = job.method.plain
+    integ = methods.parse_method(plain).integrator_dict(methods.Depth(4))
+    seeds = [jobs.derive_seed(job.seed, 0)] + [jobs.derive_seed(job.seed, 0, j)
+                                              for j in (1, 2, 3)]
+    images = [np.array(execute._render(view, mi.load_dict(integ), 8, seed)[0],
+                       dtype=np.float64)[..., :3] for seed in seeds]
+    assert np.allclose(timed.image, np.mean(images, axis=0), rtol=1e-5, atol=1e-7)
+
+
 def test_record_cap_and_refusals():
     scene = cbox()
     big = mi.load_dict({"type": "vr_guided_path", "max_pass_spp": 4096, "record_depth": 32})
@@ -441,7 +467,7 @@ def test_a_job_below_min_train_spp_is_vr_paths_bsdf_and_says_so():
     assert integ.gains == [] and np.all(np.array(integ.guide.share) == 1.0)
     # each rule alone
     with pytest.warns(UserWarning, match=r"^vr_guided_path: 256 spp x 100 pixels is below"):
-        assert integ.pass_schedule(256, 100) == [64] * 4 and not integ.recording
+        assert integ.pass_schedule(256, 100) == [256] and not integ.recording
     with pytest.warns(UserWarning, match=r"^vr_guided_path: 128 spp is below 'min_train_spp' "
                                          r"\(256\): no training"):
         integ.pass_schedule(128, 2 ** 20)

@@ -189,7 +189,8 @@ class MultiPass(Protocol):
 
     * ``pass_schedule(spp, pixels)``: the samples per pixel of each pass for a job of
       ``spp`` on a film of ``pixels`` (a function of the counts alone, never of time),
-      summing to ``spp``;
+      summing to ``spp``; a pass over the job's lane cap (:data:`.jobs.MAX_LANES`) is
+      rendered in several renders and averaged (:meth:`.jobs.Job.split_lanes`);
     * ``after_pass(index, image, spp)``: host work after pass ``index`` (learning from it;
       ``image`` the pass's mean as a Dr.Jit tensor);
     * ``combine(images, spps)``: the job's image from every pass's (a numpy (H, W, 3)
@@ -198,8 +199,8 @@ class MultiPass(Protocol):
       ``combine`` returned, which the per-pixel errors then use (without it the job is one
       pass: its errors come from its repeats against the reference).
 
-    Passes are rendered with seeds ``derive_seed(job.seed, index)``; a job of such a method
-    is never split further for memory (its schedule is its passes)."""
+    Passes are rendered with seeds ``derive_seed(job.seed, index)`` (a pass split for
+    memory: ``derive_seed(job.seed, index, part)`` after its first render)."""
 
     def pass_schedule(self, spp: int, pixels: int) -> list: ...
 
@@ -305,12 +306,24 @@ def render_passes(view: View, integrator, job: Job) -> Timed:
     images, spps = [], []
     done, times, cpu, kernels, host, compiled = 0, [], 0.0, 0.0, 0.0, 0
     for i, k in enumerate(schedule):
-        seed = job.seed if continues else derive_seed(job.seed, i)
-        image, seconds, cpu_seconds, compiled_now, kernel = _render(
-            view, integrator, k, seed, sequence_state(job, done), raw=multi or per_sample)
-        # Mitsuba's stratified, orthogonal and ldsampler round the count (e.g.
-        # orthogonal: 16 -> 25, a prime squared): count what was rendered
-        k = view.sensor.sampler().sample_count()
+        # a method's pass over the job's lane cap renders in several renders, averaged
+        # (every channel: the image and its AOVs are per-pixel means)
+        parts, image, k = job.split_lanes(k) if multi else [k], 0.0, 0
+        seconds = cpu_seconds = kernel = 0.0
+        for j, n in enumerate(parts):
+            seed = job.seed if continues else \
+                derive_seed(job.seed, i) if j == 0 else derive_seed(job.seed, i, j)
+            part, *spent = _render(view, integrator, n, seed,
+                                   sequence_state(job, done + k), raw=multi or per_sample)
+            # Mitsuba's stratified, orthogonal and ldsampler round the count (e.g.
+            # orthogonal: 16 -> 25, a prime squared): count what was rendered
+            n = view.sensor.sampler().sample_count()
+            image = part if len(parts) == 1 else \
+                image + np.array(part, dtype=np.float64) * (n / sum(parts))
+            k += n
+            seconds, cpu_seconds, kernel = seconds + spent[0], cpu_seconds + spent[1], \
+                kernel + spent[3]
+            compiled += spent[2] > 0
         if multi:
             dr.sync_thread()
             start = time.thread_time()
@@ -329,7 +342,6 @@ def render_passes(view: View, integrator, job: Job) -> Timed:
         times.append(seconds)
         cpu += cpu_seconds
         kernels += kernel
-        compiled += compiled_now > 0
     mean /= done
     # a MultiPass method's passes are not samples of one estimator (a guide's untrained
     # and trained passes): one pass of the combined image, so that no per-pixel variance

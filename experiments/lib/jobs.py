@@ -55,6 +55,12 @@ class Job:
     sample_moments: bool = False  # rendered through ``vr_moments``: every sample its own
                                   # pass for the per-pixel variances (independent, box)
 
+    def split_lanes(self, spp: int) -> list[int]:
+        """``spp`` samples per pixel of this film in renders of at most :data:`MAX_LANES`
+        samples each (a multi-pass method's pass: :func:`.execute.render_passes`)."""
+        cap = max(1, MAX_LANES // (self.width * self.height))
+        return [min(cap, spp - s) for s in range(0, spp, cap)]
+
     def passes(self) -> list[int]:
         """The spp of each pass of this job. A sampler that continues one sequence over the
         passes gets passes of a power of two (but the last): zsobol rounds a render's count
