@@ -374,10 +374,19 @@ def analyse_scene(numbers: SceneNumbers) -> SceneResult:
     power, power_method = scene_power(cells, numbers.calibration)
     favoured = set(matching(numbers.favours, list(cells)))
     learned = {m: (compare(m, plain), m in favoured) for m in cells
-               if (plain := parse_method(m).plain) in cells}
+               if (plain := _plain(m)) in cells}
     return SceneResult(numbers.name, base, results, ranking, verdict, time_ratio, share,
                        floor.known, dict(numbers.failed), power, power_method,
                        numbers.calibration, learned)
+
+
+def _plain(name: str) -> str | None:
+    """A cell's learning method's counterpart without learning (:attr:`.Method.plain`);
+    None for a label outside the method grammar (an analysis fed other cells' names)."""
+    try:
+        return parse_method(name).plain
+    except ValueError:
+        return None
 
 
 def learned_over_plain(results: list[SceneResult]) -> dict:
