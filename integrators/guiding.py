@@ -561,7 +561,7 @@ class GuidedPathIntegrator(VRPathIntegrator):
         # per iteration, which estimator rendered it: -1 plain BSDF sampling (every share
         # 1: untrained, or training stopped), else the iteration whose refinement it uses
         self._estimator = [-1] * len(self._iterations)
-        trains = len(self._iterations) > 1
+        trains = len(self._iterations) > 1       # one iteration has nothing to learn for
         self._set_recording(trains)
         # without training: vr_path's own bsdf strategy and roulette (its kernel)
         self._stopped = not trains

@@ -55,19 +55,22 @@ class Job:
     sample_moments: bool = False  # rendered through ``vr_moments``: every sample its own
                                   # pass for the per-pixel variances (independent, box)
 
+    @property
+    def lane_cap(self) -> int:
+        """The most samples per pixel of one render of this film (:data:`MAX_LANES`)."""
+        return max(1, MAX_LANES // (self.width * self.height))
+
     def split_lanes(self, spp: int) -> list[int]:
-        """``spp`` samples per pixel of this film in renders of at most :data:`MAX_LANES`
-        samples each (a multi-pass method's pass: :func:`.execute.render_passes`)."""
-        cap = max(1, MAX_LANES // (self.width * self.height))
-        return [min(cap, spp - s) for s in range(0, spp, cap)]
+        """``spp`` samples per pixel of this film in renders of at most :attr:`lane_cap`
+        each (a multi-pass method's pass: :func:`.execute.render_passes`)."""
+        return [min(self.lane_cap, spp - s) for s in range(0, spp, self.lane_cap)]
 
     def passes(self) -> list[int]:
         """The spp of each pass of this job. A sampler that continues one sequence over the
         passes gets passes of a power of two (but the last): zsobol rounds a render's count
         up to one (a Sobol' net), so a pass of another count would take more of the
         sequence than the job has."""
-        cap = max(1, MAX_LANES // (self.width * self.height))
-        cap = min(cap, self.pass_spp) if self.pass_spp else cap
+        cap = min(self.lane_cap, self.pass_spp) if self.pass_spp else self.lane_cap
         if getattr(self.method, "continues_sequence", False):
             cap = 1 << (cap.bit_length() - 1)
         return [min(cap, self.spp - s) for s in range(0, self.spp, cap)]

@@ -314,8 +314,8 @@ class SceneResult:
     power: float | None = None    # smallest bias detected ~90%: the calibration cell's
     power_method: str = ""        # the calibration method (or the cell with the best power)
     calibration: str = ""         # the reference's own method
-    #: {learning method: (its equal-time efficiency over its counterpart without learning,
-    #: Method.plain, whether the scene's header favours it)}
+    #: {learning method: (Ratio of its equal-time efficiency over its counterpart without
+    #: learning (Method.plain), whether the scene's header favours it)}
     learned: dict = field(default_factory=dict)
 
     @property
