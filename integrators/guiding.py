@@ -203,6 +203,13 @@ class GuidedStrategy(Strategy):
         return f"GuidedStrategy(res={self.tree.res}, max_leaves={self.tree.max_leaves})"
 
 
+def channel_mean(color) -> mi.Float:
+    """The mean of a colour's three channels, lane by lane. (``dr.mean`` of a ``Color3f``
+    divides a sum over every channel of every lane by their count: the lane count is a
+    literal in the kernel, and every pass of another size would compile it again.)"""
+    return (color[0] + color[1] + color[2]) * (1.0 / 3.0)
+
+
 class Recorder:
     """The records of one render (see the module): arrays of ``depth x lanes`` entries."""
 
@@ -242,9 +249,9 @@ class Recorder:
         dr.scatter(self.radiance, L, slot, active)
         dr.scatter(self.inverse, inverse, slot, active)
         # for the roulette: 1 / beta and the vertex's NEE / beta (channel means)
-        b = dr.mean(beta)
+        b = channel_mean(beta)
         rcp_b = dr.select(b > 0, dr.rcp(b), 0.0)
-        nee = dr.mean(L - mi.Color3f(mi.unpolarized_spectrum(L_arrived))) * rcp_b
+        nee = channel_mean(L - mi.Color3f(mi.unpolarized_spectrum(L_arrived))) * rcp_b
         dr.scatter(self.reflected, mi.Vector2f(rcp_b, nee), slot, active)
         # for the share: p_bsdf / pdf, p_guide / pdf
         p_bsdf, p_guide = self.guide.drawn
@@ -259,7 +266,10 @@ class Recorder:
         direction's MIS weight, which a denser guide lowers, and overrate the guide)."""
         active = active & (depth > 0) & (depth <= self.depth) & (self.on != 0)
         slot = (depth - 1) * self.lanes + self.lane
-        dr.scatter_add(self.direct, mi.Color3f(mi.unpolarized_spectrum(emitted)), slot, active)
+        # one add per lane and slot: no reduction to expand per thread (Expand, what
+        # Auto picks on the CPU, writes the array's size into the kernel)
+        dr.scatter_add(self.direct, mi.Color3f(mi.unpolarized_spectrum(emitted)), slot, active,
+                       mode=dr.ReduceMode.Direct)
 
     def finish(self, L, *outputs):
         """Add every vertex's record (radiance found after it / pdf) to the tree. The
@@ -277,11 +287,11 @@ class Recorder:
             # where the direct emission was all of it, the difference is rounding
             learned = dr.select(learned > 1e-4 * after, learned, 0.0)
             inverse = dr.gather(mi.Color3f, self.inverse, slot, valid)
-            value = dr.mean(learned * inverse)
+            value = channel_mean(learned * inverse)
             value = dr.select(dr.isfinite(value), dr.maximum(value, 0.0), 0.0)
             # what the vertex's direction brought to the pixel (beta f cos L / pdf), less
             # the emission it found that NEE samples too
-            brought = dr.maximum(dr.mean(learned), 0.0)
+            brought = dr.maximum(channel_mean(learned), 0.0)
             dr.scatter_add(self.tree.energy, value, index, valid)
             unit = index // self.tree.bins
             dr.scatter_add(self.tree.counts, mi.UInt32(1), unit, valid)
@@ -292,7 +302,7 @@ class Recorder:
             # the roulette's: the radiance the vertex reflects after its NEE (all of it:
             # the path goes on for the emission too), and its NEE
             reflected = dr.gather(mi.Vector2f, self.reflected, slot, valid)
-            self.tree.add_reflected(unit, dr.maximum(dr.mean(after), 0.0) * reflected.x,
+            self.tree.add_reflected(unit, dr.maximum(channel_mean(after), 0.0) * reflected.x,
                                     reflected.y, valid & (reflected.x > 0))
 
 
@@ -311,7 +321,7 @@ class Roulette:
         after, nee = self.tree.reflected_at(self.guide.unit, active)
         reference = dr.select(active & (depth == 0), dr.select(after >= 0, after + nee, 0.0),
                               reference)
-        b = dr.mean(mi.unpolarized_spectrum(beta))
+        b = channel_mean(mi.Color3f(mi.unpolarized_spectrum(beta)))
         q = dr.clip(WINDOW * b * after / dr.maximum(reference, 1e-30), MIN_SURVIVAL,
                     RR_MAX_PROBABILITY)
         return dr.select(active & (after >= 0) & (reference > 0), q, 0.0), reference

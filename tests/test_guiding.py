@@ -123,15 +123,20 @@ def test_learning_recovers_a_known_field(monkeypatch):
 
 # ------------------------------------------------------------------ renders in passes
 
-def render_job(scene, integrator_dict, spp, seed):
+def render_job(scene, integrator_dict, spp, seed, kinds=None):
     """A job as the executor renders a MultiPass method: (image, compiled per pass). It
-    trains whatever its counts (``min_train_spp`` 2, ``min_train_samples`` 1 unless given)."""
+    trains whatever its counts (``min_train_spp`` 2, ``min_train_samples`` 1 unless given).
+    ``kinds``: a list to which each pass's kind of kernel is appended (whether it records,
+    whether training stopped, whether its count is a power of two: Mitsuba divides a lane
+    index by the count, by a shift where it can)."""
     integ = mi.load_dict({"min_train_spp": 2, "min_train_samples": 1, **integrator_dict})
     schedule = integ.pass_schedule(spp, dr.prod(scene.sensors()[0].film().size()))
     images, compiled = [], []
     for i, k in enumerate(schedule):
         dr.set_flag(dr.JitFlag.KernelHistory, True)
         dr.kernel_history_clear()
+        if kinds is not None:
+            kinds.append((integ.recording, integ._stopped, k & (k - 1) == 0))
         image = mi.render(scene, integrator=integ, spp=k, seed=seed * 1000 + i)
         dr.eval(image)
         compiled.append(kernels_compiled(dr.kernel_history()))
@@ -254,15 +259,22 @@ def test_blocks_agree_with_path(nee, spp, delta, rr):
     assert agreement.passed, agreement.describe()
 
 
-def test_no_recompile_after_the_first_job():
-    """A second job (fresh integrator, as the executor renders every job) compiles no
-    kernel in any pass, the refined tree included."""
+def test_no_recompile_between_passes():
+    """The passes double in size and the tree grows between them, and neither is a literal
+    in a kernel: in the first job a pass compiles only where its kind of kernel is new
+    (the first recording pass; the first after training stops; Mitsuba's own variants for
+    a count that is a power of two or not); a second job (a fresh integrator, as the
+    executor renders every job) compiles nothing, the refined tree included."""
     scene = cbox()
     d = {"type": "vr_guided_path", "emitter_sampling": True, "max_depth": 4,
          "spatial_threshold": 200.0}
-    render_job(scene, d, 16, 1)
-    _, compiled, integ = render_job(scene, d, 16, 2)
-    assert len(compiled) >= 3 and integ.guide.tree.leaves > 1
+    kinds = []
+    _, first, _ = render_job(scene, d, 64, 1, kinds)
+    new = [kind not in kinds[:i] for i, kind in enumerate(kinds)]
+    assert first[0] > 0 and sum(1 for kind in kinds if kind[0]) >= 3, (first, kinds)
+    assert all(c == 0 for c, n in zip(first, new) if not n), (first, kinds)
+    _, compiled, integ = render_job(scene, d, 64, 2)
+    assert integ.guide.tree.leaves > 1
     assert compiled == [0] * len(compiled), compiled
 
 

@@ -226,6 +226,13 @@ MUTANTS = [
            "light, which its records rate with the drawn MIS weight (textured_phong trained "
            "to the end at 0.39 of bsdf+nee's efficiency)",
            ("tests/test_guiding.py::test_with_nee_the_guide_leaves_out_the_light_nee_samples",)),
+    Mutant("guide-mean-bakes-lanes", "integrators/guiding.py",
+           "        nee = channel_mean(L - ",
+           "        nee = dr.mean(L - ",
+           "a record's NEE share averaged with dr.mean, which writes the lane count into "
+           "the render kernel: every training pass (each twice the last) compiles it again "
+           "(0.4-1 s a pass on a cold kernel cache, hidden from the timed renders)",
+           ("tests/test_guiding.py::test_no_recompile_between_passes",)),
     Mutant("guide-record-no-pdf", "integrators/guiding.py",
            "        scale = beta * mi.Color3f(mi.unpolarized_spectrum(direction.weight)) "
            "* direction.pdf",
