@@ -354,6 +354,35 @@ def test_equal_time_count_is_the_budgets_power_of_two(tmp_path):
     assert spread == 32                        # negative control: the same cost as kernel time
 
 
+def test_a_learning_methods_equal_time_count_comes_from_its_pilot(tmp_path, monkeypatch):
+    """guided+nee's equal-spp renders are too short to train and cost what BSDF sampling
+    costs; its equal-time count comes from one pilot render at the count they give (stored,
+    in no comparison), which trains and costs twice as much per sample here: half the
+    count. A method that does not learn renders no pilot."""
+    cfg = S.settings(S.parse(["--quick", "--spp", "16", "--time-budget", "0.1",
+                              "--methods", "path,bsdf+nee,guided+nee", "--scenes",
+                              scenes.path("suite/cbox.xml"), "--out", str(tmp_path)]))
+    sp = S.suite_plan.plan_scenes(cfg)[0]
+    engine = S.Engine(S.Study(cfg))
+    spp_budget, time_budget = sp.declaration.budgets
+    sp.jobs[spp_budget.name] = engine.jobs(sp.declaration, spp_budget)
+    per_sample, rendered = 0.1 / 64, []
+
+    def results(jobs):               # a pilot (its key) costs twice as much per sample
+        return [SimpleNamespace(spp=j.spp, host_seconds=0.0, wall_seconds=0.0,
+                                kernel_seconds=j.spp * per_sample *
+                                (2 if "/pilot" in j.key else 1)) for j in jobs]
+    monkeypatch.setattr(engine.study, "results", results)
+    monkeypatch.setattr(engine.study, "run", lambda jobs, label="": rendered.extend(jobs))
+    S.suite_plan.plan_budget(engine, sp, time_budget.name, ["bsdf+nee", "guided+nee"])
+    counts = {cell.method: runs[0][0].spp for cell, runs in sp.jobs[time_budget.name].items()}
+    scale = S.suite_plan.time_scale(sp)
+    assert counts["bsdf+nee"] == 64 * scale
+    assert counts["guided+nee"] == 32 * scale
+    assert [(j.method.name, j.spp) for j in rendered] == [("guided+nee", 64 * scale)]
+    assert "/pilot" in rendered[0].key
+
+
 def test_crop_boxes_follow_the_data():
     base = np.full((24, 32), 1e-3)
     a, b = base.copy(), base.copy()

@@ -223,8 +223,7 @@ class Engine:
         st, out = self.study, {}
         for cell, setup, method in declaration.cells(budget):
             prefix = declaration.key(declaration, cell)
-            options = dict(info=setup.info, depth=setup.depth, resolution=setup.resolution,
-                           timing_group=f"{declaration.name}/{cell.scene}")
+            options = self._options(declaration, cell, setup)
             repeats = 1 if method.deterministic else declaration.repeats
             count = (budget.ladder[-1] if budget.ladder else
                      spp[cell] if budget.timed else budget.spp)
@@ -238,6 +237,29 @@ class Engine:
                                     pass_spp=passes, sample_moments=moments, **options)])
             out[cell] = runs
         return out
+
+    @staticmethod
+    def _options(declaration: Declaration, cell: Cell, setup: SceneSetup) -> dict:
+        """The job options of a cell's renders (scene, depth, film, timing group)."""
+        return dict(info=setup.info, depth=setup.depth, resolution=setup.resolution,
+                    timing_group=f"{declaration.name}/{cell.scene}")
+
+    def piloted_spp(self, declaration: Declaration, cell: Cell, budget: Budget,
+                    count: int) -> int:
+        """A learning method's equal-time count (:attr:`.methods.Method.learns`): ``count``
+        (what its equal-spp renders' cost per sample gives) is rendered once as a pilot,
+        kept in the store and in no comparison, and the count comes from the pilot's cost
+        per sample. Equal-spp renders too short to train cost what plain BSDF sampling
+        costs, while a render that trains records, refines and guides: at their cost per
+        sample its equal-time render would take about twice the budget, and the
+        efficiency of a method whose training pays more the longer it runs would be
+        measured with more time than the others had."""
+        setup, method = next((s, m) for c, s, m in declaration.cells(budget) if c == cell)
+        moments = bool(declaration.sample_moments and declaration.sample_moments(method))
+        job = self.study.job(f"{declaration.key(declaration, cell)}/pilot", method, count,
+                             sample_moments=moments, **self._options(declaration, cell, setup))
+        self.study.run([job], f"{declaration.name}: pilot")
+        return self.equal_time_spp(budget, [self.study.results([job])])
 
     def reference_jobs(self, declaration: Declaration) -> dict:
         """{(scene, point): the chunks of its reference} in the shared reference store."""

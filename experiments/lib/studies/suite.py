@@ -13,7 +13,9 @@ values (PRESETS; an option given explicitly wins); ``--preset default`` changes 
 Per scene and method (a cell), ``--repeats`` independent runs at equal spp (``--spp``) and at
 equal time: each equal-time render gets about ``--time-budget`` seconds of sample work at the
 cell's measured time per sample (its spp rounded to a power of two: Mitsuba renders powers of
-two with another kernel than other counts, and one kernel per cell keeps compilation down).
+two with another kernel than other counts, and one kernel per cell keeps compilation down); a
+learning method's (guided) from one pilot render at that count, in no comparison (its
+equal-spp renders are too short to train, and cost what plain BSDF sampling costs).
 Time per sample: the execution time of each render's kernels (Dr.Jit's kernel history:
 the sample work, without tracing the integrator or launching kernels, a fixed cost per
 render call that can swamp the samples of a small render), over its samples, per repeat

@@ -288,7 +288,8 @@ def _equal_time_error(engine: Engine, sp: ScenePlan, method: str,
 def plan_budget(engine: Engine, sp: ScenePlan, budget: str, methods: list[str]) -> None:
     """Plan the jobs of ``methods`` at ``budget`` (:meth:`.Engine.jobs`); an equal-time
     budget (its seconds times :func:`time_scale`) takes each cell's count from its
-    equal-spp renders (or ``--replay-counts``)."""
+    equal-spp renders (or ``--replay-counts``), a learning method's from a pilot render at
+    that count (:meth:`.Engine.piloted_spp`)."""
     decl = sp.declaration
     chosen = replace(decl, methods=tuple(m for m in decl.methods if m.name in methods))
     b = next(x for x in decl.budgets if x.name == budget)
@@ -296,10 +297,15 @@ def plan_budget(engine: Engine, sp: ScenePlan, budget: str, methods: list[str]) 
         b = replace(b, seconds=b.seconds * time_scale(sp))
     spp = None
     if b.timed:
-        spp = {sp.cell(m, budget): engine.replayed(decl, sp.cell(m, budget)) or
-               engine.equal_time_spp(b, [engine.study.results(jobs) for jobs in
-                                         sp.jobs[b.after][sp.cell(m, b.after)]])
-               for m in methods}
+        spp = {}
+        for m in chosen.methods:
+            cell = sp.cell(m.name, budget)
+            spp[cell] = engine.replayed(decl, cell)
+            if spp[cell] is None:
+                spp[cell] = engine.equal_time_spp(b, [engine.study.results(jobs) for jobs in
+                                                      sp.jobs[b.after][sp.cell(m.name, b.after)]])
+                if m.learns:
+                    spp[cell] = engine.piloted_spp(chosen, cell, b, spp[cell])
     sp.jobs.setdefault(budget, {}).update(engine.jobs(chosen, b, spp))
 
 
