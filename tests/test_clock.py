@@ -159,3 +159,28 @@ def test_every_job_starts_with_an_untrained_integrator(two_pass, monkeypatch):
                         lambda job: kept.setdefault(job.method.name, real(job)))
     again = [float(execute.run_job(j, "llvm_ad_rgb").image.mean()) for j in jobs[:2]]
     assert again[1] > 2.0, again
+
+
+def test_a_pilot_is_rendered_once_whatever_compiles(monkeypatch):
+    """A job during which a kernel compiled is rendered again, warm (up to WARM_TRIES
+    tries), except a count's pilot, which only gives its cost (kernel execution, which
+    a compile is not part of): one try. The key does not depend on the flag."""
+    tries = []
+
+    def compiling(view, integrator, job):
+        tries.append(job.key)
+        image = np.zeros((job.height, job.width, 3))
+        return execute.Timed(image, image, job.spp, 1, [0.1], 0.1, 0.05, 0.0, compiled=1)
+    monkeypatch.setattr(execute, "render_passes", compiling)
+    monkeypatch.setattr(execute, "_view", lambda job, variant: None)
+    monkeypatch.setattr(execute, "fresh_integrator", lambda job: None)
+    from experiments.lib.scenes import read_scene
+    args = ("clock/pilot", read_scene(scene_path("cbox.xml")), methods.parse_method("path"),
+            8, 8, 4, 5, methods.Depth(3), "llvm_ad_rgb")
+    pilot, job = plan.make_job(*args, pilot=True), plan.make_job(*args)
+    assert pilot.key == job.key and pilot.pilot and not job.pilot
+    result = execute.run_job(pilot, "llvm_ad_rgb")
+    assert len(tries) == 1 and result.recompiled == 0 and result.compiled_passes == 1
+    tries.clear()
+    result = execute.run_job(job, "llvm_ad_rgb")          # negative control: retried
+    assert len(tries) == execute.WARM_TRIES and result.recompiled == execute.WARM_TRIES - 1

@@ -380,7 +380,7 @@ def test_a_learning_methods_equal_time_count_comes_from_its_pilot(tmp_path, monk
     assert counts["bsdf+nee"] == 64 * scale
     assert counts["guided+nee"] == 32 * scale
     assert [(j.method.name, j.spp) for j in rendered] == [("guided+nee", 64 * scale)]
-    assert "/pilot" in rendered[0].key
+    assert "/pilot" in rendered[0].key and rendered[0].pilot
 
 
 def test_crop_boxes_follow_the_data():

@@ -54,6 +54,8 @@ class Job:
                                 # (samplers that order pixels by it, zsobol; 0: none)
     sample_moments: bool = False  # rendered through ``vr_moments``: every sample its own
                                   # pass for the per-pixel variances (independent, box)
+    pilot: bool = False         # a count's pilot (.engine.Engine.piloted_spp): rendered
+                                # once, a kernel compiled during it kept (its cost only)
 
     @property
     def lane_cap(self) -> int:

@@ -65,7 +65,7 @@ def job_name(prefix: str) -> str:
 def make_job(prefix: str, info: SceneInfo, method: Method, width: int, height: int, spp: int,
              seed: int, depth: Depth, variant: str, sample_offset: int = 0, pass_spp: int = 0,
              timing_group: str | None = None, sequence_spp: int = 0,
-             sample_moments: bool = False) -> Job:
+             sample_moments: bool = False, pilot: bool = False) -> Job:
     """A :class:`Job` whose key is ``prefix`` + a hash of everything its image depends on
     (the plugin sources and the variant included; the method by its name; the sequence's
     length only where a sampler needs it and ``sample_moments`` only where set, so other
@@ -85,7 +85,7 @@ def make_job(prefix: str, info: SceneInfo, method: Method, width: int, height: i
                                        sort_keys=True).encode()).hexdigest()[:12]
     safe = job_name(prefix)
     fields["method"] = method
-    return Job(key=f"{safe}-{digest}", timing_group=timing_group, **fields)
+    return Job(key=f"{safe}-{digest}", timing_group=timing_group, pilot=pilot, **fields)
 
 
 def ladder(prefix: str, info: SceneInfo, method: Method, width: int, height: int,
