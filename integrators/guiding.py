@@ -388,6 +388,17 @@ def pixel_variance(mean: np.ndarray, m2: np.ndarray, spp: int) -> np.ndarray:
     return sample_spread(mean, m2) / (spp - 1)
 
 
+def _number(props: mi.Properties, name: str, default, low, high, kind=int):
+    """The parameter ``name`` of ``props`` (``default`` where absent), checked to be a
+    ``kind`` in [low, high]."""
+    value = props.get(name, default)
+    if not isinstance(value, (int, float)) or (kind is int and value != int(value)) \
+            or not low <= value <= high:
+        raise ValueError(f"vr_guided_path: '{name}' must be "
+                         f"{'an integer' if kind is int else 'a number'} in "
+                         f"[{low}, {high}], got {value!r}")
+    return kind(value)
+
 
 class GuidedPathIntegrator(VRPathIntegrator):
     r"""
@@ -467,6 +478,15 @@ class GuidedPathIntegrator(VRPathIntegrator):
     orthogonal, ldsampler) are refused: every pass would recompile.
     """
 
+    def make_strategy(self, name: str, props: mi.Properties):
+        """The guide this integrator trains, of its ``directional_resolution`` and
+        ``max_leaves`` (where ``name`` is a strategy that learns; another is refused in
+        ``__init__``), made once: the registry's own would be thrown away."""
+        if strategies.integrator_type(name) != "vr_guided_path":
+            return strategies.get(name)
+        return GuidedStrategy(_number(props, "directional_resolution", 16, 2, 64),
+                              _number(props, "max_leaves", 1024, 1, 65536))
+
     def __init__(self, props: mi.Properties):
         if "strategy" not in props:
             props["strategy"] = "guided"
@@ -478,18 +498,10 @@ class GuidedPathIntegrator(VRPathIntegrator):
                              f"(guided), got {self.strategy!r}")
 
         def number(name, default, low, high, kind=int):
-            value = props.get(name, default)
-            if not isinstance(value, (int, float)) or (kind is int and value != int(value)) \
-                    or not low <= value <= high:
-                raise ValueError(f"vr_guided_path: '{name}' must be "
-                                 f"{'an integer' if kind is int else 'a number'} in "
-                                 f"[{low}, {high}], got {value!r}")
-            return kind(value)
+            return _number(props, name, default, low, high, kind)
         # None: learned per unit (sdtree.SDTree.choose_shares)
         self.bsdf_fraction = (number("bsdf_fraction", 0.5, 0.1, 1.0, float)
                               if "bsdf_fraction" in props else None)
-        res = number("directional_resolution", 16, 2, 64)
-        max_leaves = number("max_leaves", 1024, 1, 65536)
         self.spatial_threshold = number("spatial_threshold", 4000.0, 1.0, 1e12, float)
         self.record_depth = number("record_depth", 4, 1, 32)
         self.max_pass_spp = number("max_pass_spp", 64, 1, 1 << 20)
@@ -500,7 +512,6 @@ class GuidedPathIntegrator(VRPathIntegrator):
         if self.roulette not in ROULETTES:
             raise ValueError(f"vr_guided_path: 'roulette' must be one of "
                              f"{', '.join(ROULETTES)}, got {self.roulette!r}")
-        self.sampling_strategy = GuidedStrategy(res, max_leaves)
         self.guide = self.sampling_strategy
         self._set_recording(True)
         self._passes, self._m2, self._mean, self._spp = [], [], [], []

@@ -226,13 +226,18 @@ class VRPathIntegrator(mi.SamplingIntegrator):
             'max_depth': 8
     """
 
+    def make_strategy(self, name: str, props: mi.Properties):
+        """The strategy object of the registered ``name`` (:func:`strategies.get`); a
+        subclass may make its own from its ``props``."""
+        return strategies.get(name)
+
     def __init__(self, props: mi.Properties):
         mi.SamplingIntegrator.__init__(self, props)
         #: The strategy's registered name, and the strategy object it names (for a name
         #: registered with a factory, this instance's own; see integrators.strategies).
         self.strategy = props.get("strategy", "bsdf")
         try:
-            self.sampling_strategy = strategies.get(self.strategy)
+            self.sampling_strategy = self.make_strategy(self.strategy, props)
         except strategies.UnknownStrategyError as error:
             raise ValueError(f"vr_path: {error}") from None
 

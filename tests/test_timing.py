@@ -69,3 +69,34 @@ def test_run_job_times_only_warm_renders(mitsuba, method):
     E.clear_cache()
     again = E.run_job(jobs[-1], VARIANT)
     np.testing.assert_array_equal(again.image, results[-1].image)
+
+
+def _kernels(scene, spp: int) -> set:
+    """The hashes of the large JIT kernels of a render of ``scene`` at ``spp``."""
+    import drjit as dr
+    import mitsuba as mi
+    dr.set_flag(dr.JitFlag.KernelHistory, True)
+    dr.kernel_history_clear()
+    dr.eval(mi.render(scene, spp=spp, seed=spp))
+    dr.sync_thread()
+    return {k["hash"] for k in dr.kernel_history() if k["type"] == dr.KernelType.JIT
+            and k.get("operation_count", 0) > 300}
+
+
+@pytest.mark.parametrize("rfilter", ["gaussian", "box"])
+def test_the_warm_up_count_compiles_the_kernel_of_the_timed_count(mitsuba, rfilter):
+    """``warm_spp(n)`` renders Mitsuba's kernel of ``n`` samples per pixel (its render loop
+    is a shift for a power of two, a division otherwise, and a Gaussian film merges a
+    pixel's samples from 4 per pass on), on mi.cornell_box() (Mitsuba's own scene, with
+    its Gaussian film and with a box). Negative control: on the Gaussian film the old
+    1-spp warm-up renders another kernel than 16 spp."""
+    d = mitsuba.cornell_box()
+    d["sensor"]["film"].update(width=16, height=8, rfilter={"type": rfilter})
+    scene = mitsuba.load_dict(d)
+    kernels = {n: _kernels(scene, n)
+               for n in (1, 2, 3, 4, 5, 6, 7, 8, 11, 16, 64, 100)}
+    for n, kernel in kernels.items():
+        assert kernel and kernels[E.warm_spp(n)] == kernel, (n, E.warm_spp(n))
+        assert E.warm_spp(n) <= n
+    if rfilter == "gaussian":
+        assert kernels[1] != kernels[16]

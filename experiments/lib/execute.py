@@ -58,6 +58,7 @@ import gc
 import os
 import socket
 import time
+import warnings
 from collections import OrderedDict
 from typing import Iterable, Iterator, NamedTuple, Protocol, runtime_checkable
 
@@ -154,6 +155,21 @@ def fresh_integrator(job: Job):
     return integrator
 
 
+def warm_spp(spp: int) -> int:
+    """The smallest sample count whose render compiles the kernel a render of ``spp``
+    compiles (with a sampler that does not bake its count into the kernel). Mitsuba's
+    ``SamplingIntegrator::render`` finds a sample's pixel with a shift where the count is a
+    power of two and with a division where it is not, and its image block merges a pixel's
+    samples before splatting them (a filter wider than a box) from 4 samples per pass on:
+    1 and 2, 3, the powers of two from 4, and the other counts from 5 each share a kernel
+    (``tests/test_timing.py`` checks this against Mitsuba). A warm-up at 1 spp would leave a
+    16-spp render to compile (and be rendered again) on a Gaussian-filtered film."""
+    power_of_two = spp & (spp - 1) == 0
+    if spp >= 4:
+        return 4 if power_of_two else 5
+    return 1 if power_of_two else 3
+
+
 def _view(job: Job, variant: str) -> View:
     """The warmed-up :class:`View` of ``job`` (cached per process): the first time, the
     whole job is rendered once, untimed, with an integrator of its own (thrown away), so
@@ -165,15 +181,17 @@ def _view(job: Job, variant: str) -> View:
         _views.move_to_end(key)
         return _views[key]
     method: Method = job.method
-    spp = job.passes()[0] if method.sampler_spec.bakes_spp else 1
+    spp = job.passes()[0] if method.sampler_spec.bakes_spp else warm_spp(job.passes()[0])
     view = View(scene, load_sensor(job.scene, job.width, job.height, method, spp))
-    # the first compile; a sampler that bakes its count into the kernel at the count of
-    # the first pass, so that the timed render does not compile again
+    # the first compile, at a count of the first pass's kernel (a sampler that bakes its
+    # count into the kernel: that count), so that the timed render does not compile again
     warm = fresh_integrator(job)
     if isinstance(warm, MultiPass):
         render_passes(view, warm, job)
     else:
-        _render(view, warm, spp, 0x5EED, sequence_state(job, 0))
+        with warnings.catch_warnings():     # a sampler's note on this count is not the job's
+            warnings.simplefilter("ignore")
+            _render(view, warm, spp, 0x5EED, sequence_state(job, 0))
     _views[key] = view
     while len(_views) > VIEW_CACHE:
         _views.popitem(last=False)
