@@ -15,7 +15,7 @@ from __future__ import annotations
 import sys
 import time
 
-from experiments.lib import cli, report, studies
+from experiments.lib import cli, figure_pool, report, studies
 
 #: Options passed on to every study that takes them: always (SHARED), or when given here
 #: (FORWARDED; a study's own ``forwarded`` adds to these).
@@ -80,12 +80,14 @@ def main(argv=None) -> None:
     cli.load_extensions(argv)
     args = cli.parse_args(build_parser(), argv)
     start = time.perf_counter()
-    for study in studies.ordered():
-        mode = getattr(args, mode_dest(study))
-        if mode == "off":
-            continue
-        quick = list(study.quick) if mode == "quick" else []
-        study.run(study_args(study, args, quick + sub_argv(args, study)))
+    with figure_pool.parallel():        # figures written beside the run, never during renders
+        for study in studies.ordered():
+            mode = getattr(args, mode_dest(study))
+            if mode == "off":
+                continue
+            quick = list(study.quick) if mode == "quick" else []
+            study.run(study_args(study, args, quick + sub_argv(args, study)))
+            figure_pool.drain()         # a study's figures are on disk when it is done
     seconds = time.perf_counter() - start
     report.write_section(args.out, "run_all", "This run", 90, {
         "command": "python -m experiments.run_all " + " ".join(sys.argv[1:] if argv is None

@@ -325,4 +325,17 @@ MUTANTS = [
            "the paired costs' plain variance: one render slowed 2x by the machine widens an "
            "A/A efficiency interval to hi/lo ~2",
            ("tests/test_suite_errors.py",)),
+    # ------------------------------------------------------------ the figure pool
+    Mutant("figures-during-renders", "experiments/lib/execute.py",
+           "    figure_pool.wait()                  # no figure is drawn while a render is timed",
+           "    pass",
+           "a render started while worker processes still draw figures: its kernel time (the "
+           "clock) counts their load on the cores",
+           ("tests/test_figure_pool.py::test_a_render_waits_for_the_figures_handed_over",)),
+    Mutant("warm-up-at-one-spp", "experiments/lib/execute.py",
+           "        return 4 if power_of_two else 5",
+           "        return 1 if power_of_two else 5",
+           "the warm-up at 1 spp for every power of two: on a Gaussian film a 16-spp render "
+           "compiles another kernel, so its first timed try is thrown away",
+           ("tests/test_timing.py::test_the_warm_up_count_compiles_the_kernel_of_the_timed_count",)),
 ]

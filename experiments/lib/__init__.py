@@ -5,6 +5,8 @@ that each module imports only modules above it (``tests/test_layout.py`` checks
 that the import graph has no cycle):
 
 * :mod:`.files`          atomic file writes, EXR/PNG/JSON/CSV/NPZ, tone mapping (no lib imports)
+* :mod:`.figure_pool`    figures written by worker processes, never while a render runs
+                         (files)
 * :mod:`.clock`          the one clock: what an image costs (kernel time of every pass plus
                          the method's host work between passes; no lib imports)
 * :mod:`.jobs`           jobs and results as plain data (``Job``, ``JobResult``, ``derive_seed``,

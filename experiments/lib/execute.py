@@ -64,6 +64,7 @@ from typing import Iterable, Iterator, NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
 
+from . import figure_pool
 from .jobs import Job, JobResult, cpu_model, derive_seed
 from .methods import Depth, Method
 from .scenes import load_scene, load_sensor, scene_hash
@@ -279,6 +280,7 @@ def _render(view, integrator, spp: int, seed: int, sequence: dict | None = None,
         view = View(view, view.sensors()[0])
     if sequence:
         set_sequence_state(view.sensor, sequence)
+    figure_pool.wait()                  # no figure is drawn while a render is timed
     dr.set_flag(dr.JitFlag.KernelHistory, True)
     dr.kernel_history_clear()
     cpu, start = time.process_time(), time.perf_counter()
@@ -442,6 +444,7 @@ def execute(jobs: Iterable[Job], store: JobStore, executor=None, progress: bool 
     if executor is None:
         import mitsuba as mi
         executor = LocalExecutor(variant or mi.variant())
+    figure_pool.wait()                  # nor while another executor's workers render
     from tqdm import tqdm
     label = progress if isinstance(progress, str) else "render jobs"
     with tqdm(total=len(todo), desc=label, unit="job", disable=not progress,

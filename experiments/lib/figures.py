@@ -7,16 +7,14 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from . import files  # noqa: E402
+from . import figure_pool, files  # noqa: E402
 from .metrics import loglog_slope  # noqa: E402
 
 TILE_INCHES = 2.4
 
 
 def _save(fig, path: str) -> str:
-    with files.atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png", dpi=110, bbox_inches="tight")
-    plt.close(fig)
+    figure_pool.save(fig, [(path, "png", 110)])
     return path
 
 
@@ -225,10 +223,7 @@ def ratio_bands(path: str, curves: dict, ylabel: str, title: str) -> str:
 
 def _save_png_pdf(fig, stem: str) -> tuple[str, str]:
     """Write ``stem.png`` and ``stem.pdf`` (matplotlib's own text, no LaTeX), atomically."""
-    for ext in ("png", "pdf"):
-        with files.atomic_path(f"{stem}.{ext}") as tmp:
-            fig.savefig(tmp, format=ext, dpi=130, bbox_inches="tight")
-    plt.close(fig)
+    figure_pool.save(fig, [(f"{stem}.{ext}", ext, 130) for ext in ("png", "pdf")])
     return stem + ".png", stem + ".pdf"
 
 

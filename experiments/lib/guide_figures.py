@@ -27,7 +27,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from . import files  # noqa: E402
+from . import figure_pool, files  # noqa: E402
 from .methods import Depth, Method, parse_method  # noqa: E402
 
 #: What the suite's report trains per guiding scene: samples per pixel of the job.
@@ -234,10 +234,7 @@ def draw(stem: str, image: np.ndarray, units: np.ndarray, tree,
     if bottom:
         fig.colorbar(im, ax=bottom, fraction=0.02, label="density (1/sr)")
     fig.suptitle(title, fontsize=9)
-    for ext in ("png", "pdf"):
-        with files.atomic_path(f"{stem}.{ext}") as tmp:
-            fig.savefig(tmp, format=ext, dpi=130, bbox_inches="tight")
-    plt.close(fig)
+    figure_pool.save(fig, [(f"{stem}.{ext}", ext, 130) for ext in ("png", "pdf")])
     return stem + ".png", stem + ".pdf"
 
 

@@ -14,7 +14,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from . import files  # noqa: E402
+from . import figure_pool  # noqa: E402
 
 #: Standardized residual shown at full colour in the difference tiles.
 Z_RANGE = 5.0
@@ -23,9 +23,7 @@ PAD = 6
 
 
 def _save(fig, path: str, dpi: int = 100) -> str:
-    with files.atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png", dpi=dpi, bbox_inches="tight")
-    plt.close(fig)
+    figure_pool.save(fig, [(path, "png", dpi)])
     return path
 
 
