@@ -74,3 +74,16 @@ def test_a_figure_that_cannot_be_pickled_is_written_here(tmp_path):
     with figure_pool.parallel(2):
         figure_pool.save(fig, [(path, "png", 100)])
         assert os.path.exists(path) and not figure_pool._pending
+
+
+def test_a_figure_past_its_deadline_is_named_and_its_worker_ended(tmp_path, monkeypatch):
+    """No wait without a deadline: a figure that takes longer than DEADLINE fails by name,
+    and the pool does not wait for its worker."""
+    import time
+    monkeypatch.setattr(figure_pool, "DEADLINE", 0.01)
+    start = time.perf_counter()
+    with pytest.raises(RuntimeError, match="slow.png: not written within"):
+        with figure_pool.parallel(2):
+            figure_pool.save(_figure(), [(str(tmp_path / "slow.png"), "png", 600)])
+    assert time.perf_counter() - start < 60 and figure_pool._pool is None
+    assert os.listdir(tmp_path) == [], "no file, whole or temporary, is left"

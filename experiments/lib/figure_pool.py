@@ -5,12 +5,12 @@ core, about a tenth of a default ``make run``. Inside :func:`parallel` (what ``r
 opens), :func:`save` pickles the finished figure, hands it to one of the pool's worker
 processes and returns at once; :func:`drain` waits for every figure handed over (each
 within :data:`DEADLINE` seconds) and raises one error naming every figure that could not
-be written. Every render waits for them first (:func:`wait`, in :func:`.execute._render`),
-and ``run_all`` drains after each study, so no figure is drawn while a render's kernels are timed (the clock's
-kernel time would count the other process's load) and every figure of a study is on disk
-when the study returns. Outside :func:`parallel`, or for a figure that cannot be pickled,
-:func:`save` writes in this process: the same file either way (each written atomically,
-:func:`.files.atomic_path`).
+be written. Every render waits for them first (:func:`wait`, in :func:`.execute._render`)
+and ``run_all`` drains after each study, so no figure is drawn while a render's kernels
+are timed (the clock's kernel time would count the other process's load) and every figure
+of a study is on disk when the study returns. Outside :func:`parallel`, or for a figure
+that cannot be pickled, :func:`save` writes in this process: the same file either way
+(each written atomically, :func:`.files.atomic_path`).
 """
 from __future__ import annotations
 
@@ -28,6 +28,7 @@ DEADLINE = 300.0
 _pool: ProcessPoolExecutor | None = None
 _pending: list[tuple[str, Future]] = []
 _failed: list[str] = []
+_stuck: list[str] = []             # figures past their deadline: their workers are ended
 
 
 @contextlib.contextmanager
@@ -48,7 +49,23 @@ def parallel(workers: int | None = None):
         pool, _pool = _pool, None
         _pending.clear()
         _failed.clear()
+        if _stuck:              # a worker past its deadline is ended, not waited for
+            _end_workers(pool, list(_stuck))
+            _stuck.clear()
         pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _end_workers(pool: ProcessPoolExecutor, paths: list[str]) -> None:
+    """Kill the pool's workers and remove the temporary files they left beside ``paths``
+    (:func:`.files.atomic_path` names them ``.tmp-<pid>-<name>``)."""
+    for process in list(getattr(pool, "_processes", {}).values()):
+        process.kill()
+        process.join(5)
+        for path in paths:
+            directory, name = os.path.split(os.path.abspath(path))
+            tmp = os.path.join(directory, f".tmp-{process.pid}-{name}")
+            if os.path.exists(tmp):
+                os.remove(tmp)
 
 
 def save(fig, outputs: list[tuple[str, str, int]]) -> None:
@@ -77,7 +94,7 @@ def wait() -> None:
         try:
             future.result(timeout=DEADLINE)
         except TimeoutError:
-            future.cancel()
+            _stuck.append(path)
             _failed.append(f"{path}: not written within {DEADLINE:.0f} s")
         except Exception as error:                  # the worker's own, re-raised here
             _failed.append(f"{path}: {type(error).__name__}: {error}")
