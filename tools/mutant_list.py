@@ -196,7 +196,7 @@ MUTANTS = [
            "    half = math.sqrt(total) * _t_quantile(dof, level)",
            "    half = math.sqrt(total) * normal_quantile(level)",
            "the suite's combined efficiency interval takes the normal quantile even where a "
-           "term has few degrees of freedom (the paired costs' 2R - 1)",
+           "term has few degrees of freedom (the paired costs' 2R - 2)",
            ("tests/test_stats.py",)),
     # ------------------------------------------------------------ path guiding
     Mutant("guide-share-missing", "integrators/guiding.py",
@@ -320,11 +320,19 @@ MUTANTS = [
            "(a heavy-tailed reference), other methods are still called biased against it",
            ("tests/test_suite_bias.py",)),
     Mutant("cost-spike-unclipped", "experiments/lib/studies/suite_errors.py",
-           "terms[1] + [(stats.winsorized_variance(dev) / k, k - 1)]",
-           "terms[1] + [(float(dev.var(ddof=1)) / k, k - 1)]",
+           "    clipped = np.split(stats.winsorize(np.concatenate(devs)),",
+           "    clipped = np.split(np.concatenate(devs),",
            "the paired costs' plain variance: one render slowed 2x by the machine widens an "
            "A/A efficiency interval to hi/lo ~2",
            ("tests/test_suite_errors.py",)),
+    Mutant("cost-budgets-equal-weight", "experiments/lib/studies/suite_errors.py",
+           "    weight = (share_a / share_a.sum() + share_b / share_b.sum()) / 2",
+           "    weight = np.full(len(budgets), 1 / len(budgets))",
+           "each budget's cost deviations weighted alike, not by its share of the seconds: "
+           "the short equal-spp renders count as much as the equal-time ones the seconds "
+           "measure (intervals too narrow: a synthetic learning method's holds its truth "
+           "too rarely)",
+           ("tests/test_suite_errors.py::test_a_cost_per_sample_that_differs_between_budgets_is_not_noise",)),
     # ------------------------------------------------------------ the figure pool
     Mutant("figures-during-renders", "experiments/lib/execute.py",
            "    figure_pool.wait()                  # no figure is drawn while a render is timed",

@@ -63,7 +63,8 @@ class Runs:
     mean_vars: tuple = ()
     expected: tuple = ()      # (expected relMSE from the pixels' pass variances, the
     #                           variance of that estimate): suite_errors; () without passes
-    costs: tuple = ()         # the cell's cost per sample of each render, both budgets
+    costs: tuple = ()         # per budget (equal spp, equal time): (its spp, each repeat's
+    #                           cost per sample)
 
 
 @dataclass(frozen=True)

@@ -24,11 +24,12 @@ there, as it must be.
 The cost side of an efficiency pairs the two methods' renders (same repeat, same budget: a
 timing group renders them one after the other, :func:`.suite_plan.interleaved`), so that the
 machine's load, shared by both, cancels in their ratio: the ratio of the mean seconds (as the
-tables give them) with the variance of its log from the 2R paired renders' relative
-deviations of their costs per sample (delta method; winsorized at 5 robust standard
-deviations, :func:`.stats.winsorized_variance`: a lone render slowed 2x by the machine, seen
-in about 1% of renders, would otherwise rule the interval), Student's t on 2R - 1 degrees of
-freedom. Cells of QMC samplers or other filters keep the repeat-based relMSE
+tables give them) with the variance of its log from each budget's R paired renders'
+relative deviations of their costs per sample, weighted by the budget's share of the
+seconds (delta method; :func:`cost_terms`: winsorized at 5 robust standard deviations,
+:func:`.stats.winsorize`, since a lone render slowed 2x by the machine, seen in about 1% of
+renders, would otherwise rule the interval), Student's t on R - 1 degrees of freedom per
+budget. Cells of QMC samplers or other filters keep the repeat-based relMSE
 (:mod:`.suite_analysis`).
 """
 from __future__ import annotations
@@ -96,17 +97,43 @@ def error_ratio(a, b, level: float = stats.LEVEL) -> stats.Estimate | None:
 def efficiency(a, b, level: float = stats.LEVEL) -> stats.Estimate | None:
     """Efficiency 1/(relMSE x seconds) of runs ``a`` over ``b`` (:class:`.suite_analysis.Runs`
     with pixel terms and cost readings, paired render by render) with its interval: the
-    error ratio's terms and the paired costs' (Welch-Satterthwaite); None where either lacks
+    error ratio's terms and the paired costs' (:func:`cost_terms`); None where either lacks
     them (the repeat-based interval is used there)."""
     terms = _error_terms(a, b)
-    if terms is None or not (a.costs and len(a.costs) == len(b.costs) > 1):
+    costs = cost_terms(a, b)
+    if terms is None or costs is None:
         return None
-    ca, cb = (np.asarray(r.costs, np.float64) for r in (a, b))
-    if not (np.all(ca > 0) and np.all(cb > 0) and np.all(np.isfinite(ca * cb))):
-        return None
-    # the seconds' ratio as the tables give it (means over the repeats); its variance by the
-    # delta method from the paired renders' relative deviations
-    k, dev = ca.size, cb / cb.mean() - ca / ca.mean()
     log_value = terms[0] + math.log(float(np.mean(b.seconds)) / float(np.mean(a.seconds)))
-    return stats.log_interval(log_value, terms[1] + [(stats.winsorized_variance(dev) / k, k - 1)],
-                              min(len(a.relmse), len(b.relmse)), level)
+    return stats.log_interval(log_value, terms[1] + costs, min(len(a.relmse), len(b.relmse)),
+                              level)
+
+
+def cost_terms(a, b) -> list | None:
+    """The log-scale terms (variance, dof) of the seconds' ratio, mean(b.seconds) /
+    mean(a.seconds), from the paired renders' costs per sample (``Runs.costs``: per budget,
+    its count and each repeat's cost per sample). A repeat's seconds are its renders' costs
+    weighted by their samples, so each budget enters with its share of them (the equal-time
+    render's, nearly all, where it has hundreds of times the equal-spp count), and its
+    renders are compared with their method's mean at that budget: a method's cost per sample
+    may differ between the budgets (one that learns trains in its equal-time renders only),
+    which is not noise. Per budget, the variance of the paired relative deviations over the
+    repeats, :func:`.stats.winsorize` d (a lone slow render does not rule it), R - 1
+    degrees of freedom. None without paired costs."""
+    if not (a.costs and [len(g) for _, g in a.costs] == [len(g) for _, g in b.costs]):
+        return None
+    budgets = [(n_a, np.asarray(ga, np.float64), n_b, np.asarray(gb, np.float64))
+               for (n_a, ga), (n_b, gb) in zip(a.costs, b.costs)]
+    if not all(ga.size > 1 and np.all(ga > 0) and np.all(gb > 0) and np.all(np.isfinite(ga * gb))
+               for _, ga, _, gb in budgets):
+        return None
+    share_a = np.array([n * ga.mean() for n, ga, _, _ in budgets])
+    share_b = np.array([n * gb.mean() for _, _, n, gb in budgets])
+    weight = (share_a / share_a.sum() + share_b / share_b.sum()) / 2
+    # about each budget's medians (a mean would spread a lone slow render over the others),
+    # clipped on the spread of every budget's deviations (a budget's few repeats alone
+    # would give no robust scale), then each budget's variance about its own mean
+    devs = [gb / np.median(gb) - ga / np.median(ga) for _, ga, _, gb in budgets]
+    clipped = np.split(stats.winsorize(np.concatenate(devs)),
+                       np.cumsum([d.size for d in devs])[:-1])
+    return [(w * w * float(c.var(ddof=1)) / c.size, c.size - 1)
+            for w, c in zip(weight, clipped)]

@@ -415,7 +415,7 @@ def measurements(engine: Engine, sp: ScenePlan, ref: references.Reference) -> Me
 def _runs(cfg: Settings, runs: list, ref: references.Reference, b: list[float],
           flip: str, costs: tuple = ()) -> tuple[suite_analysis.Runs, float]:
     """The numbers of one budget's repeats (the engine's :class:`~..engine.Run` values;
-    ``costs``: the cell's cost per sample of every render, both budgets), and the
+    ``costs``: the cell's cost per sample of every render, per budget), and the
     reference's own expected relMSE over the pixels the rejected relMSE kept."""
     fmap = ref.floor_map()
     rel, rej, rej_floor, mse, secs, means, mvars, flips = ([] for _ in range(8))
@@ -456,7 +456,8 @@ def measure_scene(cfg: Settings, st: Study, sp: ScenePlan, measured: Measurement
             continue
         finals = {budget: measured.final(sp.cell(name, budget)) for budget in (TIME, SPP)}
         b = [(x.cost + y.cost) / (x.spp + y.spp) for x, y in zip(finals[SPP], finals[TIME])]
-        costs = tuple(x.cost / x.spp for budget in (SPP, TIME) for x in finals[budget])
+        costs = tuple((finals[budget][0].spp, tuple(x.cost / x.spp for x in finals[budget]))
+                      for budget in (SPP, TIME))
         runs = {}
         for budget, key in ((TIME, "equal_time"), (SPP, "equal_spp")):
             mode = ("none" if not flip else cfg.flip if budget == TIME or
