@@ -381,7 +381,9 @@ PRECISE = """Where a method uses the independent sampler and the scene's filter 
     one from their variance (the variance part; the bias is tested apart), pooled
     over the repeats with each pixel's variance across them (a normal quantile, no reference
     floor to subtract); the efficiency of two such methods pairs their renders' costs per
-    sample (same repeat and budget, rendered in turn). Other cells use the repeats."""
+    sample (same repeat and budget, rendered in turn), each budget's renders against the
+    method's mean at that budget, weighted by the budget's share of the seconds. Other
+    cells use the repeats."""
 
 
 def timing_text(clock, analysis: tuple[float, float], cfg) -> str:
