@@ -23,6 +23,7 @@
 """
 from __future__ import annotations
 
+import functools
 import warnings
 
 import drjit as dr
@@ -497,8 +498,7 @@ class GuidedPathIntegrator(VRPathIntegrator):
             raise ValueError(f"vr_guided_path: 'strategy' must be a strategy that learns "
                              f"(guided), got {self.strategy!r}")
 
-        def number(name, default, low, high, kind=int):
-            return _number(props, name, default, low, high, kind)
+        number = functools.partial(_number, props)
         # None: learned per unit (sdtree.SDTree.choose_shares)
         self.bsdf_fraction = (number("bsdf_fraction", 0.5, 0.1, 1.0, float)
                               if "bsdf_fraction" in props else None)

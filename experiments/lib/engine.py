@@ -249,12 +249,13 @@ class Engine:
         """A learning method's equal-time count (:attr:`.methods.Method.learns`): ``count``
         (what its equal-spp renders' cost per sample gives) is rendered once as a pilot,
         kept in the store and in no comparison, and the count comes from the pilot's cost
-        per sample. The pilot renders once (:attr:`.jobs.Job.pilot`), not again warm: the
-        view its equal-spp renders warmed did not train, so its kernels compile in it. Equal-spp renders too short to train cost what plain BSDF sampling
+        per sample. Equal-spp renders too short to train cost what plain BSDF sampling
         costs, while a render that trains records, refines and guides: at their cost per
-        sample its equal-time render would take about twice the budget, and the
-        efficiency of a method whose training pays more the longer it runs would be
-        measured with more time than the others had."""
+        sample its equal-time render would take about twice the budget, and the efficiency
+        of a method whose training pays more the longer it runs would be measured with more
+        time than the others had. The pilot renders once (:attr:`.jobs.Job.pilot`), not
+        again warm: the view its equal-spp renders warmed did not train, so its kernels
+        compile in it."""
         setup, method = next((s, m) for c, s, m in declaration.cells(budget) if c == cell)
         moments = bool(declaration.sample_moments and declaration.sample_moments(method))
         job = self.study.job(f"{declaration.key(declaration, cell)}/pilot", method, count,
