@@ -274,26 +274,46 @@ def test_the_best_combination_says_where_it_was_chosen_and_that_it_differs():
     assert _four_methods(best_spp=64, best_depth=2).best_note.differs        # as data
 
 
-def test_settings_read_where_the_sampler_study_chose_its_winner(tmp_path):
+def test_settings_read_where_the_sampler_study_made_its_pick(tmp_path):
     out = tmp_path / "r"
     (out / "samplers").mkdir(parents=True)
+    pick = {"2": {"sampler": "multijitter", "spp": 4, "requested_spp": 4,
+                  "most_efficient": "multijitter", "tied": ["multijitter"]},
+            "8": {"sampler": "halton:owen", "spp": 9, "requested_spp": 8,
+                  "most_efficient": "zsobol:owen", "tied": ["zsobol:owen", "halton:owen"]}}
     (out / "samplers" / "summary.json").write_text(json.dumps({
-        "best": {"2": "multijitter", "8": "halton:owen"},
-        "rows": [{"depth": 8, "sampler": "halton:owen", "requested_spp": 4, "spp": 4},
-                 {"depth": 8, "sampler": "halton:owen", "requested_spp": 2, "spp": 2},
-                 {"depth": 2, "sampler": "multijitter", "requested_spp": 4, "spp": 4}]}))
+        "best": {"2": "multijitter", "8": "zsobol:none"}, "pick": pick}))
     (out / "samplers" / "section.json").write_text(json.dumps(
         {"settings": {"resolution": "16x8"}}))
     args = convergence.cli.parse_args(convergence.build_parser(),
                                       ["--resolution", "16x8", "--out", str(out)])
     best = convergence.settings_from(args).best
+    # the pick, not the most efficient label (zsobol:none, deterministic), nor the largest
+    # randomized estimate among those the study could not tell apart
     assert (best.method.name, best.depth, best.spp, best.resolution) == \
-        ("bsdf+nee+halton:owen", 8, 4, "16x8")
-    # the sampler study's own record of where it chose, when it writes one
-    summary = json.loads((out / "samplers" / "summary.json").read_text())
-    summary["best_at"] = {"8": {"sampler": "halton:owen", "spp": 9, "requested_spp": 8}}
-    (out / "samplers" / "summary.json").write_text(json.dumps(summary))
-    assert convergence.settings_from(args).best.spp == 8
+        ("bsdf+nee+halton:owen", 8, 8, "16x8")
+    # negative control: a summary without a pick adds nothing
+    (out / "samplers" / "summary.json").write_text(json.dumps({"best": {"8": "zsobol:none"}}))
+    assert convergence.settings_from(args).best is None
+
+
+def test_the_suite_adds_the_sampler_studys_pick_and_says_how_it_was_made(tmp_path):
+    from experiments.lib.studies import suite
+    out = tmp_path / "r"
+    (out / "samplers").mkdir(parents=True)
+    record = {"sampler": "zsobol:owen", "spp": 64, "requested_spp": 64,
+              "most_efficient": "orthogonal", "tied": ["orthogonal", "zsobol:owen"]}
+    (out / "samplers" / "summary.json").write_text(json.dumps(
+        {"best": {"2": "zsobol:none"}, "pick": {"2": record}}))
+    method, note = suite._best_sampler("auto", str(out), [])
+    assert method == "bsdf+nee+zsobol:owen"
+    assert "could not tell its most efficient randomized sampler (orthogonal)" in note
+    record["tied"] = ["zsobol:owen"]
+    record["most_efficient"] = "zsobol:owen"
+    (out / "samplers" / "summary.json").write_text(json.dumps({"pick": {"2": record}}))
+    assert "ahead of every other by its interval" in suite._best_sampler("auto", str(out), [])[1]
+    (out / "samplers" / "summary.json").write_text(json.dumps({"best": {"2": "zsobol:none"}}))
+    assert suite._best_sampler("auto", str(out), [])[0] is None
 
 
 def test_a_ratio_untold_for_the_baselines_bound_names_it():

@@ -446,15 +446,17 @@ def test_convergence_end_to_end(tmp_path):
     assert "Convergence" in page and "mitsuba" in page and "libLLVM" in page
 
 
-def test_convergence_adds_the_sampler_studys_winner(tmp_path):
-    """The default methods gain bsdf+nee with the most efficient sampler of the nearest
-    depth of the sampler study; not when --methods is given, nor when it is independent."""
+def test_convergence_adds_the_sampler_studys_pick(tmp_path):
+    """The default methods gain bsdf+nee with the sampler study's pick at the nearest
+    depth; not when --methods is given, nor when it is independent."""
     out = tmp_path / "r"
     summary = out / "samplers" / "summary.json"
     summary.parent.mkdir(parents=True)
 
     def methods(*argv, best):
-        summary.write_text(json.dumps({"best": best}))
+        summary.write_text(json.dumps({"pick": {d: {"sampler": s, "tied": [s],
+                                                    "most_efficient": s}
+                                                for d, s in best.items()}}))
         args = convergence.cli.parse_args(convergence.build_parser(),
                                           TINY + ["--out", str(out), *argv])
         return [m.name for m in convergence.settings_from(args).methods]

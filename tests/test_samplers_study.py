@@ -201,8 +201,8 @@ def test_native_or_bundled_comes_from_the_table_not_the_name():
 def test_families_come_from_the_sampler_table():
     table = sampler_comparison_analysis.families(samplers.labels())
     for label, family in table.items():
-        spec, _ = samplers.split_label(label)
-        assert family == Family(spec.name, spec.native)
+        spec, randomization = samplers.split_label(label)
+        assert family == Family(spec.name, spec.native, spec.is_deterministic(randomization))
     assert not table["halton:owen"].native and table["independent"].native
     spec = samplers.register_sampler(samplers.SamplerSpec("haltonlike_test", native=True))
     try:
@@ -301,6 +301,66 @@ def test_conclusions_are_short_and_come_from_the_table():
     assert (best.sampler, best.spp, best.requested) == (top.sampler, top.spp, top.requested)
     ortho = next(r for r in a.rows if r.sampler == "orthogonal")
     assert (ortho.spp, ortho.requested) == (289, 256)
+
+
+# ------------------------------------------------------------------ the pick
+
+def _pick_points(a_mse: float, b_mse: float, spread=SPREAD):
+    return {2: {"independent": ladder(1.0, -1.0, 10.0, spread=spread),
+                "x:a": ladder(a_mse, -1.0, 10.0, spread=spread),
+                "x:b": ladder(b_mse, -1.0, 10.0, spread=spread),
+                "x:none": ladder(0.05, -1.0, 10.0, spread=spread)}}
+
+
+PICK_KINDS = {"independent": Family("independent", True), "x:a": Family("x", False),
+              "x:b": Family("x", False), "x:none": Family("x", False, True)}
+
+
+def test_the_pick_among_tied_samplers_survives_a_re_measurement_that_swaps_them():
+    """Two randomized samplers 4% apart, within the repeats' 10% spread: a re-measurement
+    that swaps their estimates must not change what the suite and the convergence study
+    add. The pick is the last of the tied ones in the study's order; the deterministic
+    label (ten times as efficient) is never picked."""
+    first = sampler_comparison_analysis.analyse(_pick_points(0.50, 0.52), PIXELS, PICK_KINDS)
+    again = sampler_comparison_analysis.analyse(_pick_points(0.52, 0.50), PIXELS, PICK_KINDS)
+    for a in (first, again):
+        p = a.picks[2]
+        assert p.sampler == "x:b" and set(p.tied) == {"x:a", "x:b"} and not p.clear
+        assert a.best[2].sampler == "x:none"                 # the most efficient label
+    assert first.picks[2].most_efficient == "x:a" and again.picks[2].most_efficient == "x:b"
+    # negative control: the largest randomized estimate alone flips with the re-measurement
+    assert {first.picks[2].most_efficient, again.picks[2].most_efficient} == {"x:a", "x:b"}
+
+
+def test_a_sampler_that_its_interval_sets_apart_is_picked_wherever_it_stands():
+    """The first of the table (x:a) twice as efficient as x:b, by an interval excluding 1:
+    picked, alone in its tie, although the order would prefer x:b."""
+    a = sampler_comparison_analysis.analyse(_pick_points(0.25, 0.5), PIXELS, PICK_KINDS)
+    p = a.picks[2]
+    assert (p.sampler, p.tied, p.clear) == ("x:a", ("x:a",), True)
+    assert (p.spp, p.requested) == (64, 64)
+    assert p.record()["tied"] == ["x:a"]
+
+
+def test_no_pick_without_a_randomized_sampler_of_known_efficiency():
+    """Only the baseline and a deterministic label: nothing to pick (the studies that read
+    the pick say so instead of adding a sampler with no interval)."""
+    points = {2: {"independent": ladder(1.0, -1.0, 10.0), "x:none": ladder(0.1, -1.0, 10.0)}}
+    a = sampler_comparison_analysis.analyse(points, PIXELS, {
+        "independent": Family("independent", True), "x:none": Family("x", False, True)})
+    assert a.picks == {2: sampler_comparison_analysis.Pick(
+        2, "independent", 64, 64, "independent", ("independent",))}
+    a = sampler_comparison_analysis.analyse({2: {"x:none": ladder(0.1, -1.0, 10.0)}}, PIXELS,
+                                            {"x:none": Family("x", False, True)})
+    assert a.picks == {}
+
+
+def test_the_sampler_tables_deterministic_labels_are_known_as_such():
+    kinds = sampler_comparison_analysis.families(samplers.labels())
+    assert {label for label, f in kinds.items() if f.deterministic} == \
+        {label for label in samplers.labels()
+         if samplers.split_label(label)[0].is_deterministic(samplers.split_label(label)[1])}
+    assert kinds["zsobol:none"].deterministic and not kinds["zsobol:owen"].deterministic
 
 
 # ------------------------------------------------------------------ the reference floor

@@ -333,6 +333,21 @@ MUTANTS = [
            "measure (intervals too narrow: a synthetic learning method's holds its truth "
            "too rarely)",
            ("tests/test_suite_errors.py::test_a_cost_per_sample_that_differs_between_budgets_is_not_noise",)),
+    # ------------------------------------------------------------ the sampler study's pick
+    Mutant("pick-largest-estimate", "experiments/lib/studies/sampler_comparison_analysis.py",
+           "        chosen = tied[-1]",
+           "        chosen = top",
+           "the sampler the other studies add is the largest estimate even where the study "
+           "cannot tell it from others: a re-measurement that swaps two tied estimates "
+           "changes the suite's and the convergence study's methods",
+           ("tests/test_samplers_study.py::test_the_pick_among_tied_samplers_survives_a_re_measurement_that_swaps_them",)),
+    Mutant("pick-deterministic", "experiments/lib/studies/sampler_comparison_analysis.py",
+           "        at = [r for r in rows if r.depth == depth and not kinds[r.sampler].deterministic\n"
+           "              and r.relative_efficiency.known]",
+           "        at = [r for r in rows if r.depth == depth and r.relative_efficiency.known]",
+           "a deterministic sampler (one run for every repeat, no interval of its own) can be "
+           "the pick the suite and the convergence study add",
+           ("tests/test_samplers_study.py::test_the_pick_among_tied_samplers_survives_a_re_measurement_that_swaps_them",)),
     # ------------------------------------------------------------ the figure pool
     Mutant("figures-during-renders", "experiments/lib/execute.py",
            "    figure_pool.wait()                  # no figure is drawn while a render is timed",

@@ -30,6 +30,7 @@ from experiments.lib.engine import Budget, Cell, Declaration, Engine, Measuremen
 from experiments.lib.plan import doubling_targets
 from experiments.lib.methods import Method
 from experiments.lib.studies import StudySpec, register_study
+from experiments.lib.studies import sampler_comparison_efficiency as sampler_efficiency
 from experiments.lib.studies import convergence_analysis
 from experiments.lib.studies import convergence_report
 from experiments.lib.study import Study, StudySettings
@@ -51,8 +52,9 @@ def add_arguments(p: cli.Parser) -> None:
     """The options of this experiment (also taken by run_all)."""
     p.add_argument("--best-sampler", default="auto", metavar="SAMPLER|auto|none",
                    help="add bsdf+nee with this sampler to the default methods (the best "
-                        "combination the suite offers); auto: the sampler study's most "
-                        "efficient one at the nearest depth, read from OUT/samplers/"
+                        "combination the suite offers); auto: the sampler study's pick (its "
+                        "most efficient randomized sampler, or of those it cannot tell apart "
+                        "the last in its table) at the nearest depth, read from OUT/samplers/"
                         "summary.json when that study has run (run_all runs it first)")
 
 
@@ -60,8 +62,8 @@ def add_arguments(p: cli.Parser) -> None:
 
 @dataclass(frozen=True)
 class Best:
-    """The best combination the suite offers: bsdf+nee with the sampler study's winner,
-    and where that study chose it (None where it was given by --best-sampler)."""
+    """The best combination the suite offers: bsdf+nee with the sampler study's pick
+    (:func:`.sampler_comparison_analysis.picks`), and where that study chose it (None where it was given by --best-sampler)."""
     method: Method
     sampler: str
     depth: int | None = None          # the sampler study's max_depth it won at
@@ -78,24 +80,19 @@ class ConvergenceSettings(StudySettings):
 
 def best_combination(choice: str, out: str, max_depth: int | None) -> Best | None:
     """``bsdf+nee+SAMPLER`` for ``--best-sampler`` ``choice`` (None: none, or no sampler
-    study in ``out`` yet); auto: the sampler study's winner at the depth nearest
+    study in ``out`` yet); auto: the sampler study's pick at the depth nearest
     ``max_depth``, with the count and resolution it was chosen at."""
     if choice == "none":
         return None
     depth = spp = resolution = None
     if choice == "auto":
-        summary = files.read_json(os.path.join(out, "samplers", "summary.json"), {})
-        best = summary.get("best") or {}
-        if not best:
-            return None
         wanted = max_depth if max_depth is not None else convergence_analysis.DEFAULT_DEPTH
-        key = min(best, key=lambda d: (abs(int(d) - wanted), int(d)))
-        choice, depth = best[key], int(key)
-        at = (summary.get("best_at") or {}).get(key) or {}
-        spp = at.get("requested_spp") or at.get("spp") or max(
-            (r.get("requested_spp") or r.get("spp", 0) for r in summary.get("rows", [])
-             if int(r.get("depth", -1)) == depth and r.get("sampler") == choice),
-            default=None)
+        found = sampler_efficiency.pick_near(out, wanted)
+        if found is None:
+            return None
+        depth, record = found
+        choice = record["sampler"]
+        spp = record.get("requested_spp") or record.get("spp")
         section = files.read_json(os.path.join(out, "samplers", "section.json"), {})
         resolution = section.get("settings", {}).get("resolution")
     name = "bsdf+nee" if choice == "independent" else f"bsdf+nee+{choice}"

@@ -24,7 +24,7 @@ from .. import metrics, stats
 from .conclusion import MAX_SENTENCES, Comparison, order_changes, untold
 
 NAME = "convergence"
-#: The depth the sampler study's winner is looked up at when the scene leaves max_depth to
+#: The depth the sampler study's pick is looked up at when the scene leaves max_depth to
 #: the integrator (its default).
 DEFAULT_DEPTH = 8
 

@@ -49,10 +49,11 @@ EFFICIENCY_HEADER = ["method", "spp", "repeats", "seconds", "MSE", "MSE_lo", "MS
 BEST_NOTE = """
 {% if note.given %}{{ note.method }} is the combination given by --best-sampler.
 {% else %}
-{{ note.method }} is the best combination the sampler study found: bsdf+nee with its most
-efficient sampler, chosen at {{ where | join(", ") }}; this study runs at max_depth
+{{ note.method }} is the best combination the sampler study found: bsdf+nee with its pick
+(its most efficient randomized sampler, or of those it could not tell apart the last in its
+table), chosen at {{ where | join(", ") }}; this study runs at max_depth
 {{ note.here_depth }}, {{ note.here_spp }} spp, {{ note.here_resolution }}.
-{% if note.differs %} A winner picked at another count or depth is not claimed to be the
+{% if note.differs %} A sampler picked at another count or depth is not claimed to be the
 best here: its row in the conclusion says how it does at this study's count.{% endif %}
 {% endif %}
 """
@@ -86,7 +87,7 @@ def intro(ctx: Context, result: Result) -> list[dict]:
         f"Times are warm render times in the timed configuration (JIT compilation excluded), "
         f"cumulative over passes. Intervals: {stats.LEVEL:.0%}, {stats.METHOD}.\n\n"
         + (best_text(result.best_note) or
-           "The sampler study's winner is not among the methods (run the sampler study "
+           "The sampler study's pick is not among the methods (run the sampler study "
            "first, as run_all does, or give --best-sampler)."))]
 
 

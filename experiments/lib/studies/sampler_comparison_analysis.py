@@ -16,7 +16,12 @@ errors (the floors under them). :func:`analyse`, a pure function of those number
   the runner-up; each bundled sampler family's best label against the best native sampler
   (Mitsuba's own, :attr:`SamplerSpec.native`), and against every other native sampler,
   each with its ratio, interval, verdict and the counts where the order changes;
-- the most efficient label per depth with the count it was chosen at.
+- the most efficient label per depth with the count it was chosen at;
+- :class:`Pick`, per depth the randomized label that other studies add as the best
+  combination (:func:`picks`): the most efficient one where its interval sets it apart,
+  else, of the labels it cannot be told from, the last in the study's order (the sampler
+  table lists each family's randomizations weakest first, Mitsuba's samplers before the
+  bundled ones), so that a re-measurement that swaps two tied estimates picks the same.
 
 The sentences made from the conclusion table are the report layer's
 (:mod:`.sampler_comparison_words`).
@@ -45,17 +50,20 @@ BEST, BUNDLED, NATIVE = "most efficient / runner-up", "bundled best / best nativ
 
 @dataclass(frozen=True)
 class Family:
-    """What the analysis knows of a label's sampler: its name and whether it is native."""
+    """What the analysis knows of a label's sampler: its name, whether it is native and
+    whether it is deterministic (one run stands for every repeat: no interval of its own,
+    never picked for other studies, :func:`picks`)."""
     name: str
     native: bool
+    deterministic: bool = False
 
 
 def families(labels) -> dict[str, Family]:
     """``{label: Family}`` from the sampler table (:mod:`experiments.lib.samplers`)."""
     out = {}
     for label in labels:
-        spec, _ = samplers.split_label(label)
-        out[label] = Family(spec.name, spec.native)
+        spec, randomization = samplers.split_label(label)
+        out[label] = Family(spec.name, spec.native, spec.is_deterministic(randomization))
     return out
 
 
@@ -306,6 +314,55 @@ def comparisons(rows: list[Row], points: dict, kinds: dict[str, Family]) -> list
     return out
 
 
+# ------------------------------------------------------------ the pick
+
+@dataclass(frozen=True)
+class Pick:
+    """The randomized label other studies add as the best combination, at one depth."""
+    depth: int
+    sampler: str                # the label picked
+    spp: int                    # its count rendered at the top of the ladder
+    requested: int              # ... the ladder's count there
+    most_efficient: str         # the randomized label of the highest estimate
+    tied: tuple                 # the randomized labels not told from it (itself included)
+
+    @property
+    def clear(self) -> bool:
+        """True where every other randomized label is less efficient, by its interval."""
+        return self.tied == (self.most_efficient,)
+
+    def record(self) -> dict:
+        return {"sampler": self.sampler, "spp": self.spp, "requested_spp": self.requested,
+                "most_efficient": self.most_efficient, "tied": list(self.tied)}
+
+
+def picks(rows: list[Row], points: dict, kinds: dict[str, Family]) -> dict[int, Pick]:
+    """Per depth the randomized label that other studies take (the suite's and the
+    convergence study's best combination, bsdf+nee with it): the most efficient randomized
+    label where the efficiency interval of every other one over it lies below 1; else the
+    last, in the study's order of labels, of those it cannot be told from (the order is a
+    prior: the sampler table lists each family's randomizations weakest first). The largest
+    estimate alone would flip between re-measurements wherever two labels tie. Depths with
+    no randomized label of known efficiency have no pick."""
+    out = {}
+    for depth in sorted({r.depth for r in rows}):
+        at = [r for r in rows if r.depth == depth and not kinds[r.sampler].deterministic
+              and r.relative_efficiency.known]
+        if not at:
+            continue
+        top = _best(at)
+        ladder = points[depth]
+
+        def untold(r: Row) -> bool:
+            e = ratio(ladder[r.sampler][-1], ladder[top.sampler][-1])
+            return r is top or (e.known and not e.excludes(1.0))
+        tied = [r for r in at if untold(r)]
+        chosen = tied[-1]
+        out[depth] = Pick(depth, chosen.sampler, chosen.spp, chosen.requested, top.sampler,
+                          tuple(r.sampler for r in tied))
+    return out
+
+
 # ------------------------------------------------------------ everything at once
 
 @dataclass(frozen=True)
@@ -314,6 +371,7 @@ class Analysis:
     curves: dict                # {depth: {label: [(spp, Estimate)]}}
     comparisons: list           # Comparison rows of every depth
     best: dict                  # {depth: Row of the most efficient label}
+    picks: dict = field(default_factory=dict)   # {depth: Pick}, see :func:`picks`
 
 
 def analyse(points: dict[int, dict[str, list[Point]]], pixels: int,
@@ -323,4 +381,5 @@ def analyse(points: dict[int, dict[str, list[Point]]], pixels: int,
     comps = comparisons(rows, points, kinds)
     depths = sorted(points)
     return Analysis(rows, curves(points), comps,
-                    {d: _best([r for r in rows if r.depth == d]) for d in depths})
+                    {d: _best([r for r in rows if r.depth == d]) for d in depths},
+                    picks(rows, points, kinds))

@@ -12,7 +12,7 @@ import math
 import os
 from dataclasses import dataclass
 
-from experiments.lib import figures, report, stats
+from experiments.lib import figures, files, report, stats
 from experiments.lib.engine import Cell, Declaration, Measurements
 from experiments.lib.jobs import Job
 from experiments.lib.study import Study
@@ -145,6 +145,11 @@ class Efficiency:
                 f"the verdict (only where the interval excludes 1) and the counts where the "
                 f"order changes along the ladder"),
                 report.text("\n\n".join(conclusions[d]))]
+            if d in result.picks:
+                p = result.picks[d]
+                blocks.append(report.text(
+                    f"The suite and the convergence study add bsdf+nee with {p.sampler}: "
+                    f"{pick_text(d, p.record())}."))
         summary = {
             "rows": [r.record() for r in result.rows],
             "conclusion": {d: s for d, s in conclusions.items()},
@@ -152,10 +157,34 @@ class Efficiency:
             "best": {d: r.sampler for d, r in result.best.items()},
             "best_at": {d: {"sampler": r.sampler, "spp": r.spp, "requested_spp": r.requested}
                         for d, r in result.best.items()},
+            "pick": {d: p.record() for d, p in result.picks.items()},
             "curves": {d: {s: [dict(spp=spp, **e.fields("relative_efficiency"))
                                for spp, e in pts] for s, pts in by.items()}
                        for d, by in result.curves.items()}}
         return PassReport(blocks, summary, self.jobs(planned))
+
+
+def pick_near(out: str, depth: float) -> tuple[int, dict] | None:
+    """The sampler study's pick (:func:`.sampler_comparison_analysis.picks`, as its
+    summary.json in ``out`` records it) at the depth nearest ``depth`` (the smaller of two
+    as near): ``(depth, record)``; None where that study has not run or picked nothing."""
+    summary = files.read_json(os.path.join(out, NAME, "summary.json"), {}) or {}
+    chosen = summary.get("pick") or {}
+    if not chosen:
+        return None
+    key = min(chosen, key=lambda d: (abs(int(d) - depth), int(d)))
+    return int(key), chosen[key]
+
+
+def pick_text(depth: int, record: dict) -> str:
+    """How the pick was made, for the studies that add it: one clause."""
+    tied = record.get("tied") or [record["sampler"]]
+    if len(tied) == 1:
+        return (f"the sampler study's most efficient randomized sampler at max_depth {depth}, "
+                f"ahead of every other by its interval")
+    return (f"at max_depth {depth} the sampler study could not tell its most efficient "
+            f"randomized sampler ({record['most_efficient']}) from {len(tied) - 1} other(s) "
+            f"({', '.join(tied)}): of these the last in its table's order")
 
 
 def point(runs: list, requested: int, meta: dict) -> Point:

@@ -36,7 +36,7 @@ import time
 import numpy as np
 
 import scenes as bundled
-from experiments.lib import cli, files
+from experiments.lib import cli
 from experiments.lib.engine import Engine
 from experiments.lib.execute import VIEW_CACHE
 from experiments.lib import references
@@ -45,6 +45,7 @@ from experiments.lib import scenes
 from experiments.lib.methods import parse_method, strategies
 from integrators.strategies import integrator_type
 from experiments.lib.studies import StudySpec, register_study
+from experiments.lib.studies import sampler_comparison_efficiency as sampler_efficiency
 from experiments.lib.studies import suite_analysis
 from experiments.lib.studies import suite_bias
 from experiments.lib.studies import suite_plan
@@ -163,8 +164,9 @@ def build_parser() -> cli.Parser:
                    help="method every efficiency is relative to (one of --methods)")
     p.add_argument("--best-sampler", default="auto", metavar="SAMPLER|auto|none",
                    help="add bsdf+nee with this sampler to the default methods; auto: the "
-                        "sampler study's most efficient randomized sampler (OUT/samplers/"
-                        "summary.json) at the depth nearest the scenes' median max_depth")
+                        "sampler study's pick (OUT/samplers/summary.json: its most efficient "
+                        "randomized sampler, or of those it cannot tell apart the last in its "
+                        "table) at the depth nearest the scenes' median max_depth")
     p.add_argument("--reference-max-spp", type=cli.positive_int, default=None,
                    help=f"cap of the automatic extension of a reference too noisy for the "
                         f"comparison (default {REFERENCE_GROWTH} x --reference-spp)")
@@ -187,27 +189,21 @@ def _best_sampler(choice: str, out: str, files_list) -> tuple[str | None, str]:
         m = "bsdf+nee" if choice == samplers.DEFAULT else f"bsdf+nee+{choice}"
         cli.one_method(m)
         return m, f"{m} as given (--best-sampler)"
-    summary = files.read_json(os.path.join(out, "samplers", "summary.json"), {}) or {}
-    best = summary.get("best") or {}
-    if not best:
-        return None, ("no best sampler: the sampler study has not run (run_all runs it "
-                      "first)")
     depths = [scenes.read_scene(f).depth.max_depth for f in files_list if _reads(f)]
     depths = [d if d is not None and d >= 0 else 8 for d in depths] or [8]
-    target = float(np.median(depths))
-    d = min(best, key=lambda k: (abs(int(k) - target), int(k)))
-    rows = [r for r in summary.get("rows", []) if str(r.get("depth")) == str(d)
-            and "relative_efficiency" in r and not _deterministic(r.get("sampler", ""))]
-    sampler = (max(rows, key=lambda r: r["relative_efficiency"])["sampler"] if rows
-               else best[d])
+    found = sampler_efficiency.pick_near(out, float(np.median(depths)))
+    if found is None:
+        return None, ("no best sampler: the sampler study has not run or picked none (run_all "
+                      "runs it first)")
+    d, record = found
+    sampler = record["sampler"]
     m = "bsdf+nee" if sampler == samplers.DEFAULT else f"bsdf+nee+{sampler}"
     try:
         cli.one_method(m)
     except cli.argparse.ArgumentTypeError:
         return None, f"no best sampler: the sampler study's '{sampler}' is not known here"
-    return m, (f"bsdf+nee with {sampler}, the sampler study's most efficient randomized "
-               f"sampler at max_depth {d} (chosen there, on its own scene and counts, not "
-               f"here)")
+    return m, (f"bsdf+nee with {sampler}: {sampler_efficiency.pick_text(d, record)} (chosen "
+               f"there, on its own scene and counts, not here)")
 
 
 def _reads(path: str) -> bool:
@@ -216,14 +212,6 @@ def _reads(path: str) -> bool:
         return True
     except (ValueError, OSError):
         return False
-
-
-def _deterministic(label: str) -> bool:
-    try:
-        spec, rand = samplers.split_label(label)
-        return spec.is_deterministic(rand)
-    except (ValueError, KeyError):
-        return True
 
 
 def parse(argv=None):
