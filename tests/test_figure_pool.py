@@ -78,12 +78,21 @@ def test_a_figure_that_cannot_be_pickled_is_written_here(tmp_path):
 
 def test_a_figure_past_its_deadline_is_named_and_its_worker_ended(tmp_path, monkeypatch):
     """No wait without a deadline: a figure that takes longer than DEADLINE fails by name,
-    and the pool does not wait for its worker."""
+    the pool does not wait for its worker, and the worker's half-written temporary file is
+    removed. The deadline falls once the worker has begun writing (its temporary file is
+    there: a PDF is written as it is drawn, 200000 points take seconds), so the removal
+    is tested, not only a worker ended before it wrote anything."""
     import time
-    monkeypatch.setattr(figure_pool, "DEADLINE", 0.01)
+    rng = np.random.default_rng(1)
+    fig, ax = plt.subplots()
+    ax.plot(rng.random(200_000), rng.random(200_000), ".", ms=1)
     start = time.perf_counter()
-    with pytest.raises(RuntimeError, match="slow.png: not written within"):
+    with pytest.raises(RuntimeError, match="slow.pdf: not written within"):
         with figure_pool.parallel(2):
-            figure_pool.save(_figure(), [(str(tmp_path / "slow.png"), "png", 600)])
+            figure_pool.save(fig, [(str(tmp_path / "slow.pdf"), "pdf", 72)])
+            while not any(n.startswith(".tmp-") for n in os.listdir(tmp_path)):
+                assert time.perf_counter() - start < 60, "the worker never began writing"
+                time.sleep(0.01)
+            monkeypatch.setattr(figure_pool, "DEADLINE", 0.01)
     assert time.perf_counter() - start < 60 and figure_pool._pool is None
     assert os.listdir(tmp_path) == [], "no file, whole or temporary, is left"

@@ -333,6 +333,12 @@ MUTANTS = [
            "measure (intervals too narrow: a synthetic learning method's holds its truth "
            "too rarely)",
            ("tests/test_suite_errors.py::test_a_cost_per_sample_that_differs_between_budgets_is_not_noise",)),
+    Mutant("figure-tmp-left", "experiments/lib/figure_pool.py",
+           "                os.remove(tmp)",
+           "                pass",
+           "a worker killed past its deadline leaves its half-written temporary file beside "
+           "the figure",
+           ("tests/test_figure_pool.py::test_a_figure_past_its_deadline_is_named_and_its_worker_ended",)),
     # ------------------------------------------------------------ the sampler study's pick
     Mutant("pick-largest-estimate", "experiments/lib/studies/sampler_comparison_analysis.py",
            "        chosen = tied[-1]",
