@@ -357,8 +357,8 @@ def test_equal_time_count_is_the_budgets_power_of_two(tmp_path):
 def test_a_learning_methods_equal_time_count_comes_from_its_pilot(tmp_path, monkeypatch):
     """guided+nee's equal-spp renders are too short to train and cost what BSDF sampling
     costs; its equal-time count comes from one pilot render at the count they give (stored,
-    in no comparison), which trains and costs twice as much per sample here: half the
-    count. A method that does not learn renders no pilot."""
+    in no comparison), which trains and costs 2.5 times as much per sample here: 0.4 of the
+    count, not rounded to a power of two. A method that does not learn renders no pilot."""
     cfg = S.settings(S.parse(["--quick", "--spp", "16", "--time-budget", "0.1",
                               "--methods", "path,bsdf+nee,guided+nee", "--scenes",
                               scenes.path("suite/cbox.xml"), "--out", str(tmp_path)]))
@@ -371,16 +371,37 @@ def test_a_learning_methods_equal_time_count_comes_from_its_pilot(tmp_path, monk
     def results(jobs):               # a pilot (its key) costs twice as much per sample
         return [SimpleNamespace(spp=j.spp, host_seconds=0.0, wall_seconds=0.0,
                                 kernel_seconds=j.spp * per_sample *
-                                (2 if "/pilot" in j.key else 1)) for j in jobs]
+                                (2.5 if "/pilot" in j.key else 1)) for j in jobs]
     monkeypatch.setattr(engine.study, "results", results)
     monkeypatch.setattr(engine.study, "run", lambda jobs, label="": rendered.extend(jobs))
     S.suite_plan.plan_budget(engine, sp, time_budget.name, ["bsdf+nee", "guided+nee"])
     counts = {cell.method: runs[0][0].spp for cell, runs in sp.jobs[time_budget.name].items()}
     scale = S.suite_plan.time_scale(sp)
     assert counts["bsdf+nee"] == 64 * scale
-    assert counts["guided+nee"] == 32 * scale
+    assert counts["guided+nee"] == int(0.1 * scale / (per_sample * 2.5)) != 32 * scale
     assert [(j.method.name, j.spp) for j in rendered] == [("guided+nee", 64 * scale)]
     assert "/pilot" in rendered[0].key and rendered[0].pilot
+
+
+def test_a_learning_methods_equal_time_count_is_not_rounded_to_a_power_of_two(tmp_path):
+    """A learning method's efficiency grows with its count: rounded to the nearest power of
+    two, a pilot costing 1.4 or 1.45 times the equal-spp renders per sample would give it
+    1.41 or 0.71 of the budget, and two runs would measure it at counts a factor of two
+    apart. Its count from the pilot is the budget's own; a plain method's is still rounded."""
+    cfg = S.settings(S.parse(["--quick", "--spp", "16", "--time-budget", "0.1",
+                              "--out", str(tmp_path)]))
+    budget = S.suite_plan.declaration(cfg, S.suite_plan.plan_scenes(cfg)[0]).budgets[1]
+    engine = S.Engine(S.Study(cfg))
+    assert budget.power_of_two
+
+    def count(per_sample, exact):
+        return engine.equal_time_spp(budget, [[SimpleNamespace(
+            spp=16, kernel_seconds=16 * per_sample, host_seconds=0.0, wall_seconds=0.0)]],
+            exact=exact)
+    for factor, exact_count in ((1.40, 45), (1.45, 44)):
+        assert count(0.1 / 64 * factor, exact=True) == exact_count
+    # negative control: rounded, the two pilots' counts are a factor of two apart
+    assert [count(0.1 / 64 * f, exact=False) for f in (1.40, 1.45)] == [64, 32]
 
 
 def test_crop_boxes_follow_the_data():

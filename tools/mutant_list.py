@@ -339,6 +339,13 @@ MUTANTS = [
            "a worker killed past its deadline leaves its half-written temporary file beside "
            "the figure",
            ("tests/test_figure_pool.py::test_a_figure_past_its_deadline_is_named_and_its_worker_ended",)),
+    Mutant("pilot-count-rounded", "experiments/lib/engine.py",
+           "        return self.equal_time_spp(budget, [self.study.results([job])], exact=True)",
+           "        return self.equal_time_spp(budget, [self.study.results([job])])",
+           "a learning method's equal-time count rounded to the nearest power of two: it gets "
+           "0.71 to 1.41 times the budget, and its efficiency, which grows with its count, "
+           "follows the rounding",
+           ("tests/test_suite.py::test_a_learning_methods_equal_time_count_comes_from_its_pilot",)),
     # ------------------------------------------------------------ the sampler study's pick
     Mutant("pick-largest-estimate", "experiments/lib/studies/sampler_comparison_analysis.py",
            "        chosen = tied[-1]",

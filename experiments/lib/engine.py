@@ -253,16 +253,20 @@ class Engine:
         costs, while a render that trains records, refines and guides: at their cost per
         sample its equal-time render would take about twice the budget, and the efficiency
         of a method whose training pays more the longer it runs would be measured with more
-        time than the others had. The pilot renders once (:attr:`.jobs.Job.pilot`), not
-        again warm: the view its equal-spp renders warmed did not train, so its kernels
-        compile in it."""
+        time than the others had. For the same reason the count is the budget's own, never
+        rounded to a power of two (:attr:`Budget.power_of_two`, which could give it from
+        0.71 to 1.41 times the budget: a learning method's efficiency would then follow the
+        rounding, and two runs whose pilots cost a few percent apart could measure it at
+        counts a factor of two apart). The pilot renders once (:attr:`.jobs.Job.pilot`),
+        not again warm: the view its equal-spp renders warmed did not train, so its
+        kernels compile in it."""
         setup, method = next((s, m) for c, s, m in declaration.cells(budget) if c == cell)
         moments = bool(declaration.sample_moments and declaration.sample_moments(method))
         job = self.study.job(f"{declaration.key(declaration, cell)}/pilot", method, count,
                              sample_moments=moments, pilot=True,
                              **self._options(declaration, cell, setup))
         self.study.run([job], f"{declaration.name}: pilot")
-        return self.equal_time_spp(budget, [self.study.results([job])])
+        return self.equal_time_spp(budget, [self.study.results([job])], exact=True)
 
     def reference_jobs(self, declaration: Declaration) -> dict:
         """{(scene, point): the chunks of its reference} in the shared reference store."""
@@ -279,16 +283,17 @@ class Engine:
                     declaration.reference_method, declaration.reference_typical_spp)
         return out
 
-    def equal_time_spp(self, budget: Budget, measured: list) -> int:
+    def equal_time_spp(self, budget: Budget, measured: list, exact: bool = False) -> int:
         """Samples per pixel that cost ``budget.seconds`` at the cost per sample of the
         ``measured`` renders (each repeat's, averaged), their fixed cost per job
         (:func:`.clock.fixed`: a learning method's host work between passes, which a short
-        render would otherwise spread over its few samples) taken off the budget first."""
+        render would otherwise spread over its few samples) taken off the budget first;
+        rounded to a power of two where the budget says so, unless ``exact``."""
         fixed = np.mean([sum(clock.fixed(r) for r in rs) / len(rs) for rs in measured])
         per_sample = np.mean([(clock.total(rs) - sum(clock.fixed(r) for r in rs)) /
                               sum(r.spp for r in rs) for rs in measured])
         spp = (budget.seconds - float(fixed)) / max(float(per_sample), 1e-12)
-        if budget.power_of_two:
+        if budget.power_of_two and not exact:
             spp = 2 ** max(0, round(math.log2(max(spp, 1.0))))
         spp = max(1, int(spp))
         return min(spp, budget.max_spp) if budget.max_spp else spp

@@ -15,7 +15,8 @@ equal time: each equal-time render gets about ``--time-budget`` seconds of sampl
 cell's measured time per sample (its spp rounded to a power of two: Mitsuba renders powers of
 two with another kernel than other counts, and one kernel per cell keeps compilation down); a
 learning method's (guided) from one pilot render at that count, in no comparison (its
-equal-spp renders are too short to train, and cost what plain BSDF sampling costs).
+equal-spp renders are too short to train, and cost what plain BSDF sampling costs), and not
+rounded (its efficiency grows with its count: rounded, it would follow the rounding).
 Time per sample: the execution time of each render's kernels (Dr.Jit's kernel history:
 the sample work, without tracing the integrator or launching kernels, a fixed cost per
 render call that can swamp the samples of a small render), over its samples, per repeat

@@ -3,10 +3,10 @@
 Data flows one way: :func:`plan_scenes` reads every scene file (or records why it cannot)
 and declares each readable scene to the experiment engine (:func:`declaration`: every
 method, R repeats, equal spp then equal time at the cost per sample the equal-spp renders
-measured, rounded to a power of two and capped); :func:`plan_budget` plans a budget's jobs
-through :class:`~..engine.Engine` (job keys and seeds from the engine's plan),
-:func:`run_cells` renders them through the study's executor (cell by cell where a batch
-fails, so one broken scene or method stops nothing else), and :func:`measure_scene` turns
+measured, rounded to a power of two but for a learning method's, and capped);
+:func:`plan_budget` plans a budget's jobs through :class:`~..engine.Engine` (job keys and
+seeds from the engine's plan), :func:`run_cells` renders them through the study's executor
+(cell by cell where a batch fails, so one broken scene or method stops nothing else), and :func:`measure_scene` turns
 the engine's :class:`~..engine.Measurements` (against the suite's own reference: extended
 where too noisy, or the user's EXR) into the numbers of the pure analysis
 (:mod:`.suite_analysis`).
@@ -210,7 +210,8 @@ def declaration(cfg: Settings, sp: ScenePlan) -> Declaration:
     ``methods`` leave out, :func:`left_out`), R repeats, equal spp, then equal
     time at the cost per sample the equal-spp renders measured (the count rounded to the
     nearest power of two: Mitsuba renders a power-of-two count with another kernel than any
-    other count, this keeps one kernel per cell; at most :data:`MAX_EQUAL_TIME_SPP`). Job
+    other count, this keeps one kernel per cell; a learning method's count, from its pilot,
+    is not rounded, :meth:`.Engine.piloted_spp`; at most :data:`MAX_EQUAL_TIME_SPP`). Job
     keys: the engine's ``suite/SCENE/METHOD/BUDGET``, timed in the group ``suite/SCENE``.
     A cell whose error comes from its pixels' variances (:func:`precise`) renders each job
     with its samples' per-pixel second moments (``sample_moments``: spp - 1 degrees of
