@@ -63,7 +63,8 @@ def add_arguments(p: cli.Parser) -> None:
 @dataclass(frozen=True)
 class Best:
     """The best combination the suite offers: bsdf+nee with the sampler study's pick
-    (:func:`.sampler_comparison_analysis.picks`), and where that study chose it (None where it was given by --best-sampler)."""
+    (:func:`.sampler_comparison_analysis.picks`), and where that study chose it (None where
+    it was given by --best-sampler)."""
     method: Method
     sampler: str
     depth: int | None = None          # the sampler study's max_depth it won at

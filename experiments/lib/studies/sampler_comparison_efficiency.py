@@ -155,8 +155,6 @@ class Efficiency:
             "conclusion": {d: s for d, s in conclusions.items()},
             "comparisons": [c.record() for c in result.comparisons],
             "best": {d: r.sampler for d, r in result.best.items()},
-            "best_at": {d: {"sampler": r.sampler, "spp": r.spp, "requested_spp": r.requested}
-                        for d, r in result.best.items()},
             "pick": {d: p.record() for d, p in result.picks.items()},
             "curves": {d: {s: [dict(spp=spp, **e.fields("relative_efficiency"))
                                for spp, e in pts] for s, pts in by.items()}
