@@ -180,9 +180,10 @@ def pick_text(depth: int, record: dict) -> str:
     if len(tied) == 1:
         return (f"the sampler study's most efficient randomized sampler at max_depth {depth}, "
                 f"ahead of every other by its interval")
+    others = [s for s in tied if s != record["most_efficient"]]
     return (f"at max_depth {depth} the sampler study could not tell its most efficient "
-            f"randomized sampler ({record['most_efficient']}) from {len(tied) - 1} other(s) "
-            f"({', '.join(tied)}): of these the last in its table's order")
+            f"randomized sampler ({record['most_efficient']}) from {', '.join(others)}: of "
+            f"these the last in its table's order")
 
 
 def point(runs: list, requested: int, meta: dict) -> Point:
