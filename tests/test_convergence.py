@@ -12,8 +12,8 @@ import types
 
 import pytest
 
-from experiments.lib import stats
-from experiments.lib.engine import Cell, Engine
+from experiments.lib import counts, stats
+from experiments.lib.engine import Cell
 from experiments.lib.methods import Depth, parse_method
 from experiments.lib.studies import conclusion as C
 from experiments.lib.studies import convergence
@@ -178,10 +178,12 @@ def test_the_declaration_ladders_then_equal_time_at_the_ladders_cost_per_sample(
     def ran(seconds, spp):
         return [types.SimpleNamespace(spp=spp, kernel_seconds=seconds, host_seconds=0.0,
                                       wall_seconds=seconds)]
-    engine = Engine(None)
-    assert engine.equal_time_spp(equal, [ran(512 * per_sample, 512)] * 2) == 256
-    assert engine.equal_time_spp(equal, [ran(1024 * per_sample, 512)] * 2) == 128  # 2x slower
-    assert engine.equal_time_spp(equal, [ran(1.0, 1)]) == 1      # less than a sample: one
+    def count(measured):             # the engine's rule for this budget (Engine.count)
+        return counts.equal_time_spp(equal.seconds, measured, equal.power_of_two,
+                                     equal.max_spp)
+    assert count([ran(512 * per_sample, 512)] * 2) == 256
+    assert count([ran(1024 * per_sample, 512)] * 2) == 128  # 2x slower
+    assert count([ran(1.0, 1)]) == 1      # less than a sample: one
 
 
 def test_slopes_of_synthetic_power_laws():
@@ -298,7 +300,7 @@ def test_settings_read_where_the_sampler_study_made_its_pick(tmp_path):
 
 
 def test_the_suite_adds_the_sampler_studys_pick_and_says_how_it_was_made(tmp_path):
-    from experiments.lib.studies import suite
+    from experiments.lib.studies.suite import study as suite
     out = tmp_path / "r"
     (out / "samplers").mkdir(parents=True)
     record = {"sampler": "zsobol:owen", "spp": 64, "requested_spp": 64,

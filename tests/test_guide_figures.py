@@ -12,7 +12,7 @@ import pytest
 from _paths import scene_path
 from experiments.lib import guide_figures, lab_guide, lab_mass, lab_warps
 from experiments.lib.methods import parse_method
-from experiments.lib.studies import suite_report
+from experiments.lib.studies.suite import report as suite_report
 from integrators import sdtree, strategies
 
 DOOR = scene_path("suite/door_room.xml")
@@ -73,18 +73,18 @@ def test_suite_draws_the_guide_only_where_a_guiding_method_rendered():
     cfg = types.SimpleNamespace(methods=[parse_method(m) for m in ("path", "guided+nee")],
                                 baseline=parse_method("path"))
     header = types.SimpleNamespace(favours=("guided+nee*",))
-    scene = types.SimpleNamespace(methods=["path", "guided+nee"], failed={}, header=header)
-    assert suite_report.guide_method(cfg, scene).name == "guided+nee"
+    scene = types.SimpleNamespace(left_out={}, header=header)
+    assert suite_report.guide_method(cfg, scene, {}).name == "guided+nee"
     scene.header = None                                  # a user's scene: no hypothesis
-    assert suite_report.guide_method(cfg, scene).name == "guided+nee"
+    assert suite_report.guide_method(cfg, scene, {}).name == "guided+nee"
     scene.header = types.SimpleNamespace(favours=("bsdf+nee*", "path"))
-    assert suite_report.guide_method(cfg, scene) is None     # not a guiding scene
+    assert suite_report.guide_method(cfg, scene, {}) is None     # not a guiding scene
     scene.header = types.SimpleNamespace(favours=("*+nee*",))
-    assert suite_report.guide_method(cfg, scene) is None     # matches bsdf+nee too
-    scene.header, scene.failed = header, {"guided+nee": "boom"}
-    assert suite_report.guide_method(cfg, scene) is None
+    assert suite_report.guide_method(cfg, scene, {}) is None     # matches bsdf+nee too
+    scene.header = header
+    assert suite_report.guide_method(cfg, scene, {"guided+nee": "boom"}) is None
     assert suite_report.guide_method(cfg, types.SimpleNamespace(
-        methods=["path"], failed={}, header=header)) is None
+        left_out={"guided+nee": "not in the header"}, header=header), {}) is None
 
 
 class Scaled(strategies.Strategy):

@@ -1,4 +1,4 @@
-"""The scene suite (experiments/lib/studies/suite*.py): end to end on two bundled scenes at
+"""The scene suite (experiments/lib/studies/suite/): end to end on two bundled scenes at
 tiny settings (report, matrix, viewers, crops, findings, the furnace's exact value inside
 every method's interval), resuming and extending its references, scenes that fail to load
 or that vr_path refuses, a folder of scenes written here, bad arguments; and its analysis
@@ -15,9 +15,12 @@ import numpy as np
 import pytest
 
 import scenes
-from experiments.lib import metrics, stats
-from experiments.lib.studies import suite as S
-from experiments.lib.studies import suite_analysis as A
+from experiments.lib import counts, metrics, stats
+from experiments.lib.engine import Engine, Planned
+from experiments.lib.studies.suite import analysis as A
+from experiments.lib.studies.suite import declare
+from experiments.lib.studies.suite import study as S
+from experiments.lib.study import Study
 
 QUICK = ["--quick", "--seed", "3"]
 FURNACE = scenes.path("suite/furnace.xml")
@@ -298,11 +301,13 @@ def test_an_error_below_the_references_noise_is_a_bound_not_nan():
     assert r.bounds() == ["bsdf+nee"] and r.ranking.order[0] == "bsdf+nee"
     # the reference is then too noisy for the comparison, and the suite asks for more
     assert not r.reference_adequate
-    assert S.suite_plan.needed_spp(numbers({"path": [2.0] * 3, "bsdf+nee": below}, floor=floor),
-                          256, 8192) == 8192                        # all it may: the cap
+    def needed(nums, spp, cap):            # the engine's rule (declaration.ReferenceFloor)
+        return counts.reference_spp(A.floor_share(nums), A.FLOOR_SHARE, spp, cap)
+    assert needed(numbers({"path": [2.0] * 3, "bsdf+nee": below}, floor=floor),
+                  256, 8192) == 8192                                # all it may: the cap
     # a floor half the smallest measured error: 19 times the samples bring it to 5%
-    assert S.suite_plan.needed_spp(numbers({"path": [2.0] * 3, "bsdf+nee": [1.0] * 3}, floor=0.5),
-                          256, 10 ** 6) == 256 * 32
+    assert needed(numbers({"path": [2.0] * 3, "bsdf+nee": [1.0] * 3}, floor=0.5),
+                  256, 10 ** 6) == 256 * 32
     # negative control: errors well above the floor are intervals, with no bound
     r = A.analyse_scene(numbers({"path": [2.0, 2.1, 1.9], "bsdf+nee": [1.0, 1.05, 0.95]},
                                 floor=0.01))
@@ -331,11 +336,14 @@ def test_equal_time_count_is_the_budgets_power_of_two(tmp_path):
     cost per sample (the repeats' mean), rounded to the nearest power of two, capped."""
     cfg = S.settings(S.parse(["--quick", "--spp", "16", "--time-budget", "0.1",
                               "--out", str(tmp_path)]))
-    budget = S.suite_plan.declaration(cfg, S.suite_plan.plan_scenes(cfg)[0]).budgets[1]
-    engine = S.Engine(S.Study(cfg))
+    budget = declare.declaration(cfg, declare.plan_scenes(cfg)).budgets[1]
+
+    def equal_time(measured):
+        return counts.equal_time_spp(budget.seconds, measured, budget.power_of_two,
+                                     budget.max_spp)
 
     def count(*per_sample):         # one render of 16 spp per repeat at these s per spp
-        return engine.equal_time_spp(budget, [[SimpleNamespace(
+        return equal_time([[SimpleNamespace(
             spp=16, kernel_seconds=16 * b, host_seconds=0.0, wall_seconds=0.0)]
             for b in per_sample])
     assert (budget.name, budget.after) == ("equal-time", "equal-spp")
@@ -343,13 +351,13 @@ def test_equal_time_count_is_the_budgets_power_of_two(tmp_path):
     assert count(0.1 / 46, 0.1 / 100) == 64                          # the repeats' mean
     assert count(0.1 / 17) == 16
     assert count(10.0) == 1
-    assert count(1e-9) == S.suite_plan.MAX_EQUAL_TIME_SPP
+    assert count(1e-9) == declare.MAX_EQUAL_TIME_SPP
     # a learning method's host work between passes is a fixed cost per job: taken off the
     # budget, not spread over the 16 samples (which would give it a quarter of the count)
-    learned = engine.equal_time_spp(budget, [[SimpleNamespace(
+    learned = equal_time([[SimpleNamespace(
         spp=16, kernel_seconds=16 * 0.05 / 64, host_seconds=0.05, wall_seconds=0.0)]])
     assert learned == 64                       # (0.1 - 0.05) / (0.05 / 64 per sample)
-    spread = engine.equal_time_spp(budget, [[SimpleNamespace(
+    spread = equal_time([[SimpleNamespace(
         spp=16, kernel_seconds=16 * 0.05 / 64 + 0.05, host_seconds=0.0, wall_seconds=0.0)]])
     assert spread == 32                        # negative control: the same cost as kernel time
 
@@ -358,29 +366,32 @@ def test_a_learning_methods_equal_time_count_comes_from_its_pilot(tmp_path, monk
     """guided+nee's equal-spp renders are too short to train and cost what BSDF sampling
     costs; its equal-time count comes from one pilot render at the count they give (stored,
     in no comparison), which trains and costs 2.5 times as much per sample here: 0.4 of the
-    count, not rounded to a power of two. A method that does not learn renders no pilot."""
+    count, not rounded to a power of two. A method that does not learn renders no pilot.
+    The engine decides it (:meth:`.Engine.count`), for the suite as for every study."""
     cfg = S.settings(S.parse(["--quick", "--spp", "16", "--time-budget", "0.1",
                               "--methods", "path,bsdf+nee,guided+nee", "--scenes",
                               scenes.path("suite/cbox.xml"), "--out", str(tmp_path)]))
-    sp = S.suite_plan.plan_scenes(cfg)[0]
-    engine = S.Engine(S.Study(cfg))
-    spp_budget, time_budget = sp.declaration.budgets
-    sp.jobs[spp_budget.name] = engine.jobs(sp.declaration, spp_budget)
-    per_sample, rendered = 0.1 / 64, []
+    decl = declare.declaration(cfg, declare.plan_scenes(cfg))
+    engine, planned = Engine(Study(cfg)), Planned()
+    spp_budget, time_budget = decl.budgets
+    planned.add(spp_budget.name, engine.jobs(decl, spp_budget))
+    per_sample, rendered, scale = 0.1 / 64, [], 2.0
+    for slot in engine.slots(decl):
+        planned.scales[(slot.scene.name, None, time_budget.name)] = (scale, "")
 
-    def results(jobs):               # a pilot (its key) costs twice as much per sample
+    def results(jobs):               # a pilot (its key) costs 2.5 times as much per sample
         return [SimpleNamespace(spp=j.spp, host_seconds=0.0, wall_seconds=0.0,
                                 kernel_seconds=j.spp * per_sample *
                                 (2.5 if "/pilot" in j.key else 1)) for j in jobs]
     monkeypatch.setattr(engine.study, "results", results)
     monkeypatch.setattr(engine.study, "run", lambda jobs, label="": rendered.extend(jobs))
-    S.suite_plan.plan_budget(engine, sp, time_budget.name, ["bsdf+nee", "guided+nee"])
-    counts = {cell.method: runs[0][0].spp for cell, runs in sp.jobs[time_budget.name].items()}
-    scale = S.suite_plan.time_scale(sp)
-    assert counts["bsdf+nee"] == 64 * scale
-    assert counts["guided+nee"] == int(0.1 * scale / (per_sample * 2.5)) != 32 * scale
+    got = {slot.method.name: engine.count(decl, time_budget, slot, planned)
+           for slot in engine.slots(decl) if slot.method.name in ("bsdf+nee", "guided+nee")}
+    assert got["bsdf+nee"] == 64 * scale
+    assert got["guided+nee"] == int(0.1 * scale / (per_sample * 2.5)) != 32 * scale
     assert [(j.method.name, j.spp) for j in rendered] == [("guided+nee", 64 * scale)]
-    assert "/pilot" in rendered[0].key and rendered[0].pilot
+    assert rendered[0].key.startswith("suite/cbox/guided_nee/equal-time/pilot-")
+    assert rendered[0].pilot
 
 
 def test_a_learning_methods_equal_time_count_is_not_rounded_to_a_power_of_two(tmp_path):
@@ -390,14 +401,13 @@ def test_a_learning_methods_equal_time_count_is_not_rounded_to_a_power_of_two(tm
     apart. Its count from the pilot is the budget's own; a plain method's is still rounded."""
     cfg = S.settings(S.parse(["--quick", "--spp", "16", "--time-budget", "0.1",
                               "--out", str(tmp_path)]))
-    budget = S.suite_plan.declaration(cfg, S.suite_plan.plan_scenes(cfg)[0]).budgets[1]
-    engine = S.Engine(S.Study(cfg))
+    budget = declare.declaration(cfg, declare.plan_scenes(cfg)).budgets[1]
     assert budget.power_of_two
 
-    def count(per_sample, exact):
-        return engine.equal_time_spp(budget, [[SimpleNamespace(
+    def count(per_sample, exact):   # exact: what Engine.pilot asks of the rule
+        return counts.equal_time_spp(budget.seconds, [[SimpleNamespace(
             spp=16, kernel_seconds=16 * per_sample, host_seconds=0.0, wall_seconds=0.0)]],
-            exact=exact)
+            budget.power_of_two and not exact, budget.max_spp)
     for factor, exact_count in ((1.40, 45), (1.45, 44)):
         assert count(0.1 / 64 * factor, exact=True) == exact_count
     # negative control: rounded, the two pilots' counts are a factor of two apart

@@ -1,4 +1,4 @@
-"""The suite's bias test (experiments/lib/studies/suite_bias.py over experiments/lib/bias.py).
+"""The suite's bias test (experiments/lib/studies/suite/bias_test.py over experiments/lib/bias.py).
 
 Synthetic renders of known law at the default budget of the suite (a 48x36 film; the method
 side 3 renders at 16 spp and 3 at 64 spp, the reference 8 chunks of 128 spp; per-sample
@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 
 from experiments.lib import bias
-from experiments.lib.studies import suite_analysis as A
-from experiments.lib.studies import suite_bias
+from experiments.lib.studies.suite import analysis as A
+from experiments.lib.studies.suite import bias_test as suite_bias
 
 W, H, C = 48, 36, 3
 #: The default run: 9 bundled scenes x 15 methods, one family.
@@ -151,7 +151,7 @@ def test_padding_leaves_partial_blocks_out_of_nothing():
 
 
 def test_a_power_from_a_heavy_tailed_calibration_cell_is_indicative_only():
-    from experiments.lib.studies import suite_bias_report as R
+    from experiments.lib.studies.suite import bias_report as R
 
     def runs(err):
         return A.Runs(16, (err,) * 3, (err,) * 3, (err,) * 3, (1.0,) * 3)

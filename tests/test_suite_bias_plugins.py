@@ -30,8 +30,8 @@ import scenes
 from experiments.lib import samplers
 from experiments.lib.methods import parse_method
 from experiments.lib.samplers import SamplerSpec, register_sampler
-from experiments.lib.studies import suite as S
-from experiments.lib.studies import suite_bias
+from experiments.lib.studies.suite import study as S
+from experiments.lib.studies.suite import bias_test as suite_bias
 from integrators import strategies
 
 #: The wrong strategy's density over the true one.
@@ -218,7 +218,7 @@ def path_draws(out, scene: str, cells: dict, draws: int):
     width, height = (int(v) for v in ref["resolution"].split("x"))
     loaded = mi.load_file(scenes.path(f"suite/{scene}.xml"), width=width, height=height)
     method = parse_method("path")
-    integrator = mi.load_dict(method.integrator_dict(S.suite_plan.Depth(
+    integrator = mi.load_dict(method.integrator_dict(S.declare.Depth(
         max_depth=ref["depth"]["max_depth"])))
     counts = [cells[(scene, "path")]["spp"], cells[(scene, "path", "equal_time")]["spp"]]
     seed = 10_000

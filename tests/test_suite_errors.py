@@ -1,4 +1,4 @@
-"""The suite's precise errors (experiments/lib/studies/suite_errors.py): the expected relMSE
+"""The suite's precise errors (experiments/lib/studies/suite/errors.py): the expected relMSE
 from the pixels' sample variances (``vr_moments``) agrees with many independent repeats on a real scene, its
 intervals have their coverage (A/A: vr_path bsdf+nee and Mitsuba's path at equal spp), and
 the pooled standard error and the paired efficiency on synthetic numbers, with negative
@@ -15,8 +15,9 @@ from experiments.lib import execute, metrics, plan, stats
 from experiments.lib.jobs import Accumulator
 from experiments.lib.methods import parse_method
 from experiments.lib.scenes import effective_depth, read_scene
-from experiments.lib.studies import suite_errors, suite_plan
-from experiments.lib.studies.suite_analysis import Runs
+from experiments.lib.studies.suite import errors as suite_errors
+from experiments.lib.studies.suite import precision
+from experiments.lib.studies.suite.analysis import Runs
 
 VARIANT = "llvm_ad_rgb"
 SCENE = scenes.path("suite/small_light.xml")
@@ -166,18 +167,18 @@ def test_sample_moments_agree_with_the_spread_of_passes_and_are_tighter():
 def test_the_suite_declares_sample_moments_only_where_pixels_are_independent():
     """Precise cells (independent sampler, box filter) render with ``sample_moments``, a QMC
     sampler or another filter without (their renders are not independent samples)."""
-    assert suite_plan.precise(parse_method("bsdf+nee"), True)
-    assert not suite_plan.precise(parse_method("bsdf+nee"), False)
-    assert not suite_plan.precise(parse_method("bsdf+nee+halton"), True)
+    assert precision.precise(parse_method("bsdf+nee"), True)
+    assert not precision.precise(parse_method("bsdf+nee"), False)
+    assert not precision.precise(parse_method("bsdf+nee+halton"), True)
 
 
 def test_precision_scale_rounds_up_to_a_power_of_two_within_its_cap():
     """The factor brings the error to the target: (se / target)^2 rounded up to a power of
     two; at least 1 (never fewer samples), at most the cap."""
-    assert suite_plan.scale_for(0.07, 0.035) == 4.0
-    assert suite_plan.scale_for(0.08, 0.035) == 8.0      # 5.2 -> 8: the target is met
-    assert suite_plan.scale_for(0.01, 0.035) == 1.0
-    assert suite_plan.scale_for(5.0, 0.035, cap=32) == 32.0
+    assert precision.scale_for(0.07, 0.035) == 4.0
+    assert precision.scale_for(0.08, 0.035) == 8.0      # 5.2 -> 8: the target is met
+    assert precision.scale_for(0.01, 0.035) == 1.0
+    assert precision.scale_for(5.0, 0.035, cap=32) == 32.0
 
 
 def test_the_error_predicted_from_few_samples_matches_the_one_measured_at_more():

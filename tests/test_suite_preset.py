@@ -10,8 +10,8 @@ import pytest
 import scenes
 from experiments import run_all
 from experiments.lib import studies
-from experiments.lib.studies import suite as S
-from experiments.lib.studies import suite_plan
+from experiments.lib.studies.suite import study as S
+from experiments.lib.studies.suite import declare as suite_plan
 
 CBOX = scenes.path("suite/cbox.xml")
 

@@ -160,15 +160,15 @@ MUTANTS = [
            "one integrator kept per method across jobs (a learning method starts its second "
            "job trained)",
            ("tests/test_clock.py",)),
-    Mutant("engine-efficiency-floor", "experiments/lib/engine.py",
+    Mutant("engine-efficiency-floor", "experiments/lib/measurements.py",
            "        ea, eb = ([getattr(r[rung], metric) - self.floor(c, metric) for r in self.runs[c]]",
            "        ea, eb = ([getattr(r[rung], metric) - 0.0 for r in self.runs[c]]",
            "the engine's efficiency forgets the reference's floor: a method near the "
            "reference's noise looks no better than one far above it",
            ("tests/test_engine.py",)),
-    Mutant("engine-equal-time-floor", "experiments/lib/engine.py",
-           "            spp = 2 ** max(0, round(math.log2(max(spp, 1.0))))",
-           "            spp = 2 ** max(0, int(math.log2(max(spp, 1.0))))",
+    Mutant("engine-equal-time-floor", "experiments/lib/counts.py",
+           "        spp = 2 ** max(0, round(math.log2(max(spp, 1.0))))",
+           "        spp = 2 ** max(0, int(math.log2(max(spp, 1.0))))",
            "an equal-time count rounded down to a power of two instead of to the nearest "
            "(cheap methods get up to half their budget)",
            ("tests/test_suite.py::test_equal_time_count_is_the_budgets_power_of_two",
@@ -186,7 +186,7 @@ MUTANTS = [
            "the per-pixel variance from the passes' spread divided by the passes, not passes - 1 "
            "(the suite's expected relMSE 25% low with 4 passes)",
            ("tests/test_suite_errors.py",)),
-    Mutant("pooled-variance-per-pixel", "experiments/lib/studies/suite_errors.py",
+    Mutant("pooled-variance-per-pixel", "experiments/lib/studies/suite/errors.py",
            "        return value, float(v.var(axis=0, ddof=1).sum()) / (repeats * n * n)",
            "        return value, float(v.var(axis=0, ddof=1).mean()) / repeats",
            "the pooled error's variance is one pixel's, not that of the mean over the pixels "
@@ -288,13 +288,13 @@ MUTANTS = [
            "reference makes unbiased methods look biased)",
            ("tests/test_unbiased.py::test_agreement_has_its_size_and_power_on_synthetic_renders",
             "tests/test_suite_bias.py")),
-    Mutant("bias-sidak-missing", "experiments/lib/studies/suite_bias.py",
+    Mutant("bias-sidak-missing", "experiments/lib/studies/suite/bias_test.py",
            "    return bias.sidak(1.0 - LEVEL, max(1, cells))",
            "    return 1.0 - LEVEL",
            "the run's bias tests each at 1%, the Sidak correction over the run's cells not "
            "applied (about one false 'biased' per 100 cells)",
            ("tests/test_suite_bias.py",)),
-    Mutant("bias-learned-pixels", "experiments/lib/studies/suite_bias.py",
+    Mutant("bias-learned-pixels", "experiments/lib/studies/suite/bias_test.py",
            "    return \"pixels\" if box and method.sampler == samplers.DEFAULT and not method.learns \\",
            "    return \"pixels\" if box and method.sampler == samplers.DEFAULT \\",
            "a method that learns from its own samples tested on its pixels' spread (they share "
@@ -307,25 +307,25 @@ MUTANTS = [
            "the samples' mean squares added without their count: the per-pixel variances "
            "of a vr_moments render wrong by the sample count",
            ("tests/test_suite_errors.py",)),
-    Mutant("precision-scale-linear", "experiments/lib/studies/suite_plan.py",
+    Mutant("precision-scale-linear", "experiments/lib/studies/suite/precision.py",
            "    scale = (error / precision) ** 2",
            "    scale = error / precision",
            "the precision rule's factor not squared (the standard error falls as "
            "1/sqrt(samples)): scenes ruled by rare samples get too few",
            ("tests/test_suite_errors.py",)),
-    Mutant("bias-calibration-ignored", "experiments/lib/studies/suite_bias.py",
+    Mutant("bias-calibration-ignored", "experiments/lib/studies/suite/bias_test.py",
            "    if own is None or own.status == \"unbiased\":",
            "    if True:",
            "the test's own calibration ignored: where the reference method fails its own test "
            "(a heavy-tailed reference), other methods are still called biased against it",
            ("tests/test_suite_bias.py",)),
-    Mutant("cost-spike-unclipped", "experiments/lib/studies/suite_errors.py",
+    Mutant("cost-spike-unclipped", "experiments/lib/studies/suite/errors.py",
            "    clipped = np.split(stats.winsorize(np.concatenate(devs)),",
            "    clipped = np.split(np.concatenate(devs),",
            "the paired costs' plain variance: one render slowed 2x by the machine widens an "
            "A/A efficiency interval to hi/lo ~2",
            ("tests/test_suite_errors.py",)),
-    Mutant("cost-budgets-equal-weight", "experiments/lib/studies/suite_errors.py",
+    Mutant("cost-budgets-equal-weight", "experiments/lib/studies/suite/errors.py",
            "    weight = (share_a / share_a.sum() + share_b / share_b.sum()) / 2",
            "    weight = np.full(len(budgets), 1 / len(budgets))",
            "each budget's cost deviations weighted alike, not by its share of the seconds: "
@@ -340,8 +340,8 @@ MUTANTS = [
            "the figure",
            ("tests/test_figure_pool.py::test_a_figure_past_its_deadline_is_named_and_its_worker_ended",)),
     Mutant("pilot-count-rounded", "experiments/lib/engine.py",
-           "        return self.equal_time_spp(budget, [self.study.results([job])], exact=True)",
-           "        return self.equal_time_spp(budget, [self.study.results([job])])",
+           "        return counts.equal_time_spp(seconds, [self.study.results([job])], False,",
+           "        return counts.equal_time_spp(seconds, [self.study.results([job])], True,",
            "a learning method's equal-time count rounded to the nearest power of two: it gets "
            "0.71 to 1.41 times the budget, and its efficiency, which grows with its count, "
            "follows the rounding",

@@ -21,6 +21,8 @@ See docs/methodology.md ("The clock").
 """
 from __future__ import annotations
 
+import contextlib
+import time
 from typing import Iterable
 
 #: How the reports name the clock (one phrase, used in every table caption that divides by it).
@@ -69,3 +71,46 @@ def wall(result) -> float:
     """The wall-clock seconds of a render's timed passes (for 'how long it took', never for
     an efficiency)."""
     return float(result.wall_seconds)
+
+
+class Timer:
+    """How long a study and its named parts took: wall-clock and CPU seconds of this
+    process, for the reports' "how long it took" lines (never for an efficiency, which
+    divides by :func:`cost`). One per study run, started when it is made::
+
+        timer = clock.Timer()
+        images = timer.time("renders", render, ...)
+        with timer.part("figures"):
+            ...
+        timer.elapsed()         # wall seconds since the study began
+    """
+
+    def __init__(self):
+        self.parts: dict[str, list[float]] = {}
+        self._start = time.perf_counter()
+
+    def add(self, part: str, wall: float, cpu: float) -> None:
+        w, c = self.parts.get(part, [0.0, 0.0])
+        self.parts[part] = [w + wall, c + cpu]
+
+    @contextlib.contextmanager
+    def part(self, name: str):
+        """Time the block under ``name`` (added to what that part took before)."""
+        wall, cpu = time.perf_counter(), time.process_time()
+        try:
+            yield
+        finally:
+            self.add(name, time.perf_counter() - wall, time.process_time() - cpu)
+
+    def time(self, part: str, fn, *a, **k):
+        """``fn(*a, **k)``, timed under ``part``."""
+        with self.part(part):
+            return fn(*a, **k)
+
+    def elapsed(self) -> float:
+        """Wall-clock seconds since the timer was made."""
+        return time.perf_counter() - self._start
+
+    def seconds(self, part: str) -> float:
+        """Wall-clock seconds of ``part`` so far (0 before it ran)."""
+        return self.parts.get(part, [0.0, 0.0])[0]

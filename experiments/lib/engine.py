@@ -1,242 +1,128 @@
 """The experiment engine: a study declares what it compares, the engine does the rest.
 
-A :class:`Declaration` names the methods, the scenes (each with its film and path
-settings), the budgets (equal spp, equal time, a ladder of counts), a swept parameter if
-any, and the repeats. :class:`Engine` then
+A study hands a :class:`~.declaration.Declaration` (methods, scenes, budgets, a sweep,
+repeats, policies) to :meth:`Engine.run`, the only budget loop of the project. For each
+scene (locally one after another, so that each stays loaded; on a cluster all at once, so
+that they fan out) the engine
 
-1. plans the jobs (:mod:`.plan`: keys and seeds from the plan, a deterministic method
-   rendered once for every repeat, the references in the shared reference store);
-2. renders what the stores lack through the study's executor (local or Dask; a rerun
-   resumes), the equal-time budgets after the budgets that measure their cost per sample
-   (or at the counts of an earlier run: ``--replay-counts``, :meth:`Engine.replayed`), each
-   job in the passes the declaration asks for (``pass_spp``: per-pixel variances from
-   their spread) or with its samples' second moments (``sample_moments``);
-3. costs every image with the one clock (:mod:`.clock`) and measures its errors against
-   the reference (whose own expected error, the floor, comes with it);
-4. gives errors, ratios and efficiencies with their intervals from one implementation
-   (:mod:`.stats`), in :class:`Measurements`.
+1. renders the scene's reference where the shared reference store lacks it (or takes the
+   study's own image);
+2. renders every budget in order, its methods in groups a process keeps warm (the
+   declaration's ``lead`` methods first), the budgets whose counts are known up front
+   together and each group's renders interleaved (repeat by repeat, every method at one
+   count before the next), so that a drifting machine load affects every method alike;
+3. decides every count: equal spp as declared; a ladder as stretches that accumulate, or
+   for a method that learns one job per rung that trains at that count; equal time from
+   the cost per sample an earlier budget measured (:mod:`.counts`), times the scene's
+   factor (its own, or a :class:`~.declaration.TimeScale` policy's, decided once after the
+   earlier budgets), and for a method that learns from a pilot render at that count
+   (:meth:`Engine.pilot`), exact; or the counts of an earlier run (``--replay-counts``);
+4. where the declaration says so, records a failing cell and goes on
+   (``isolate_failures``), and extends a reference too noisy for the comparison
+   (``reference_floor``);
+5. costs every image with the one clock (:mod:`.clock`) and measures its errors against
+   the reference, in :class:`~.measurements.Measurements`.
 
-A study adds its own analysis and figures over :class:`Measurements`.
-``examples/roulette_study.py`` is a whole study in this form. Models: SeeSharp's
-``Experiment`` and ``Benchmark`` (a list of methods over a list of scenes against cached
-references), Mitsuba's ``ADIntegrator`` (the shared work in one base).
+Every study (convergence, samplers, the writeup's figures, the lab's screen pass, the
+stability sweeps, the scene suite) is a declaration over this loop, so a method is the
+same method in all of them. ``examples/roulette_study.py`` is a whole study in this form.
+Models: SeeSharp's ``Experiment`` and ``Benchmark`` (a list of methods over a list of
+scenes against cached references), Mitsuba's ``ADIntegrator`` (the shared work in one base).
 """
 from __future__ import annotations
 
-import math
 import os
-from dataclasses import dataclass, field, replace
-from typing import Callable
+from dataclasses import dataclass, field
 
-import numpy as np
-
-from . import clock, metrics, stats
-from .jobs import accumulate
-from .methods import Depth, Method
+from . import counts, engine_references
+from .declaration import (Budget, Cell, Declaration, ReferenceFloor, SceneSetup,  # noqa: F401
+                          Sweep, TimeScale, default_key)
+from .execute import VIEW_CACHE
+from .measurements import Measurements, Run, rungs  # noqa: F401  (the engine's results)
+from .names import one_line
 from .plan import job_name
-from .scenes import SceneInfo
 from .store import STORE_DIR, JobStore, ReplayError
 from .study import Study, repeat_prefix
 
 
-@dataclass(frozen=True)
-class SceneSetup:
-    """A scene as a study renders it: its file, film and path settings, and a short name
-    (its part of the job keys and of the report)."""
-    name: str
-    info: SceneInfo
-    resolution: tuple            # (width, height)
-    depth: Depth = Depth()
+@dataclass
+class Planned:
+    """A declaration's jobs as the engine planned and rendered them."""
+    jobs: dict = field(default_factory=dict)      # {budget: {Cell: [per repeat: [Job]]}}
+    failed: dict = field(default_factory=dict)    # (scene, point, method) -> error
+    scales: dict = field(default_factory=dict)    # (scene, point, budget) -> (factor, note)
+    scene_errors: dict = field(default_factory=dict)   # (scene, point) -> error
+
+    def runs(self, cell: Cell) -> list:
+        """[per repeat: [Job]] of ``cell`` ([] where it was not planned)."""
+        return self.jobs.get(cell.budget, {}).get(cell, [])
+
+    def add(self, budget: str, cells: dict) -> None:
+        self.jobs.setdefault(budget, {}).update(cells)
 
 
 @dataclass(frozen=True)
-class Budget:
-    """How much every method renders in a cell. Make one with :meth:`equal_spp`,
-    :meth:`equal_time` or :meth:`progressive`."""
-    name: str
-    spp: int = 0                 # equal spp: the count
-    seconds: float = 0.0         # equal time: seconds of cost (the clock) per image ...
-    after: str = ""              # ... at the cost per sample measured by this budget's renders
-    power_of_two: bool = False   # equal time: the count rounded to the nearest power of two
-    max_spp: int = 0             # equal time: at most this count (0: no cap)
-    ladder: tuple = ()           # progressive: the counts, each image all samples up to it
+class Slot:
+    """A method on a scene at a sweep point: a cell without its budget."""
+    scene: SceneSetup            # as declared (its name keys the cells)
+    setup: SceneSetup            # as rendered at ``point``
+    point: object
+    method: object               # a Method
 
-    @classmethod
-    def equal_spp(cls, spp: int, name: str = "equal-spp") -> "Budget":
-        return cls(name, spp=int(spp))
-
-    @classmethod
-    def equal_time(cls, seconds: float, after: str = "equal-spp", name: str = "equal-time",
-                   power_of_two: bool = False, max_spp: int = 0) -> "Budget":
-        return cls(name, seconds=float(seconds), after=after, power_of_two=power_of_two,
-                   max_spp=int(max_spp))
-
-    @classmethod
-    def progressive(cls, targets, name: str = "ladder") -> "Budget":
-        return cls(name, ladder=tuple(sorted({int(t) for t in targets})))
+    def cell(self, budget: str) -> Cell:
+        return Cell(self.scene.name, self.method.name, budget, self.point)
 
     @property
-    def timed(self) -> bool:
-        return self.seconds > 0
-
-
-@dataclass(frozen=True)
-class Sweep:
-    """A swept parameter: ``apply(value, scene)`` gives the scene set up at ``value`` (its
-    depth, film or file). ``shared_reference``: the parameter changes the estimator, not
-    the image it converges to (rr_depth), so every value is measured against the reference
-    of the scene as declared."""
-    name: str
-    values: tuple
-    apply: Callable[[object, SceneSetup], SceneSetup]
-    shared_reference: bool = False
-
-
-@dataclass(frozen=True)
-class Cell:
-    """One comparison point: a scene, a method, a budget and (in a sweep) a value."""
-    scene: str
-    method: str
-    budget: str
-    point: object = None
-
-
-def default_key(declaration: "Declaration", cell: Cell) -> str:
-    """``NAME/scene/method/budget[/sweep=value]``: the prefix of a cell's jobs."""
-    point = "" if cell.point is None else f"/{declaration.sweep.name}={cell.point}"
-    return f"{declaration.name}/{cell.scene}/{cell.method}/{cell.budget}{point}"
-
-
-@dataclass(frozen=True)
-class Declaration:
-    """What a study compares. ``key(declaration, cell)`` names a cell's jobs (their seeds
-    derive from it; default :func:`default_key`), the repeat and ladder parts appended."""
-    name: str
-    methods: tuple               # Method values
-    scenes: tuple                # SceneSetup values
-    budgets: tuple               # Budget values, in the order they render
-    repeats: int = 1
-    sweep: Sweep | None = None
-    reference_spp: int | None = None        # None: the study's --reference-spp
-    reference_method: Method | None = None  # None: the study's --reference-method
-    reference_typical_spp: int | None = None  # sizes the reference's chunks (None: the study's)
-    key: Callable = default_key
-    #: (method, spp, repeat) -> the samples per pass of a cell's jobs (0: as many as memory
-    #: allows): passes give per-pixel variances from their spread (a job key field)
-    pass_spp: Callable | None = None
-    #: method -> whether a cell's jobs (of budgets without a ladder) keep their samples'
-    #: per-pixel second moments (``vr_moments``: every sample its own pass; for independent
-    #: samples under a box filter only; a job key field)
-    sample_moments: Callable | None = None
-
-    def __post_init__(self):
-        names = [b.name for b in self.budgets]
-        for b in self.budgets:
-            if b.timed and b.after not in names[:names.index(b.name)]:
-                raise ValueError(f"budget '{b.name}' measures its cost per sample on budget "
-                                 f"'{b.after}', which must come before it among "
-                                 f"{', '.join(names)}")
-        if not self.methods or not self.scenes or not self.budgets or self.repeats < 1:
-            raise ValueError(f"declaration '{self.name}': give at least one method, scene "
-                             f"and budget, and repeats >= 1 (got {self.repeats})")
-
-    def points(self) -> tuple:
-        return self.sweep.values if self.sweep else (None,)
-
-    def setup(self, scene: SceneSetup, point) -> SceneSetup:
-        return scene if point is None else self.sweep.apply(point, scene)
-
-    def cells(self, budget: Budget) -> list[tuple[Cell, SceneSetup, Method]]:
-        return [(Cell(s.name, m.name, budget.name, p), self.setup(s, p), m)
-                for s in self.scenes for p in self.points() for m in self.methods]
-
-
-@dataclass
-class Run:
-    """One repeat of a cell (one rung of a ladder): what it rendered and cost, its errors
-    against the reference (the reference's own floor not subtracted)."""
-    spp: int
-    cost: float
-    mse: float
-    relmse: float
-    image: np.ndarray
-    overhead: float = 0.0        # seconds the clock does not count (tracing, launching)
-    variance: np.ndarray | None = None   # per pixel, of the image (from its passes' spread;
-                                         # None with fewer than two passes)
-
-
-@dataclass
-class Measurements:
-    """Every run of every cell, and the references they were measured against."""
-    declaration: Declaration
-    runs: dict                   # Cell -> [per repeat: [Run per rung (one without a ladder)]]
-    references: dict             # (scene, point) -> (image, metadata with the floors)
-    jobs: dict = field(default_factory=dict)   # Cell -> [per repeat rendered: [jobs]]
-
-    def all_jobs(self) -> list:
-        """Every job the cells were made of (e.g. for :meth:`.study.Study.timed_on`)."""
-        return [j for reps in self.jobs.values() for jobs in reps for j in jobs]
-
-    def reference_of(self, cell: Cell) -> tuple:
-        return self.references[self._reference_key(cell)]
-
-    def _reference_key(self, cell: Cell):
-        sweep = self.declaration.sweep
-        return (cell.scene, None if sweep is None or sweep.shared_reference else cell.point)
-
-    def floor(self, cell: Cell, metric: str = "relmse") -> float:
-        return float(self.reference_of(cell)[1][f"{metric}_floor"])
-
-    def final(self, cell: Cell) -> list[Run]:
-        """The last rung of each repeat (the cell's image)."""
-        return [rungs[-1] for rungs in self.runs[cell]]
-
-    def error(self, cell: Cell, metric: str = "relmse", rung: int = -1) -> stats.Estimate:
-        """The cell's expected error (floor subtracted) with its interval."""
-        values = [getattr(rungs[rung], metric) for rungs in self.runs[cell]]
-        return stats.excess_interval(values, self.floor(cell, metric))
-
-    def efficiency(self, a: Cell, b: Cell, metric: str = "relmse",
-                   rung: int = -1) -> stats.Estimate:
-        """Efficiency 1/(error x cost) of ``a`` over ``b`` with its interval (errors less
-        their floors, costs from the clock, per repeat); exactly 1 for a cell against itself."""
-        if a == b:
-            return stats.Estimate(1.0, 1.0, 1.0, len(self.runs[a]))
-        ea, eb = ([getattr(r[rung], metric) - self.floor(c, metric) for r in self.runs[c]]
-                  for c in (a, b))
-        ca, cb = ([r[rung].cost for r in self.runs[c]] for c in (a, b))
-        return stats.efficiency_ratio(ea, ca, eb, cb)
+    def failure_key(self) -> tuple:
+        return (self.scene.name, self.point, self.method.name)
 
 
 class Engine:
-    """Plans, renders and measures a :class:`Declaration` with a :class:`.study.Study`'s
-    stores and executor."""
+    """Plans, renders and measures a :class:`~.declaration.Declaration` with a
+    :class:`.study.Study`'s stores and executor."""
 
     def __init__(self, study: Study):
         self.study = study
         self._replay: dict | None = None       # {job name: spp} of --replay-counts
 
     # ---------------------------------------------------------------- plan
-    def jobs(self, declaration: Declaration, budget: Budget, spp: dict | None = None) -> dict:
-        """{cell: [per repeat: [jobs]]} of one budget (``spp``: an equal-time budget's count
-        per cell). A deterministic method renders one run, which stands for every repeat."""
-        st, out = self.study, {}
-        for cell, setup, method in declaration.cells(budget):
+    def jobs(self, declaration: Declaration, budget: Budget, spp: dict | None = None,
+             slots: list | None = None) -> dict:
+        """{cell: [per repeat: [jobs]]} of one budget over ``slots`` (default: every cell;
+        ``spp``: an equal-time budget's count per cell). A deterministic method renders one
+        run, which stands for every repeat. A ladder is stretches that accumulate, but for a
+        method that learns: one job per rung, each its own training run."""
+        out = {}
+        for slot in slots if slots is not None else self.slots(declaration):
+            cell, method = slot.cell(budget.name), slot.method
             prefix = declaration.key(declaration, cell)
-            options = self._options(declaration, cell, setup)
-            repeats = 1 if method.deterministic else declaration.repeats
+            options = self._options(declaration, cell, slot.setup)
             count = (budget.ladder[-1] if budget.ladder else
                      spp[cell] if budget.timed else budget.spp)
-            moments = bool(declaration.sample_moments and declaration.sample_moments(method))
+            moments = declaration.moments(method, slot.setup) and not budget.ladder
             runs = []
-            for r in range(repeats):
+            for r in range(1 if method.deterministic else declaration.repeats):
                 passes = declaration.pass_spp(method, count, r) if declaration.pass_spp else 0
-                runs.append(st.ladder(repeat_prefix(prefix, r), method, budget.ladder,
-                                      pass_spp=passes, **options) if budget.ladder else
-                            [st.job(repeat_prefix(prefix, r), method, count,
-                                    pass_spp=passes, sample_moments=moments, **options)])
+                name = repeat_prefix(prefix, r)
+                if budget.ladder and method.learns:
+                    runs.append([self.study.job(f"{name}/spp{t:05d}", method, t,
+                                                pass_spp=passes, **options)
+                                 for t in budget.ladder])
+                elif budget.ladder:
+                    runs.append(self.study.ladder(name, method, budget.ladder,
+                                                  pass_spp=passes, **options))
+                else:
+                    runs.append([self.study.job(name, method, count, pass_spp=passes,
+                                                sample_moments=moments, **options)])
             out[cell] = runs
         return out
+
+    def slots(self, declaration: Declaration, scenes=None) -> list[Slot]:
+        """Every (scene, point, method) of ``declaration`` (of ``scenes``: [(scene,
+        point)]), the declaration's ``lead`` methods first on each scene."""
+        scenes = scenes or [(s, p) for s in declaration.scenes for p in declaration.points()]
+        return [Slot(s, declaration.setup(s, p), p, m)
+                for s, p in scenes for m in declaration.methods_on(s)]
 
     @staticmethod
     def _options(declaration: Declaration, cell: Cell, setup: SceneSetup) -> dict:
@@ -244,59 +130,44 @@ class Engine:
         return dict(info=setup.info, depth=setup.depth, resolution=setup.resolution,
                     timing_group=f"{declaration.name}/{cell.scene}")
 
-    def piloted_spp(self, declaration: Declaration, cell: Cell, budget: Budget,
-                    count: int) -> int:
-        """A learning method's equal-time count (:attr:`.methods.Method.learns`): ``count``
-        (what its equal-spp renders' cost per sample gives) is rendered once as a pilot,
-        kept in the store and in no comparison, and the count comes from the pilot's cost
-        per sample. Equal-spp renders too short to train cost what plain BSDF sampling
-        costs, while a render that trains records, refines and guides: at their cost per
-        sample its equal-time render would take about twice the budget, and the efficiency
-        of a method whose training pays more the longer it runs would be measured with more
-        time than the others had. For the same reason the count is the budget's own, never
-        rounded to a power of two (:attr:`Budget.power_of_two`, which could give it from
-        0.71 to 1.41 times the budget: a learning method's efficiency would then follow the
-        rounding, and two runs whose pilots cost a few percent apart could measure it at
-        counts a factor of two apart). The pilot renders once (:attr:`.jobs.Job.pilot`),
-        not again warm: the view its equal-spp renders warmed did not train, so its
-        kernels compile in it."""
-        setup, method = next((s, m) for c, s, m in declaration.cells(budget) if c == cell)
-        moments = bool(declaration.sample_moments and declaration.sample_moments(method))
-        job = self.study.job(f"{declaration.key(declaration, cell)}/pilot", method, count,
-                             sample_moments=moments, pilot=True,
-                             **self._options(declaration, cell, setup))
+    # ---------------------------------------------------------------- counts
+    def count(self, declaration: Declaration, budget: Budget, slot: Slot, planned: Planned
+              ) -> int:
+        """The equal-time count of ``slot`` at ``budget``: an earlier run's
+        (``--replay-counts``), else the budget's seconds times the scene's factor at the
+        cost per sample its ``after`` budget measured (:func:`.counts.equal_time_spp`), and
+        for a method that learns the count of a pilot render at that count."""
+        cell = slot.cell(budget.name)
+        replayed = self.replayed(declaration, cell)
+        if replayed is not None:
+            return replayed
+        factor = planned.scales.get((slot.scene.name, slot.point, budget.name),
+                                    (slot.scene.time_scale, ""))[0]
+        seconds = budget.seconds * factor
+        measured = [self.study.results(jobs) for jobs in planned.runs(slot.cell(budget.after))]
+        spp = counts.equal_time_spp(seconds, measured, budget.power_of_two, budget.max_spp)
+        if slot.method.learns:
+            spp = self.pilot(declaration, budget, slot, spp, seconds)
+        return spp
+
+    def pilot(self, declaration: Declaration, budget: Budget, slot: Slot, spp: int,
+              seconds: float) -> int:
+        """A learning method's equal-time count (:attr:`.methods.Method.learns`): ``spp``
+        (what its earlier renders' cost per sample gives) is rendered once as a pilot, kept
+        in the store and in no comparison, and the count is the one that costs ``seconds``
+        at the pilot's cost per sample, exact (:mod:`.counts`). Renders too short to train
+        cost what plain BSDF sampling costs, while a render that trains records, refines
+        and guides: at their cost per sample its equal-time render would take about twice
+        the budget. The pilot renders once (:attr:`.jobs.Job.pilot`), not again warm: the
+        view its short renders warmed did not train, so its kernels compile in it."""
+        cell = slot.cell(budget.name)
+        job = self.study.job(f"{declaration.key(declaration, cell)}/pilot", slot.method, spp,
+                             pilot=True,
+                             sample_moments=declaration.moments(slot.method, slot.setup),
+                             **self._options(declaration, cell, slot.setup))
         self.study.run([job], f"{declaration.name}: pilot")
-        return self.equal_time_spp(budget, [self.study.results([job])], exact=True)
-
-    def reference_jobs(self, declaration: Declaration) -> dict:
-        """{(scene, point): the chunks of its reference} in the shared reference store."""
-        out = {}
-        for scene in declaration.scenes:
-            for point in declaration.points():
-                shared = declaration.sweep is None or declaration.sweep.shared_reference
-                key = (scene.name, None if shared else point)
-                if key in out:
-                    continue
-                setup = scene if shared else declaration.setup(scene, point)
-                out[key] = self.study.reference_jobs(
-                    setup.info, setup.depth, setup.resolution, declaration.reference_spp,
-                    declaration.reference_method, declaration.reference_typical_spp)
-        return out
-
-    def equal_time_spp(self, budget: Budget, measured: list, exact: bool = False) -> int:
-        """Samples per pixel that cost ``budget.seconds`` at the cost per sample of the
-        ``measured`` renders (each repeat's, averaged), their fixed cost per job
-        (:func:`.clock.fixed`: a learning method's host work between passes, which a short
-        render would otherwise spread over its few samples) taken off the budget first;
-        rounded to a power of two where the budget says so, unless ``exact``."""
-        fixed = np.mean([sum(clock.fixed(r) for r in rs) / len(rs) for rs in measured])
-        per_sample = np.mean([(clock.total(rs) - sum(clock.fixed(r) for r in rs)) /
-                              sum(r.spp for r in rs) for rs in measured])
-        spp = (budget.seconds - float(fixed)) / max(float(per_sample), 1e-12)
-        if budget.power_of_two and not exact:
-            spp = 2 ** max(0, round(math.log2(max(spp, 1.0))))
-        spp = max(1, int(spp))
-        return min(spp, budget.max_spp) if budget.max_spp else spp
+        return counts.equal_time_spp(seconds, [self.study.results([job])], False,
+                                     budget.max_spp)
 
     def replayed(self, declaration: Declaration, cell: Cell) -> int | None:
         """The count an earlier run (``--replay-counts``) gave ``cell``'s first repeat, or
@@ -313,6 +184,10 @@ class Engine:
         return self._replay[name]
 
     # ---------------------------------------------------------------- run
+    def reference_jobs(self, declaration: Declaration) -> dict:
+        """{(scene, point): the chunks of its reference} in the shared reference store."""
+        return engine_references.jobs(self.study, declaration)
+
     def references(self, declaration: Declaration) -> dict:
         """{(scene, point): (reference image, its metadata with the floors)}, rendered where
         the reference store lacks them."""
@@ -323,39 +198,110 @@ class Engine:
 
     def run(self, declaration: Declaration, references: dict | None = None) -> Measurements:
         """Plan, render (resuming) and measure every cell of ``declaration``, against
-        ``references`` ({(scene, point): (image, metadata)}; default :meth:`references`)."""
-        st = self.study
-        refs = self.references(declaration) if references is None else references
-        planned = {}
-        for budget in declaration.budgets:
-            spp = None
-            if budget.timed:
-                spp = {}
-                for cell, reps in planned[budget.after].items():
-                    cell = replace(cell, budget=budget.name)
-                    spp[cell] = self.replayed(declaration, cell) or self.equal_time_spp(
-                        budget, [st.results(jobs) for jobs in reps])
-            planned[budget.name] = self.jobs(declaration, budget, spp)
-            st.run([j for reps in planned[budget.name].values() for jobs in reps
-                    for j in jobs], f"{declaration.name}: {budget.name}")
+        ``references`` ({(scene, point): (image, metadata)} the study brings; the others
+        from the shared reference store)."""
+        planned, refs = Planned(), {}
+        scenes = [(s, p) for s in declaration.scenes for p in declaration.points()]
+        units = [scenes] if self.study.executor is not None else [[x] for x in scenes]
+        for unit in units:
+            chunks = engine_references.render(self.study, declaration, unit, references or {},
+                                              planned.scene_errors, refs)
+            slots = [s for s in self.slots(declaration, unit)
+                     if declaration.reference_key(s.scene.name, s.point) in refs]
+            groups = [slots[i:i + VIEW_CACHE] for i in range(0, len(slots), VIEW_CACHE)]
+            for batch in [groups] if self.study.executor is not None else [[g] for g in groups]:
+                for stage in self.stages(declaration):
+                    self._render_stage(declaration, stage, batch, planned, refs, chunks)
+            if declaration.reference_floor is not None:
+                engine_references.extend(self.study, declaration, chunks, refs,
+                                         self.measure(declaration, planned, refs, set(chunks)))
         return self.measure(declaration, planned, refs)
 
-    def measure(self, declaration: Declaration, planned: dict, refs: dict) -> Measurements:
-        """The :class:`Measurements` of rendered ``planned`` jobs against ``refs``."""
-        out = Measurements(declaration, {}, refs)
-        for cells in planned.values():
+    @staticmethod
+    def stages(declaration: Declaration) -> list[list[Budget]]:
+        """The budgets in the order they render: those whose counts are known up front
+        together, an equal-time budget (which needs the costs before it) alone."""
+        out = []
+        for budget in declaration.budgets:
+            if budget.timed or not out or out[-1][-1].timed:
+                out.append([budget])
+            else:
+                out[-1].append(budget)
+        return out
+
+    def _render_stage(self, declaration, stage, groups, planned, refs, chunks) -> None:
+        """Plan and render the budgets of ``stage`` over ``groups`` of slots: each group's
+        renders interleaved (per repeat, per budget, every method), in one executor call;
+        where that fails and failures are isolated, cell by cell."""
+        order = []
+        for group in groups:
+            live = [s for s in group if s.failure_key not in planned.failed]
+            for budget in stage:
+                if budget.timed:
+                    self._decide_scales(declaration, budget, live, planned, refs, chunks)
+                counted = {}
+                for slot in list(live):
+                    try:
+                        counted[slot.cell(budget.name)] = (self.count(
+                            declaration, budget, slot, planned) if budget.timed else None)
+                    except Exception as e:  # noqa: BLE001
+                        if not declaration.isolate_failures or isinstance(e, ReplayError):
+                            raise
+                        planned.failed[slot.failure_key] = one_line(e)
+                        live.remove(slot)
+                planned.add(budget.name, self.jobs(declaration, budget, counted, live))
+            order += [(slot, reps[r]) for r in range(declaration.repeats) for budget in stage
+                      for slot in live
+                      for reps in [planned.runs(slot.cell(budget.name))] if r < len(reps)]
+        label = f"{declaration.name}: {', '.join(b.name for b in stage)}"
+        try:
+            self.study.run([j for _, jobs in order for j in jobs], label)
+            return
+        except Exception:  # noqa: BLE001  (cell by cell below, or the run ends)
+            if not declaration.isolate_failures:
+                raise
+        for slot in dict.fromkeys(s for s, _ in order):
+            try:
+                self.study.run([j for s, jobs in order if s == slot for j in jobs],
+                               f"{label} ({slot.scene.name}, {slot.method.name})")
+            except Exception as e:  # noqa: BLE001  (recorded, the others go on)
+                planned.failed[slot.failure_key] = one_line(e)
+
+    def _decide_scales(self, declaration, budget, slots, planned, refs, chunks) -> None:
+        """The factor of ``budget`` on each scene of ``slots`` not decided yet: its policy's
+        (``budget.scale``), else the scene's own."""
+        for slot in slots:
+            key = (slot.scene.name, slot.point, budget.name)
+            if key in planned.scales:
+                continue
+            if budget.scale is None:
+                planned.scales[key] = (slot.scene.time_scale, "")
+                continue
+            ref_key = declaration.reference_key(slot.scene.name, slot.point)
+            first = (self.study.reference(chunks[ref_key][:1])[0] if ref_key in chunks
+                     else refs[ref_key][0])
+            planned.scales[key] = budget.scale(self, declaration, slot.scene, planned, first)
+
+    # ---------------------------------------------------------------- measure
+    def measure(self, declaration: Declaration, planned: Planned | dict, refs: dict,
+                keys: set | None = None) -> Measurements:
+        """The :class:`~.measurements.Measurements` of rendered ``planned`` jobs (a
+        :class:`Planned`, or its ``jobs`` dict) against ``refs`` (of the reference ``keys``
+        only, where given)."""
+        planned = planned if isinstance(planned, Planned) else Planned(dict(planned))
+        out = Measurements(declaration, {}, refs, failed=dict(planned.failed),
+                           scales=dict(planned.scales),
+                           scene_errors=dict(planned.scene_errors))
+        budgets = {b.name: b for b in declaration.budgets}
+        for name, cells in planned.jobs.items():
             for cell, reps in cells.items():
+                if (cell.scene, cell.point, cell.method) in planned.failed or \
+                        (keys is not None and out.reference_key(cell) not in keys):
+                    continue
                 ref = out.reference_of(cell)[0]
-                runs = [self._rungs(jobs, ref) for jobs in reps]
+                independent = bool(budgets[name].ladder) and \
+                    declaration.method(cell.method).learns
+                runs = [rungs(self.study.results(jobs), ref, independent) for jobs in reps]
                 out.runs[cell] = runs * (declaration.repeats if len(runs) == 1 else 1)
                 out.jobs[cell] = reps
         return out
-
-    def _rungs(self, jobs: list, ref: np.ndarray) -> list[Run]:
-        """A run's :class:`Run` per rung: the images accumulated over its jobs."""
-        results = self.study.results(jobs)
-        overheads = np.cumsum([clock.overhead(r) for r in results])
-        return [Run(acc.spp, acc.cost, metrics.mse(acc.mean, ref), metrics.relmse(acc.mean, ref),
-                    acc.mean, float(overhead),
-                    acc.variance_of_mean() if acc.passes > 1 else None)
-                for acc, overhead in zip(accumulate(results), overheads)]

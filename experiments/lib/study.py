@@ -157,11 +157,16 @@ class Study:
         """The cumulative image after each of ``jobs`` (a ladder, in order)."""
         return accumulate_results(self.results(jobs))
 
-    def reference(self, jobs: list[Job]) -> tuple[np.ndarray, dict]:
+    def reference(self, jobs: list[Job], every_cached: bool = False) -> tuple[np.ndarray, dict]:
         """The reference image of ``jobs`` (:meth:`reference_jobs`) and its metadata (render
         seconds, passes, and the expected error of the reference itself, the floor under
-        every measured error: ``mse_floor``, ``relmse_floor``, ``relmse_floor_map``)."""
-        ref = self.references.read_jobs(jobs)
+        every measured error: ``mse_floor``, ``relmse_floor``, ``relmse_floor_map``);
+        ``every_cached``: of every chunk the store holds of that reference (an earlier run
+        may have extended it), at least ``jobs``."""
+        if every_cached:
+            ref = self.references.read(self._reference_of[jobs[0].key], None)
+        else:
+            ref = self.references.read_jobs(jobs)
         return ref.image, ref.meta()
 
     def timed_on(self, jobs: list[Job]) -> str:

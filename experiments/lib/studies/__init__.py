@@ -25,7 +25,7 @@ from ..scenes import Needs, SceneInfo, unmet
 
 #: The built-in studies' modules in this package (each registers itself when imported,
 #: under its own name: ``sampler_comparison`` registers the study ``samplers``).
-BUILTIN = ("sampler_comparison", "convergence", "writeup", "lab", "stability", "suite")
+BUILTIN = ("sampler_comparison", "convergence", "writeup", "lab", "stability", "suite.study")
 #: ``run_all``'s choices for every study.
 MODES = ("default", "quick", "off")
 

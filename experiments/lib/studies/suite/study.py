@@ -20,9 +20,10 @@ rounded (its efficiency grows with its count: rounded, it would follow the round
 Time per sample: the execution time of each render's kernels (Dr.Jit's kernel history:
 the sample work, without tracing the integrator or launching kernels, a fixed cost per
 render call that can swamp the samples of a small render), over its samples, per repeat
-summed over both budgets' renders. A scene's cells run in groups of at most the scenes a
-process keeps loaded (the baseline and vr_path bsdf+nee lead the first), their timed
-renders taking turns. Errors against the reference (from
+summed over both budgets' renders. The suite is one declaration (:mod:`.declare`) over the
+experiment engine, which decides every count and renders: a scene's cells in groups of at
+most the methods a process keeps warm (the baseline and vr_path bsdf+nee lead the first),
+their renders taking turns. Errors against the reference (from
 :mod:`experiments.lib.references`: rendered once per scene, cached, extended when too noisy)
 with its own expected error subtracted; efficiency over ``--baseline`` (Mitsuba's ``path``:
 what a user would run instead) from relMSE and time per sample.
@@ -32,28 +33,20 @@ what a user would run instead) from relMSE and time per sample.
 from __future__ import annotations
 
 import os
-import time
 
 import numpy as np
 
 import scenes as bundled
-from experiments.lib import cli
+from experiments.lib import cli, clock, references, samplers, scenes
 from experiments.lib.engine import Engine
-from experiments.lib.execute import VIEW_CACHE
-from experiments.lib import references
-from experiments.lib import samplers
-from experiments.lib import scenes
 from experiments.lib.methods import parse_method, strategies
-from integrators.strategies import integrator_type
 from experiments.lib.studies import StudySpec, register_study
 from experiments.lib.studies import sampler_comparison_efficiency as sampler_efficiency
-from experiments.lib.studies import suite_analysis
-from experiments.lib.studies import suite_bias
-from experiments.lib.studies import suite_plan
-from experiments.lib.studies import suite_report
+from experiments.lib.studies.suite import analysis, bias_test, declare, measure, report
 from experiments.lib.study import Study
+from integrators.strategies import integrator_type
 
-NAME, ORDER, TITLE = suite_plan.NAME, suite_plan.ORDER, suite_plan.TITLE
+NAME, ORDER, TITLE = declare.NAME, declare.ORDER, declare.TITLE
 #: Long side of the film when --resolution is not given (the scene's film scaled down to it).
 MAX_SIZE = 48
 #: The reference's automatic extension stops at this many times --reference-spp.
@@ -257,10 +250,10 @@ def parse(argv=None):
     return args
 
 
-def settings(args) -> suite_plan.Settings:
+def settings(args) -> declare.Settings:
     """The typed settings of a parsed command line (:func:`parse`)."""
     ref_spp = args.reference_spp
-    return suite_plan.Settings(
+    return declare.Settings(
         out=args.out, variant=args.variant, seed=args.seed, repeats=args.repeats,
         executor=args.executor, info=args.info, depth=args.depth,
         scenes=tuple(args.scene_files), methods=tuple(args.method_objs),
@@ -279,126 +272,42 @@ def settings(args) -> suite_plan.Settings:
 
 # ------------------------------------------------------------------ the study
 
-class Clock:
-    """Wall and CPU seconds spent in named parts of the run."""
-
-    def __init__(self):
-        self.parts: dict[str, list[float]] = {}
-
-    def add(self, part: str, wall: float, cpu: float) -> None:
-        w, c = self.parts.get(part, [0.0, 0.0])
-        self.parts[part] = [w + wall, c + cpu]
-
-    def time(self, part: str, fn, *a, **k):
-        wall, cpu = time.perf_counter(), time.process_time()
-        try:
-            return fn(*a, **k)
-        finally:
-            self.add(part, time.perf_counter() - wall, time.process_time() - cpu)
-
-
-def comparable(cfg: suite_plan.Settings, sp) -> str:
-    """Why a rendered scene cannot be compared ('' when it can)."""
-    if sp.error:
-        return sp.error
-    ok = [m for m in sp.methods if m not in sp.failed]
-    if cfg.baseline.name not in ok:
-        why = sp.failed.get(cfg.baseline.name, "not run")
-        return f"the baseline {cfg.baseline} failed: {why}"
-    if len(ok) < 2:
-        return "only the baseline rendered: " + "; ".join(
-            [f"{m}: {e}" for m, e in sp.failed.items()] +
-            [f"its header leaves out {', '.join(sp.left_out)}"] * bool(sp.left_out))
-    return ""
-
-
-def adequate(cfg: suite_plan.Settings, engine: Engine, refs: references.ReferenceStore, unit,
-             clock: Clock) -> None:
-    """A first measurement of each scene of ``unit``; a reference too noisy for the
-    comparison is extended (once, to what its floor's 1/spp law says is needed, up to the
-    cap). A scene that cannot be compared gets its reason as its error."""
-    spp, grow = {}, []
-    for sp in unit:
-        why = comparable(cfg, sp)
-        if why:
-            sp.error = why
-            continue
-        if sp.ref is None:                      # the user's EXR: nothing to extend
-            continue
-        ref = suite_plan.reference_of(refs, sp, None)    # every chunk cached
-        measured = suite_plan.measure_scene(
-            cfg, engine.study, sp, suite_plan.measurements(engine, sp, ref), ref, flip=False)
-        spp[sp.name] = suite_plan.needed_spp(measured, ref.spp, cfg.reference_max_spp)
-        if spp[sp.name] > ref.spp:
-            grow.append(sp)
-    if grow:
-        clock.time("references", suite_plan.render_references, refs, cfg, grow, spp)
-
-
-def render(cfg: suite_plan.Settings, engine: Engine, refs: references.ReferenceStore, plans,
-           clock: Clock) -> None:
-    """Per scene: its reference, the equal-spp budget of every cell, the equal-time factor
-    its baseline's precision needs (:func:`precision`), then the equal-time budget of every
-    cell (planned by the engine from the scene's declaration), then its reference's extension
-    where it is too noisy. A scene's cells go in groups of at most the scenes a process
-    keeps loaded (a scene loaded again compiles again), the baseline and the timed pair
-    leading the first group, their timed renders interleaved. Locally scene by scene and
-    group by group (each stays loaded from one step to the next); on a cluster every
-    scene's step at once (they fan out)."""
-    live = [sp for sp in plans if not sp.error]
-    units = [live] if cfg.executor is not None else [[sp] for sp in live]
-    first = (cfg.baseline.name,) + suite_analysis.TIMED_PAIR
-    for unit in units:
-        clock.time("references", suite_plan.render_references, refs, cfg, unit,
-                   {sp.name: cfg.reference_spp for sp in unit})
-        unit = [sp for sp in unit if not sp.error]
-        groups = [g for sp in unit for g in suite_plan.timing_groups(sp, first, VIEW_CACHE)]
-        for batch in ([groups] if cfg.executor is not None else [[g] for g in groups]):
-            clock.time("renders", suite_plan.run_budget, engine, batch, suite_plan.SPP,
-                       f"{NAME}: equal spp")
-            clock.time("precision rule", precision, cfg, engine, refs, unit)
-            clock.time("renders", suite_plan.run_budget, engine, batch, suite_plan.TIME,
-                       f"{NAME}: equal time")
-        adequate(cfg, engine, refs, unit, clock)
-
-
-def precision(cfg: suite_plan.Settings, engine: Engine, refs: references.ReferenceStore,
-              plans) -> None:
-    """Each scene's equal-time factor from its baseline's equal-spp renders, once
-    (:func:`.suite_plan.precision_scale`; the first group of a scene holds the baseline)."""
-    for sp in plans:
-        if sp.precision is None and not sp.precision_note and not sp.error:
-            sp.precision, sp.precision_note = suite_plan.precision_scale(
-                cfg, engine, sp, suite_plan.first_chunk(refs, sp))
-
-
-def run_suite(cfg: suite_plan.Settings) -> dict:
-    """Plan, render, measure, analyse and report the suite; returns summary.json's data."""
-    start = time.perf_counter()
-    clock = Clock()
+def run_suite(cfg: declare.Settings) -> dict:
+    """Declare, render (the engine), measure, analyse and report the suite; returns
+    summary.json's data."""
+    timer = clock.Timer()
     engine = Engine(Study(cfg))
     refs = references.ReferenceStore(cfg.reference_root)
-    plans = suite_plan.plan_scenes(cfg)
-    render(cfg, engine, refs, plans, clock)
-    guides = clock.time("guide figures", suite_report.guide_blocks, cfg, plans)
-    wall, cpu = time.perf_counter(), time.process_time()
-    numbers, results, viewers, ref_images, measured = {}, {}, {}, {}, {}
-    failed = {sp.name: sp.error for sp in plans if sp.error}
-    alpha = suite_bias.cell_level(len(suite_plan.live_cells([sp for sp in plans
-                                                              if not sp.error])))
-    for sp in plans:          # the final numbers with FLIP, each scene's viewer at once
-        if sp.error:          # (its FLIPs are still in metrics' cache)
-            continue
-        ref_images[sp.name] = ref = suite_plan.reference_of(refs, sp, None)
-        measured[sp.name] = suite_plan.measurements(engine, sp, ref)
-        numbers[sp.name] = suite_plan.measure_scene(
-            cfg, engine.study, sp, measured[sp.name], ref, True,
-            suite_bias.reference_chunks(refs, sp.ref), alpha)
-        results[sp.name] = suite_analysis.analyse_scene(numbers[sp.name])
-        viewers[sp.name] = suite_report.viewer_block(cfg, sp, measured[sp.name],
-                                                     results[sp.name], ref)
-    return suite_report.write(cfg, engine.study, plans, numbers, ref_images, results, viewers,
-                              measured, failed, clock, (wall, cpu), start, guides)
+    plans = declare.plan_scenes(cfg)
+    live = [sp for sp in plans if not sp.error]
+    measured = None
+    if live:
+        own = {(sp.name, None): (lambda r: (r.image, r.meta()))(declare.reference_of(refs, sp))
+               for sp in live if sp.user_ref is not None}
+        measured = timer.time("renders", engine.run, declare.declaration(cfg, live), own)
+        for sp in live:
+            sp.error = (measured.scene_errors.get((sp.name, None)) or
+                        measure.comparable(cfg, sp, measured.failed_on(sp.name)))
+    guides = timer.time("guide figures", report.guide_blocks, cfg, plans, measured)
+    compared = [sp for sp in plans if not sp.error]
+    cells = sum(1 for sp in compared for m in cfg.methods
+                if m.name not in sp.left_out and m.name not in measured.failed_on(sp.name))
+    with timer.part("analysis"):
+        outcomes = [outcome(cfg, sp, measured, refs, bias_test.cell_level(cells))
+                    for sp in compared]
+    return report.write(cfg, engine.study, plans, outcomes, measured, timer, guides)
+
+
+def outcome(cfg: declare.Settings, sp: declare.ScenePlan, measured, refs,
+            alpha: float) -> report.SceneOutcome:
+    """One scene's numbers (FLIP and its bias test at level ``alpha`` included), analysis
+    and viewer."""
+    ref = declare.reference_of(refs, sp)
+    numbers = measure.measure_scene(cfg, sp, measured, ref, True,
+                                    bias_test.reference_chunks(refs, sp.ref), alpha)
+    result = analysis.analyse_scene(numbers)
+    return report.SceneOutcome(sp, numbers, result, ref,
+                               report.viewer_block(cfg, sp, measured, result, ref))
 
 
 def run(args) -> None:

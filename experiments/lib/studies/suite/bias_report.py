@@ -1,11 +1,11 @@
-"""The words and the table of the suite's bias test (:mod:`.suite_bias`): the findings
+"""The words and the table of the suite's bias test (:mod:`.bias_test`): the findings
 box's sentence, each scene's power sentence, the per-cell table."""
 from __future__ import annotations
 
 import math
 
-from .. import prose
-from . import suite_analysis, suite_bias
+from ... import prose
+from . import analysis, bias_test
 
 
 def names(methods, limit: int = 4) -> str:
@@ -42,7 +42,7 @@ def pct2(x: float) -> str:
     return f"{x:.2%}" if math.isfinite(x) else "no bias up to 100%"
 
 
-def bias_words(r: suite_analysis.SceneResult) -> str:
+def bias_words(r: analysis.SceneResult) -> str:
     """The scene's bias-test sentence ('' where nothing was tested)."""
     if r.power is None:
         return ""
@@ -52,7 +52,7 @@ def bias_words(r: suite_analysis.SceneResult) -> str:
                      indicative=power_indicative(r))
 
 
-def power_indicative(r: suite_analysis.SceneResult) -> bool:
+def power_indicative(r: analysis.SceneResult) -> bool:
     """Whether the scene's power comes from a cell untestable for heavy tails (its variance
     estimates fall short: the stated power is optimistic)."""
     cell = r.cells.get(r.power_method)
@@ -73,7 +73,7 @@ def bias_finding(results: list) -> str:
     powers = [f"{r.name} {pct2(r.power)}" + (" (indicative only: heavy tails)"
                                              if power_indicative(r) else "")
               for r in results if r.power is not None]
-    return prose.say(BIAS_FINDING, block=tested[0][2].block, level=suite_bias.LEVEL,
+    return prose.say(BIAS_FINDING, block=tested[0][2].block, level=bias_test.LEVEL,
                      flagged=flagged, untestable=names(untestable, 6) if untestable else "",
                      powers=powers)
 

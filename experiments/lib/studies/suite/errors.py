@@ -2,7 +2,7 @@
 renders' samples, and efficiency intervals from them and from paired costs.
 
 Where a cell's pixels are independent estimates (the ``independent`` sampler under a box
-filter: :func:`.suite_bias.variance_kind` is ``pixels``) each render keeps its samples'
+filter: :func:`.bias_test.variance_kind` is ``pixels``) each render keeps its samples'
 per-pixel second moments (the job's ``sample_moments``: ``vr_moments``,
 :mod:`integrators.moments`), which give the per-pixel variance of its mean image
 (:meth:`.jobs.Accumulator.variance_of_mean`, every sample a pass: spp - 1 degrees of freedom
@@ -11,7 +11,7 @@ spread of those instead). The expected relMSE of an unbiased render is then
 
     E = mean over pixels of  v_p,   v_p = mean over channels of  var_p / (ref_p^2 + eps)
 
-(the variance part of the relMSE; the bias is tested apart, :mod:`.suite_bias`), with no
+(the variance part of the relMSE; the bias is tested apart, :mod:`.bias_test`), with no
 floor to subtract (the reference's noise enters only through the denominators). Pooled over
 the R repeats, its standard error comes from each pixel's variance of v_p across the
 repeats, summed over the pixels: thousands of independent terms with R - 1 degrees of
@@ -22,7 +22,7 @@ than a pixel, caustic fireflies) their rare samples rule its spread: the interva
 there, as it must be.
 
 The cost side of an efficiency pairs the two methods' renders (same repeat, same budget: a
-timing group renders them one after the other, :func:`.suite_plan.interleaved`), so that the
+timing group renders them one after the other, :meth:`...engine.Engine.run`), so that the
 machine's load, shared by both, cancels in their ratio: the ratio of the mean seconds (as the
 tables give them) with the variance of its log from each budget's R paired renders'
 relative deviations of their costs per sample, weighted by the budget's share of the
@@ -30,7 +30,7 @@ seconds (delta method; :func:`cost_terms`: winsorized at 5 robust standard devia
 :func:`.stats.winsorize`, since a lone render slowed 2x by the machine, seen in about 1% of
 renders, would otherwise rule the interval), Student's t on R - 1 degrees of freedom per
 budget. Cells of QMC samplers or other filters keep the repeat-based relMSE
-(:mod:`.suite_analysis`).
+(:mod:`.analysis`).
 """
 from __future__ import annotations
 
@@ -38,7 +38,7 @@ import math
 
 import numpy as np
 
-from .. import metrics, stats
+from ... import metrics, stats
 
 
 def pixel_map(variance: np.ndarray | None, ref: np.ndarray) -> np.ndarray | None:
@@ -95,7 +95,7 @@ def error_ratio(a, b, level: float = stats.LEVEL) -> stats.Estimate | None:
 
 
 def efficiency(a, b, level: float = stats.LEVEL) -> stats.Estimate | None:
-    """Efficiency 1/(relMSE x seconds) of runs ``a`` over ``b`` (:class:`.suite_analysis.Runs`
+    """Efficiency 1/(relMSE x seconds) of runs ``a`` over ``b`` (:class:`.analysis.Runs`
     with pixel terms and cost readings, paired render by render) with its interval: the
     error ratio's terms and the paired costs' (:func:`cost_terms`); None where either lacks
     them (the repeat-based interval is used there)."""

@@ -16,7 +16,7 @@ fewer than 2 renders per half (4 in all), renders of unequal sample counts withi
 or heavy tails (:func:`.bias.tail_share` above :data:`TAILS_SHARE`: one pixel of one render
 rules the variance estimate of many blocks, the test's size is void).
 
-The result is data (:class:`CellBias`); the words are the report's (:mod:`.suite_report`).
+The result is data (:class:`CellBias`); the words are the report's (:mod:`.report`).
 """
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import bias, samplers, scenes
+from ... import bias, samplers, scenes
 
 #: Family-wise level of one run's bias tests (every cell of every scene).
 LEVEL = 0.99

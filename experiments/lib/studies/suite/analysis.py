@@ -9,11 +9,11 @@ exact value). Output per scene (:class:`SceneResult`): every estimate with its i
 the efficiency over the baseline at both budgets (:class:`Ratio`: an interval, or a bound
 where an error is below the reference's noise), the winner or the methods that cannot be
 told apart, the hypothesis' verdict, vr_path's time per sample over path's and the bias
-check, all as data: the words are the report's (:mod:`.suite_report`).
+check, all as data: the words are the report's (:mod:`.report`).
 
 Where both cells' pixels are independent estimates (independent sampler, box filter) their
 relMSE is the expected one from the pixels' pass variances and their efficiency's interval
-pairs their renders' costs (:mod:`.suite_errors`); elsewhere both come from the repeats.
+pairs their renders' costs (:mod:`.errors`); elsewhere both come from the repeats.
 Verdicts use relMSE at equal time; a method wins only where the interval of its
 efficiency over every other method excludes 1.
 """
@@ -25,9 +25,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import stats
-from ..methods import parse_method
-from . import suite_errors
+from ... import stats
+from ...methods import parse_method
+from . import errors
 
 g = stats.g
 #: The budgets every cell is measured at; the first is the one verdicts use.
@@ -62,7 +62,7 @@ class Runs:
     means: tuple = ()
     mean_vars: tuple = ()
     expected: tuple = ()      # (expected relMSE from the pixels' pass variances, the
-    #                           variance of that estimate): suite_errors; () without passes
+    #                           variance of that estimate): errors; () without passes
     costs: tuple = ()         # per budget (equal spp, equal time): (its spp, each repeat's
     #                           cost per sample)
 
@@ -74,7 +74,7 @@ class Cell:
     ns_per_sample: tuple      # per repeat
     overhead: float = 0.0     # fitted seconds per render call
     deterministic: bool = False
-    block_bias: object = None     # the bias test against the reference (suite_bias.CellBias)
+    block_bias: object = None     # the bias test against the reference (bias_test.CellBias)
 
 
 @dataclass(frozen=True)
@@ -158,8 +158,8 @@ def efficiency(a: Runs, b: Runs, floor: float, metric: str = "relmse") -> Ratio:
     """Efficiency 1/(error x time) of ``a`` over ``b`` (errors over the reference's own
     expected error ``floor``). Where one error is below the reference's noise, its upper
     bound gives a bound on the ratio; where both are, it is unknown. Where both have the
-    pixels' pass variances (relMSE only): :func:`.suite_errors.efficiency`."""
-    precise = suite_errors.efficiency(a, b) if metric == "relmse" else None
+    pixels' pass variances (relMSE only): :func:`.errors.efficiency`."""
+    precise = errors.efficiency(a, b) if metric == "relmse" else None
     if precise is not None:
         return Ratio(precise)
     ea, eb = (getattr(r, metric) for r in (a, b))
@@ -293,7 +293,7 @@ class CellResult:
     spp: dict                 # {budget: spp rendered}
     bias: Bias | None = None
     overhead: float = 0.0     # seconds per render call besides the samples
-    block_bias: object = None     # suite_bias.CellBias, or None where not tested
+    block_bias: object = None     # bias_test.CellBias, or None where not tested
 
     @property
     def biased(self) -> bool:
@@ -335,7 +335,7 @@ def _errors(runs: Runs, floor: Floor) -> dict:
     out = {k: stats.excess_interval(getattr(runs, k), getattr(floor, k))
            for k in ("relmse", "relmse_rejected", "mse")}
     if runs.expected:         # the pixels' variances: no floor, thousands of terms
-        out["relmse"] = suite_errors.estimate(*runs.expected, len(runs.relmse))
+        out["relmse"] = errors.estimate(*runs.expected, len(runs.relmse))
     out["flip"] = (stats.mean_interval(runs.flip) if runs.flip and min(runs.flip) > 0
                    else stats.Estimate(math.nan, math.nan, math.nan, len(runs.flip)))
     return out

@@ -1,0 +1,60 @@
+"""The engine's counting rules, as pure functions: how many samples a render takes.
+
+* :func:`equal_time_spp`: the count that costs an equal-time budget's seconds at the cost
+  per sample measured (the method's fixed cost per job taken off first);
+* :func:`reference_spp`: the samples that bring a reference's own error (its floor) under
+  the share of the smallest error measured against it that a comparison needs.
+
+A learning method's equal-time count comes from a pilot render (:meth:`.engine.Engine.pilot`)
+and is exact: never rounded to a power of two. Its efficiency grows with its count, so a
+rounding that gave it 0.71 to 1.41 times the budget would move its verdict with the
+rounding, and two runs whose pilots cost a few percent apart could measure it at counts a
+factor of two apart.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import clock
+
+
+def equal_time_spp(seconds: float, measured: list, power_of_two: bool = False,
+                   max_spp: int = 0) -> int:
+    """Samples per pixel that cost ``seconds`` at the cost per sample of the ``measured``
+    renders (a list per repeat of results; the repeats' costs averaged), their fixed cost
+    per job (:func:`.clock.fixed`: a learning method's host work between passes, which a
+    short render would otherwise spread over its few samples) taken off first; rounded to
+    the nearest power of two where ``power_of_two``; at most ``max_spp`` (0: no cap)."""
+    fixed = np.mean([sum(clock.fixed(r) for r in rs) / len(rs) for rs in measured])
+    per_sample = np.mean([(clock.total(rs) - sum(clock.fixed(r) for r in rs)) /
+                          sum(r.spp for r in rs) for rs in measured])
+    spp = (seconds - float(fixed)) / max(float(per_sample), 1e-12)
+    if power_of_two:
+        spp = 2 ** max(0, round(math.log2(max(spp, 1.0))))
+    spp = max(1, int(spp))
+    return min(spp, max_spp) if max_spp else spp
+
+
+def floor_share(floor: float, errors) -> float:
+    """A reference's own expected relMSE ``floor`` over the smallest positive error of
+    ``errors`` (0 without one)."""
+    smallest = min((x for x in errors if x > 0), default=math.inf)
+    return floor / smallest if math.isfinite(smallest) else 0.0
+
+
+def reference_spp(share: float, wanted: float, spp: int, cap: int) -> int:
+    """Reference spp for a reference whose floor is ``share`` of the smallest error measured
+    against it, to bring that share to ``wanted / 2`` (so that the spread of the next
+    measurement keeps it under ``wanted``), at most ``cap`` (a power of two times ``spp``);
+    ``spp`` where the share is ``wanted`` or under. The measured error is the method's plus
+    the floor f, and f falls as 1/spp: a share s = f / (e + f) becomes F after
+    k = s (1 - F) / ((1 - s) F) times the samples."""
+    target = wanted / 2
+    if share <= wanted:
+        return spp
+    if share >= 1:
+        return cap
+    k = share * (1 - target) / ((1 - share) * target)
+    return int(min(cap, spp * 2 ** math.ceil(math.log2(k))))
