@@ -17,9 +17,10 @@
 * hand-written prose states no measured ratio; the output files the tables name are written
   by the code; a section marked pending names a file that does not exist yet.
 
-The checks are :mod:`tools.docs_check` (on page texts) and :mod:`tools.docs` (the
-generator). Each has a negative control on a synthetic page that it must catch, beside a
-correct line that it must pass.
+The checks are :mod:`tools.docs_check` (on page texts, with the parser checks of
+:mod:`tools.docs_check_commands` and :mod:`tools.docs_check_options`) and :mod:`tools.docs`
+(the generator, with its writers ``tools/docs_*.py``). Each has a negative control on a
+synthetic page that it must catch, beside a correct line that it must pass.
 """
 from __future__ import annotations
 
@@ -32,7 +33,7 @@ import sys
 import pytest
 
 from _paths import ROOT
-from tools import docs as D, docs_check as C, markdown as MD
+from tools import docs as D, docs_check as C, docs_pages, docs_plugins, markdown as MD
 
 #: Deadline of one subprocess (a Python block, a parser check), seconds.
 DEADLINE = 300
@@ -200,7 +201,7 @@ def test_every_runnable_page_has_python_blocks():
 
 @pytest.mark.parametrize("page, block", BLOCKS, ids=[f"{p}:{b.line}" for p, b in BLOCKS])
 def test_python_block_runs(page, block, tmp_path):
-    if C.in_pending(PAGES[page], block.line):
+    if docs_pages.in_pending(PAGES[page], block.line):
         compile(block.body, f"{page}:{block.line}", "exec")   # its file does not exist yet
         return
     why = run_block(block.body, user_folder(tmp_path), DEADLINE)
@@ -243,7 +244,8 @@ def test_negative_control_a_hand_edited_generated_part_is_caught(tmp_path):
 
 def test_plugin_tables_are_the_docstrings():
     assert C.plugin_tables(PAGES[D.PLUGINS_PAGE]) == []
-    assert {p["name"] for p in D.plugin_classes()} >= {"vr_path", "phong", "halton", "zsobol"}
+    assert {p["name"] for p in docs_plugins.plugin_classes()} >= {"vr_path", "phong", "halton",
+                                                                  "zsobol"}
 
 
 def test_negative_control_a_plugin_table_row_changed_or_dropped_is_caught():
@@ -260,7 +262,7 @@ def test_the_parameter_table_reader_reads_the_docstring_form():
     doc = ("T\n-\n\n.. pluginparameters::\n\n * - alpha\n   - |float|\n   - Roughness,\n"
            "     over two lines. (Default: 0.1)\n\n * - name\n   - |string|\n"
            "   - A name. (Default: ``x``)\n\nText.\n")
-    assert [(e["name"], e["type"], e["default"]) for e in D.parameters(doc)] == [
+    assert [(e["name"], e["type"], e["default"]) for e in docs_plugins.parameters(doc)] == [
         ("alpha", "|float|", "0.1"), ("name", "|string|", "``x``")]
 
 
@@ -311,8 +313,8 @@ def test_negative_control_a_pending_marker_on_an_existing_file_is_caught():
             "## C\n\n<!-- pending: examples/not_there_yet.py -->\n")
     problems = C.pending({"docs/synthetic.md": page})
     assert len(problems) == 1 and "mirror_lobe.py exists" in problems[0], problems
-    assert C.in_pending(page, 7) == "examples/mirror_lobe.py"
-    assert C.in_pending(page, 3) is None
+    assert docs_pages.in_pending(page, 7) == "examples/mirror_lobe.py"
+    assert docs_pages.in_pending(page, 3) is None
 
 
 # ------------------------------------------------------------------ benchmarks page

@@ -8,6 +8,8 @@
   (data flows one way: plan -> execute -> store -> analyse -> present), and the
   base modules (``clock``, ``files``) import nothing else from lib, and ``jobs`` only
   the clock.
+* The same holds for ``tools/``: the graph of imports between its modules (``tools.docs``
+  -> ``docs``) is acyclic (``mutants`` -> ``mutant_list`` -> ``mutant``, never back).
 * No class in ``experiments/`` is longer than :data:`MAX_CLASS_LINES` lines.
 * Nothing in ``experiments/lib`` but ``cli.py`` reads the argparse Namespace (issue 29):
   each study makes its typed settings from it in one place and hands those down.
@@ -24,15 +26,17 @@ from _paths import ROOT
 
 LIB = os.path.join(ROOT, "experiments", "lib")
 PACKAGE = "experiments.lib"
+TOOLS = os.path.join(ROOT, "tools")
 MAX_CLASS_LINES = 250
 
 
-def lib_modules() -> dict[str, str]:
+def lib_modules(folder: str = LIB) -> dict[str, str]:
     """{dotted module name under lib: source path} of every module in experiments/lib and
-    its subpackages (a subpackage is its ``__init__``; lib's own ``__init__`` is left out)."""
+    its subpackages (a subpackage is its ``__init__``; lib's own ``__init__`` is left out);
+    of the package ``folder``, another than lib, likewise."""
     out = {}
-    for directory, _, names in os.walk(LIB):
-        rel = os.path.relpath(directory, LIB)
+    for directory, _, names in os.walk(folder):
+        rel = os.path.relpath(directory, folder)
         prefix = "" if rel == "." else rel.replace(os.sep, ".") + "."
         for name in sorted(names):
             if not name.endswith(".py"):
@@ -43,27 +47,31 @@ def lib_modules() -> dict[str, str]:
     return out
 
 
-def _package_of(module: str, path: str) -> str:
-    """The package a module's relative imports start from."""
+def _package_of(module: str, path: str, top: str = PACKAGE) -> str:
+    """The package a module's relative imports start from (``top``: the package that
+    ``module`` is named under)."""
     parent = module if path.endswith("__init__.py") else module.rpartition(".")[0]
-    return ".".join(p for p in (PACKAGE, parent) if p)
+    return ".".join(p for p in (top, parent) if p)
 
 
-def _lib_module(target: str, modules) -> str | None:
-    """The module of lib (longest dotted prefix among ``modules``) that ``target`` names."""
-    if not target.startswith(PACKAGE + "."):
+def _lib_module(target: str, modules, top: str = PACKAGE) -> str | None:
+    """The module of lib, or of the package ``top`` (longest dotted prefix among
+    ``modules``) that ``target`` names."""
+    if not target.startswith(top + "."):
         return None
-    parts = target[len(PACKAGE) + 1:].split(".")
+    parts = target[len(top) + 1:].split(".")
     for k in range(len(parts), 0, -1):
         if ".".join(parts[:k]) in modules:
             return ".".join(parts[:k])
     return None
 
 
-def imported_lib_modules(source: str, modules, package: str = PACKAGE) -> set[str]:
+def imported_lib_modules(source: str, modules, package: str = PACKAGE,
+                         top: str = PACKAGE) -> set[str]:
     """The modules of lib (among ``modules``) that ``source``, a module of ``package``,
     imports anywhere: ``from . import x``, ``from .x import y``, ``import experiments.lib.x``,
-    ``from experiments.lib import x``, at module level or inside a function."""
+    ``from experiments.lib import x``, at module level or inside a function. ``top``:
+    another package whose modules ``modules`` are (``tools``)."""
     found = set()
     parts = package.split(".")
     for node in ast.walk(ast.parse(source)):
@@ -76,19 +84,21 @@ def imported_lib_modules(source: str, modules, package: str = PACKAGE) -> set[st
         else:
             continue
         for target in targets:
-            module = _lib_module(target, modules)
+            module = _lib_module(target, modules, top)
             if module is not None:
                 found.add(module)
     return found
 
 
-def import_graph() -> dict[str, set[str]]:
-    modules = lib_modules()
+def import_graph(folder: str = LIB, top: str = PACKAGE) -> dict[str, set[str]]:
+    """{module: the modules it imports} of experiments/lib, or of the package ``top`` in
+    ``folder``."""
+    modules = lib_modules(folder)
     graph = {}
     for name, path in modules.items():
         with open(path, encoding="utf-8") as f:
-            graph[name] = imported_lib_modules(f.read(), modules,
-                                               _package_of(name, path)) - {name}
+            graph[name] = imported_lib_modules(f.read(), modules, _package_of(name, path, top),
+                                               top) - {name}
     return graph
 
 
@@ -179,6 +189,41 @@ def test_lib_imports_flow_one_way():
     assert sum(map(len, graph.values())) >= 10, graph        # the checker saw the imports
     cycle = find_cycle(graph)
     assert cycle is None, f"import cycle in experiments/lib: {' -> '.join(cycle)}"
+
+
+def test_the_import_checker_reads_a_package_other_than_lib():
+    modules = {"docs", "docs_pages", "markdown", "mutant", "mutant_list", "mutants"}
+    source = '''
+import os
+from . import markdown
+from tools.docs_pages import ROOT, read
+import tools.mutant
+from experiments.lib import cli
+
+def main():
+    from tools.mutant_list import MUTANTS     # function-local: still an edge
+    return MUTANTS
+'''
+    assert imported_lib_modules(source, modules, "tools", "tools") == {
+        "markdown", "docs_pages", "mutant", "mutant_list"}
+    # the cycle this check exists for: the run imported the list, the list the run's Mutant
+    old = {"mutants": imported_lib_modules("from tools.mutant_list import MUTANTS\n",
+                                           modules, "tools", "tools"),
+           "mutant_list": imported_lib_modules("from tools.mutants import Mutant\n",
+                                               modules, "tools", "tools")}
+    assert find_cycle(old) in (["mutants", "mutant_list", "mutants"],
+                               ["mutant_list", "mutants", "mutant_list"])
+
+
+def test_tools_imports_flow_one_way():
+    graph = import_graph(TOOLS, "tools")
+    assert {"docs", "docs_check", "docs_pages", "markdown", "mutants", "mutant_list",
+            "mutant"} <= set(graph), set(graph)
+    assert sum(map(len, graph.values())) >= 10, graph        # the checker saw the imports
+    cycle = find_cycle(graph)
+    assert cycle is None, f"import cycle in tools: {' -> '.join(cycle)}"
+    assert graph["mutant"] == set() and graph["mutant_list"] == {"mutant"}, graph
+    assert graph["markdown"] == set() and graph["docs_pages"] == {"markdown"}, graph
 
 
 def test_base_modules_import_nothing_from_lib():

@@ -1,1 +1,4 @@
-"""Developer tools: ensure_browser (Chromium for the viewer tests), report_stats."""
+"""Developer tools: the docs generator (``docs``, its writers ``docs_*``) and checks
+(``docs_check``, ``docs_check_*``), the mutation run (``mutants``, ``mutant_list``,
+``mutant``), the browser set-up (``ensure_browser``), report statistics (``report_stats``)
+and run comparison (``compare_runs``)."""

@@ -4,7 +4,7 @@ Every entry replaces one exact piece of the source with a mistake that a careful
 could make and that changes what the code computes (never a mere refactoring): the kind
 of bug each test family exists to catch. ``first`` names the test files or ids run first.
 """
-from tools.mutants import Mutant
+from tools.mutant import Mutant
 
 MUTANTS = [
     # ------------------------------------------------------------ plugins: the estimator

@@ -30,21 +30,14 @@ import tempfile
 import time
 from dataclasses import dataclass
 
+from tools.mutant import Mutant
+from tools.mutant_list import MUTANTS
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 #: A mutant's test run ends after this many seconds (a survivor then counts as one).
 TIMEOUT = 900
 #: pytest-xdist workers of the whole-suite stage (as ``make test``).
 WORKERS = 2
-
-
-@dataclass(frozen=True)
-class Mutant:
-    name: str
-    path: str              # file, relative to the checkout
-    old: str               # exact text, found exactly once
-    new: str
-    why: str               # the realistic bug it stands for
-    first: tuple = ()      # test files or ids run first, alone (then the whole suite)
 
 
 @dataclass
@@ -147,7 +140,6 @@ def run_one(mutant: Mutant, timeout: float = TIMEOUT) -> Outcome:
 
 
 def main(argv=None) -> int:
-    from tools.mutant_list import MUTANTS
     p = argparse.ArgumentParser(prog="python -m tools.mutants", description=__doc__.split("\n")[0])
     p.add_argument("--list", action="store_true", help="list the mutants and exit")
     p.add_argument("--only", default="", help="comma-separated mutant names to run")
