@@ -13,9 +13,8 @@ Rerunning resumes: finished render jobs are not redone.
 from __future__ import annotations
 
 import sys
-import time
 
-from experiments.lib import cli, figure_pool, report, studies
+from experiments.lib import cli, clock, figure_pool, report, studies
 
 #: Options passed on to every study that takes them: always (SHARED), or when given here
 #: (FORWARDED; a study's own ``forwarded`` adds to these).
@@ -79,7 +78,7 @@ def study_args(study: studies.StudySpec, args, argv: list[str]):
 def main(argv=None) -> None:
     cli.load_extensions(argv)
     args = cli.parse_args(build_parser(), argv)
-    start = time.perf_counter()
+    timer = clock.Timer()
     with figure_pool.parallel():        # figures written beside the run, never during renders
         for study in studies.ordered():
             mode = getattr(args, mode_dest(study))
@@ -88,7 +87,7 @@ def main(argv=None) -> None:
             quick = list(study.quick) if mode == "quick" else []
             study.run(study_args(study, args, quick + sub_argv(args, study)))
             figure_pool.drain()         # a study's figures are on disk when it is done
-    seconds = time.perf_counter() - start
+    seconds = timer.elapsed()
     report.write_section(args.out, "run_all", "This run", 90, {
         "command": "python -m experiments.run_all " + " ".join(sys.argv[1:] if argv is None
                                                                else argv),

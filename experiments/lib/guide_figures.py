@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import time
 
 import matplotlib
 
@@ -27,7 +26,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from . import figure_pool, files  # noqa: E402
+from . import clock, figure_pool, files  # noqa: E402
 from .methods import Depth, Method, parse_method  # noqa: E402
 
 #: What the suite's report trains per guiding scene: samples per pixel of the job.
@@ -72,7 +71,7 @@ def train(scene_path: str, width: int, height: int, method: str | Method = "guid
     from . import execute, plan
     from .scenes import load_scene, read_scene
     method = parse_method(method) if isinstance(method, str) else method
-    start = time.perf_counter()
+    timer = clock.Timer()
     spec = method.integrator_dict(depth)
     if spec.get("type") != "vr_guided_path":
         raise ValueError(f"guide figure: the method {method} does not train a guide "
@@ -85,7 +84,7 @@ def train(scene_path: str, width: int, height: int, method: str | Method = "guid
                         seed, depth, mi.variant())
     # the executor's own multi-pass loop (its seeds, hooks and combination)
     timed = execute.render_passes(execute.View(scene, sensor), integ, job)
-    return Trained(integ, scene, sensor, timed.image, time.perf_counter() - start, spp,
+    return Trained(integ, scene, sensor, timed.image, timer.elapsed(), spp,
                    method.name)
 
 
@@ -269,7 +268,7 @@ def guide_figure(stem: str, scene_path: str, width: int, height: int,
                  title: str | None = None) -> GuideFigure:
     """Train a guide on ``scene_path`` (:func:`train`) and draw it (:func:`draw`) to
     ``stem``.png/.pdf; ``pixels``: (x, y) whose units to show (default :func:`pick_units`)."""
-    start = time.perf_counter()
+    timer = clock.Timer()
     t = train(scene_path, width, height, method, spp, seed, depth)
     units = unit_map(t.tree, t.scene, t.sensor)
     picks = pick_units(units, t.tree, PICKS, pixels)
@@ -277,5 +276,5 @@ def guide_figure(stem: str, scene_path: str, width: int, height: int,
     guided = float(np.mean(np.asarray(t.tree.share)[seen] < 1.0)) if seen.size else 0.0
     png, pdf = draw(stem, t.image, units, t.tree, picks,
                     title or f"{t.method}: the learned guide ({spp} spp, {width}x{height})")
-    return GuideFigure(png, pdf, units, picks, t.seconds, time.perf_counter() - start,
+    return GuideFigure(png, pdf, units, picks, t.seconds, timer.elapsed(),
                        int(t.tree.leaves), int(np.count_nonzero(t.tree.learned)), guided)

@@ -22,10 +22,9 @@ every ratio, interval, ranking and verdict) and :func:`.convergence_report.repor
 from __future__ import annotations
 
 import os
-import time
 from dataclasses import dataclass
 
-from experiments.lib import cli, files, metrics
+from experiments.lib import cli, clock, files, metrics
 from experiments.lib.engine import Budget, Cell, Declaration, Engine, Measurements, SceneSetup
 from experiments.lib.plan import doubling_targets
 from experiments.lib.methods import Method
@@ -175,7 +174,7 @@ def measured_of(measurements: Measurements) -> convergence_analysis.Measured:
 
 def run_settings(settings: ConvergenceSettings) -> convergence_analysis.Result:
     """The whole study from typed settings; returns the analysis."""
-    start = time.perf_counter()
+    timer = clock.Timer()
     st = Study(settings)
     declaration = declare(settings)
     measurements = Engine(st).run(declaration)
@@ -183,7 +182,7 @@ def run_settings(settings: ConvergenceSettings) -> convergence_analysis.Result:
     result = convergence_analysis.analyse(measured, settings)
     convergence_report.report(convergence_report.Context(
         settings, st, measured, measured.targets, st.timed_on(measurements.all_jobs()),
-        TITLE, ORDER, start),
+        TITLE, ORDER, timer),
         result)
     return result
 

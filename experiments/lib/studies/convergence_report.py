@@ -7,10 +7,9 @@ only writes them down.
 from __future__ import annotations
 
 import os
-import time
 from dataclasses import dataclass
 
-from .. import files, figures, metrics, prose, stats
+from .. import clock, files, figures, metrics, prose, stats
 from .. import report as rep
 from .. import jobs
 from .conclusion import BOUNDS, HEADER as CONCLUSION_HEADER, ratio_cells
@@ -30,7 +29,7 @@ class Context:
     timed_on: str                 # which machine measured the render times
     title: str
     order: int
-    start: float                  # time.perf_counter() when the study began
+    timer: clock.Timer            # started when the study began
 
 
 ERRORS_HEADER = ["method", "spp", "repeats", "seconds", "MSE", "MSE_lo", "MSE_hi", "relMSE",
@@ -228,7 +227,7 @@ def report(ctx: Context, result: Result) -> None:
         + efficiency(ctx, result) + conclusion(ctx, result)
     s = ctx.settings
     rep.write_section(s.out, NAME, ctx.title, ctx.order, settings_table(ctx), blocks,
-                         s.variant, time.perf_counter() - ctx.start)
+                         s.variant, ctx.timer.elapsed())
     files.write_json(os.path.join(s.out, NAME, "summary.json"),
                      {"efficiency": [r.record() for r in result.efficiency],
                       "efficiency_metric": convergence_analysis.METRIC,

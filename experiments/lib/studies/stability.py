@@ -16,11 +16,10 @@ from __future__ import annotations
 
 import math
 import os
-import time
 
 from experiments.lib import files
 from experiments.lib.studies import StudySpec, check_scene, register_study
-from experiments.lib import cli, report, stats
+from experiments.lib import cli, clock, report, stats
 from experiments.lib.metrics import FIREFLY_MADS
 from experiments.lib.sweeps import BREAK_FACTOR, NAME, NORMAL, QUICK, REGISTRY, Context, Skip
 from experiments.lib.sweeps.base import StabilitySettings
@@ -102,7 +101,7 @@ def run(args) -> None:
 def run_settings(settings: StabilitySettings) -> None:
     """Declare, render and measure (the engine), analyse and report every sweep of
     ``settings``."""
-    start = time.perf_counter()
+    timer = clock.Timer()
     ctx = Context(settings)
     declarations, skipped = declare(ctx, settings.sweeps)
     measured = {name: None if decl is None else ctx.measure(decl)
@@ -147,7 +146,7 @@ def run_settings(settings: StabilitySettings) -> None:
              "breakdown factor": BREAK_FACTOR, "firefly threshold (MADs)": FIREFLY_MADS,
              "render times measured on": ctx.timed_on()}
     report.write_section(settings.out, NAME, "Stability: where each method breaks down", ORDER,
-                         table, blocks, settings.variant, time.perf_counter() - start)
+                         table, blocks, settings.variant, timer.elapsed())
     # machine-readable results (breakdown sentences, rows with intervals, outliers)
     files.write_json(os.path.join(settings.out, NAME, "summary.json"),
                      {"notes": notes, "repeats": ctx.repeats, "rows": _json_safe(rows),

@@ -9,8 +9,8 @@
   passing a per-pixel z-test (expected about 99%).
 
 The study is declared on the experiment engine (:func:`declare`: one declaration per
-method and pass, each method's ladder to the counts of its pairs); :func:`measure` renders
-them (resuming; the jobs with the passes the bias checks need, :func:`jobs`) and measures
+method and pass, each method's ladder to the counts of its pairs, its jobs in the passes
+the bias checks need); :func:`measure` has the engine render them (resuming) and measure
 them (the engine's errors per repeat, the first repeat's passes for the variances), then
 :func:`.writeup_analysis.analyse` (pure: every ratio, interval, verdict and sentence) and
 :func:`.writeup_report.report`.
@@ -20,10 +20,9 @@ them (the engine's errors per repeat, the first repeat's passes for the variance
 """
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, replace
 
-from experiments.lib import cli, metrics
+from experiments.lib import cli, clock, metrics
 from experiments.lib.engine import Budget, Declaration, Engine, SceneSetup
 from experiments.lib.studies import StudySpec, register_study
 from experiments.lib.studies import writeup_analysis
@@ -178,16 +177,14 @@ def measure_short(st: Study, plan: Plan) -> tuple:
     ref, ref_var = reference.mean, reference.variance_of_mean()
     refs = {("short", None): (ref, meta)}
     engine = Engine(st)
-    planned = {d.methods[0].name: engine.jobs(d, d.budgets[0]) for d in plan.short}
-    st.run([j for cells in planned.values() for reps in cells.values() for ladder in reps
-            for j in ladder], f"{NAME}: figures")
     errors, renders = {}, {}
     for d in plan.short:
-        name, cells = d.methods[0].name, planned[d.methods[0].name]
-        rungs = dict(zip(d.budgets[0].ladder, zip(*next(iter(engine.measure(
-            d, {d.budgets[0].name: cells}, refs).runs.values())))))
+        name, budget = d.methods[0].name, d.budgets[0]
+        measured = engine.run(d, refs)
+        (cell, runs), = measured.runs.items()
+        rungs = dict(zip(budget.ladder, zip(*runs)))
         errors[name] = {spp: tuple(run.mse for run in runs) for spp, runs in rungs.items()}
-        renders[name] = _images(st, next(iter(cells.values()))[0])   # the first repeat's
+        renders[name] = _images(st, measured.jobs[cell][0])     # the first repeat's
     pairs, shown = [], {}
     for a, b, spp in plan.pairs:
         sides = []
@@ -210,12 +207,13 @@ def measure_short(st: Study, plan: Plan) -> tuple:
 
 def measure_full(st: Study, plan: Plan) -> tuple:
     """The --full checks as numbers, and their images (with the z-maps' inputs)."""
-    ref, _ = _reference(st, plan.full_resolution, "--full reference")
+    ref, meta = _reference(st, plan.full_resolution, "--full reference")
     engine = Engine(st)
-    ladders = {d.methods[0].name: next(iter(engine.jobs(d, d.budgets[0]).values()))[0]
-               for d in plan.full}
-    st.run([j for ladder in ladders.values() for j in ladder], f"{NAME}: --full")
-    renders = {n: _images(st, ladder) for n, ladder in ladders.items()}
+    renders = {}
+    for d in plan.full:
+        measured = engine.run(d, {("full", None): (ref.mean, meta)})
+        (cell, jobs), = measured.jobs.items()
+        renders[d.methods[0].name] = _images(st, jobs[0])
     out, shown = [], {}
     for a, b in plan.full_pairs:
         acc_a, acc_b = renders[a][plan.full_spp], renders[b][plan.full_spp]
@@ -256,11 +254,11 @@ def measure(st: Study, plan: Plan) -> writeup_analysis.Measured:
 
 def run_settings(settings: WriteupSettings) -> writeup_analysis.Result:
     """The whole study from typed settings; returns the analysis."""
-    start = time.perf_counter()
+    timer = clock.Timer()
     st = Study(settings)
     measured = measure(st, declare(settings))
     result = writeup_analysis.analyse(measured, settings)
-    writeup_report.report(writeup_report.Context(settings, st, measured, TITLE, ORDER, start),
+    writeup_report.report(writeup_report.Context(settings, st, measured, TITLE, ORDER, timer),
                           result)
     return result
 

@@ -3,10 +3,9 @@
 from __future__ import annotations
 
 import os
-import time
 from dataclasses import dataclass
 
-from .. import figures, stats
+from .. import clock, figures, stats
 from .. import report as rep
 from . import conclusion
 from .writeup_analysis import NAME, Result
@@ -19,7 +18,7 @@ class Context:
     measured: object              # Measured
     title: str
     order: int
-    start: float                  # time.perf_counter() when the study began
+    timer: clock.Timer            # started when the study began
 
 
 BOUNDS = conclusion.BOUNDS
@@ -158,4 +157,4 @@ def report(ctx: Context, result: Result) -> None:
             f"The {s.full_resolution[0]}x{s.full_resolution[1]}, {s.full_spp}-spp "
             f"no-bias checks run with --full (make full)."))
     rep.write_section(s.out, NAME, ctx.title, ctx.order, settings_table(ctx), blocks,
-                      s.variant, time.perf_counter() - ctx.start)
+                      s.variant, ctx.timer.elapsed())
