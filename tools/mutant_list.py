@@ -346,6 +346,18 @@ MUTANTS = [
            "0.71 to 1.41 times the budget, and its efficiency, which grows with its count, "
            "follows the rounding",
            ("tests/test_suite.py::test_a_learning_methods_equal_time_count_comes_from_its_pilot",)),
+    Mutant("ladder-learner-stretches", "experiments/lib/engine.py",
+           "                if budget.ladder and method.learns:",
+           "                if budget.ladder and method.learns and budget.ladder[-1] < 2:",
+           "a learning method's ladder planned as stretches that accumulate (the convergence "
+           "study's ladder as it was: each rung too short to train, the guide never acts)",
+           ("tests/test_one_loop.py",)),
+    Mutant("ladder-learner-accumulated", "experiments/lib/engine.py",
+           "                independent = bool(budgets[name].ladder) and \\\n",
+           "                independent = False and \\\n",
+           "a learning method's rungs (one training job each) accumulated into one image as "
+           "if they were stretches of one render",
+           ("tests/test_one_loop.py",)),
     # ------------------------------------------------------------ the sampler study's pick
     Mutant("pick-largest-estimate", "experiments/lib/studies/sampler_comparison_analysis.py",
            "        chosen = tied[-1]",
