@@ -268,15 +268,15 @@ MUTANTS = [
            "are divided by the throughput rule's",
            ("tests/test_guiding.py::test_blocks_agree_with_path",)),
     Mutant("guide-variance-from-passes", "experiments/lib/execute.py",
-           "    passes = 1 if multi else done if per_sample else len(times)\n",
-           "    passes = len(times) if multi else done if per_sample else len(times)\n",
+           "    sq, passes = done * mean * mean, 1\n",
+           "    sq, passes = done * mean * mean, len(spps)\n",
            "a guided job's per-pixel variance taken from the spread of its passes, as if the "
            "untrained and the trained ones were one estimator (the suite's error of "
            "guided+nee twice too high on hidden_lamp), where it states none",
            ("tests/test_clock.py",)),
     Mutant("guide-variance-ignored", "experiments/lib/execute.py",
-           "        variance = getattr(integrator, \"combined_variance\", None)\n",
-           "        variance = None\n",
+           "    variance = getattr(integrator, \"combined_variance\", None)\n",
+           "    variance = None\n",
            "the guided integrator's variance of its combined image not used: the suite's "
            "per-pixel errors of guided+nee lost (its errors from 3 repeats, bounds only)",
            ("tests/test_guiding.py::test_the_executor_takes_the_combined_variance",)),

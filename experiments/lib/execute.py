@@ -308,42 +308,52 @@ class Timed(NamedTuple):
     compiled: int                # passes during which a kernel compiled
 
 
+def render_pass(view: View, integrator, job: Job, index: int, spp: int, done: int,
+                multi: bool, raw: bool) -> tuple:
+    """Pass ``index`` of ``job`` (``spp`` samples after ``done``): (its image, the samples the
+    sampler ran, wall seconds, CPU seconds, kernel seconds, renders that compiled). A
+    :class:`MultiPass` method's pass over the job's lane cap renders in several renders,
+    averaged (every channel: the image and its AOVs are per-pixel means)."""
+    continues = job.method.continues_sequence
+    parts, image, k = job.split_lanes(spp) if multi else [spp], 0.0, 0
+    seconds = cpu = kernel = 0.0
+    compiled = 0
+    for j, n in enumerate(parts):
+        seed = job.seed if continues else \
+            derive_seed(job.seed, index) if j == 0 else derive_seed(job.seed, index, j)
+        part, *spent = _render(view, integrator, n, seed, sequence_state(job, done + k),
+                               raw=raw)
+        # Mitsuba's stratified, orthogonal and ldsampler round the count (e.g.
+        # orthogonal: 16 -> 25, a prime squared): count what was rendered
+        n = view.sensor.sampler().sample_count()
+        image = part if len(parts) == 1 else \
+            image + np.array(part, dtype=np.float64) * (n / sum(parts))
+        k += n
+        seconds, cpu, kernel = seconds + spent[0], cpu + spent[1], kernel + spent[3]
+        compiled += spent[2] > 0
+    return image, k, seconds, cpu, kernel, compiled
+
+
 def render_passes(view: View, integrator, job: Job) -> Timed:
-    """Every pass of ``job`` with ``integrator``: the memory-bounded passes of
-    :meth:`.jobs.Job.passes`, or a :class:`MultiPass` method's own schedule with its hooks
-    between them (their CPU time measured on this thread, the kernels they launch synced
-    first so that their time is the hooks' own). Through ``vr_moments`` every sample is a
-    pass of ``sq`` (its squares' per-pixel mean times the pass's count)."""
+    """Every pass of ``job`` with ``integrator`` (:func:`render_pass`): the memory-bounded
+    passes of :meth:`.jobs.Job.passes`, or a :class:`MultiPass` method's own schedule with
+    its hooks between them (their CPU time measured on this thread, the kernels they launch
+    synced first so that their time is the hooks' own). Through ``vr_moments`` every sample
+    is a pass of ``sq`` (its squares' per-pixel mean times the pass's count)."""
     import drjit as dr
     from integrators import moments
     multi = isinstance(integrator, MultiPass)
     per_sample = isinstance(integrator, moments.MomentsIntegrator)
-    continues = job.method.continues_sequence
     schedule = integrator.pass_schedule(job.spp, job.width * job.height) if multi \
         else job.passes()
     mean = np.zeros((job.height, job.width, 3))
     sq = np.zeros_like(mean)
     images, spps = [], []
     done, times, cpu, kernels, host, compiled = 0, [], 0.0, 0.0, 0.0, 0
-    for i, k in enumerate(schedule):
-        # a method's pass over the job's lane cap renders in several renders, averaged
-        # (every channel: the image and its AOVs are per-pixel means)
-        parts, image, k = job.split_lanes(k) if multi else [k], 0.0, 0
-        seconds = cpu_seconds = kernel = 0.0
-        for j, n in enumerate(parts):
-            seed = job.seed if continues else \
-                derive_seed(job.seed, i) if j == 0 else derive_seed(job.seed, i, j)
-            part, *spent = _render(view, integrator, n, seed,
-                                   sequence_state(job, done + k), raw=multi or per_sample)
-            # Mitsuba's stratified, orthogonal and ldsampler round the count (e.g.
-            # orthogonal: 16 -> 25, a prime squared): count what was rendered
-            n = view.sensor.sampler().sample_count()
-            image = part if len(parts) == 1 else \
-                image + np.array(part, dtype=np.float64) * (n / sum(parts))
-            k += n
-            seconds, cpu_seconds, kernel = seconds + spent[0], cpu_seconds + spent[1], \
-                kernel + spent[3]
-            compiled += spent[2] > 0
+    for i, spp in enumerate(schedule):
+        image, k, seconds, cpu_seconds, kernel, c = render_pass(
+            view, integrator, job, i, spp, done, multi, multi or per_sample)
+        compiled += c
         if multi:
             dr.sync_thread()
             start = time.thread_time()
@@ -363,23 +373,29 @@ def render_passes(view: View, integrator, job: Job) -> Timed:
         cpu += cpu_seconds
         kernels += kernel
     mean /= done
-    # a MultiPass method's passes are not samples of one estimator (a guide's untrained
-    # and trained passes): one pass of the combined image, so that no per-pixel variance
-    # comes from their spread, unless the method states its own (combined_variance)
-    passes = 1 if multi else done if per_sample else len(times)
     if multi:
         start = time.thread_time()
-        mean = np.asarray(integrator.combine(images, spps), dtype=np.float64)
+        mean, sq, passes = combined(integrator, images, spps, done)
         host += time.thread_time() - start
-        sq = done * mean * mean
-        variance = getattr(integrator, "combined_variance", None)
-        if variance is not None and done > 1:
-            # the method's own per-pixel variance of its combined image, written as every
-            # sample a pass of sq, so that Accumulator.variance_of_mean returns it:
-            # sq = n mean^2 + V n (n - 1)
-            passes = done
-            sq = sq + np.asarray(variance(), np.float64) * done * (done - 1)
+    else:
+        passes = done if per_sample else len(times)
     return Timed(mean, sq, done, passes, times, cpu, kernels, host, compiled)
+
+
+def combined(integrator, images: list, spps: list, done: int) -> tuple:
+    """(image, sq, passes) of a :class:`MultiPass` method's job from its passes' images.
+    Its passes are not samples of one estimator (a guide's untrained and trained passes):
+    one pass of the combined image, so that no per-pixel variance comes from their
+    spread, unless the method states its own (``combined_variance``), written as every
+    sample a pass of sq so that :meth:`.jobs.Accumulator.variance_of_mean` returns it:
+    sq = n mean^2 + V n (n - 1)."""
+    mean = np.asarray(integrator.combine(images, spps), dtype=np.float64)
+    sq, passes = done * mean * mean, 1
+    variance = getattr(integrator, "combined_variance", None)
+    if variance is not None and done > 1:
+        passes = done
+        sq = sq + np.asarray(variance(), np.float64) * done * (done - 1)
+    return mean, sq, passes
 
 
 def run_job(job: Job, variant: str) -> JobResult:

@@ -176,9 +176,9 @@ def _unit_colours(units: np.ndarray) -> np.ndarray:
 def draw(stem: str, image: np.ndarray, units: np.ndarray, tree,
          picks: list[tuple[int, tuple[int, int]]], title: str) -> tuple[str, str]:
     """The figure (``stem``.png and .pdf, written atomically): top the image, the units,
-    the BSDF share per pixel, each picked unit marked by its number; beneath, per picked
-    unit its learned directional density (equal-area, world z up) with its normal
-    class's direction marked (a cross)."""
+    the BSDF share per pixel, each picked unit marked by its number (:func:`_draw_top`);
+    beneath, per picked unit its learned directional density (equal-area, world z up)
+    with its normal class's direction marked (:func:`_draw_density`)."""
     cols = max(3, len(picks))
     h, w = units.shape
     fig = plt.figure(figsize=(2.6 * cols, 2.6 * cols / 3 * h / w + 2.9), layout="constrained")
@@ -189,52 +189,60 @@ def draw(stem: str, image: np.ndarray, units: np.ndarray, tree,
              f"{tree.leaves} leaves", _unit_colours(units)),
             ("BSDF share per pixel (1: guide unused)", share)]
     for c, (name, img) in enumerate(tops):
-        ax = fig.add_subplot(grid[0, c * cols:(c + 1) * cols])
-        if img.ndim == 2:
-            im = ax.imshow(img, cmap="viridis", vmin=0.1, vmax=1.0, interpolation="nearest")
-            fig.colorbar(im, ax=ax, fraction=0.04)
-        else:
-            ax.imshow(img, interpolation="nearest")
-        for k, (_, (x, y)) in enumerate(picks):
-            ax.plot(x, y, "o", ms=7, mfc="none", mec=MARKERS[k % len(MARKERS)], mew=1.8)
-            ax.text(x + 1.2, y - 1.2, str(k + 1), color=MARKERS[k % len(MARKERS)],
-                    fontsize=8, weight="bold")
-        ax.set_title(name, fontsize=7)
-        ax.set_xticks([])
-        ax.set_yticks([])
-    axes = {0: (0.0, 1.0), 1: (math.pi, 1.0), 2: (0.5 * math.pi, 0.0),
-            3: (1.5 * math.pi, 0.0), 4: (None, 1.0), 5: (None, -1.0)}
+        _draw_top(fig, fig.add_subplot(grid[0, c * cols:(c + 1) * cols]), name, img, picks)
     densities = [histogram_density(tree, unit) for unit, _ in picks]
     top = max([float(d.max()) for d in densities] + [1e-12])
-    bottom = []
-    for k, (unit, (x, y)) in enumerate(picks):
-        ax = fig.add_subplot(grid[1, 3 * k:3 * (k + 1)])
-        bottom.append(ax)
-        im = ax.imshow(densities[k], origin="lower", extent=[0, 2 * math.pi, -1, 1],
-                       aspect="auto", cmap="magma", vmin=0.0, vmax=top,
-                       interpolation="nearest")
-        cls = unit % len(CLASS_NAMES)
-        axis = cls // 2
-        sign = 1.0 if cls % 2 == 0 else -1.0
-        if axis == 2:
-            ax.axhline(sign * 0.98, color="cyan", lw=1.2)
-        else:
-            phi = (0.0 if sign > 0 else math.pi) + (0.5 * math.pi if axis == 1 else 0.0)
-            ax.plot(phi, 0.0, "x", color="cyan", ms=8, mew=2)
-        leaf, _ = divmod(unit, len(CLASS_NAMES))
-        ax.set_title(f"{k + 1} (pixel {x},{y}): leaf {leaf}, normal {CLASS_NAMES[cls]}\n"
-                     f"BSDF share {float(tree.share[unit]):.1f}"
-                     + ("" if tree.learned[unit] else ", not learned"),
-                     fontsize=7, color=MARKERS[k % len(MARKERS)])
-        ax.set_xlabel("phi (world, about z)", fontsize=6)
-        if k == 0:
-            ax.set_ylabel("cos theta (world z)", fontsize=6)
-        ax.tick_params(labelsize=6)
+    bottom = [fig.add_subplot(grid[1, 3 * k:3 * (k + 1)]) for k in range(len(picks))]
+    for k, (ax, pick, density) in enumerate(zip(bottom, picks, densities)):
+        im = _draw_density(ax, k, pick, density, top, tree)
     if bottom:
         fig.colorbar(im, ax=bottom, fraction=0.02, label="density (1/sr)")
     fig.suptitle(title, fontsize=9)
     figure_pool.save(fig, [(f"{stem}.{ext}", ext, 130) for ext in ("png", "pdf")])
     return stem + ".png", stem + ".pdf"
+
+
+def _draw_top(fig, ax, name: str, img: np.ndarray, picks: list) -> None:
+    """One of the top panels (an image, or a scalar map with its colour bar), the picked
+    pixels marked by their numbers."""
+    if img.ndim == 2:
+        im = ax.imshow(img, cmap="viridis", vmin=0.1, vmax=1.0, interpolation="nearest")
+        fig.colorbar(im, ax=ax, fraction=0.04)
+    else:
+        ax.imshow(img, interpolation="nearest")
+    for k, (_, (x, y)) in enumerate(picks):
+        ax.plot(x, y, "o", ms=7, mfc="none", mec=MARKERS[k % len(MARKERS)], mew=1.8)
+        ax.text(x + 1.2, y - 1.2, str(k + 1), color=MARKERS[k % len(MARKERS)],
+                fontsize=8, weight="bold")
+    ax.set_title(name, fontsize=7)
+    ax.set_xticks([])
+    ax.set_yticks([])
+
+
+def _draw_density(ax, k: int, pick: tuple, density: np.ndarray, top: float, tree):
+    """Picked unit ``k``'s learned density over (phi, cos theta), its normal class's
+    direction marked in cyan; returns the image (for the shared colour bar)."""
+    unit, (x, y) = pick
+    im = ax.imshow(density, origin="lower", extent=[0, 2 * math.pi, -1, 1],
+                   aspect="auto", cmap="magma", vmin=0.0, vmax=top, interpolation="nearest")
+    cls = unit % len(CLASS_NAMES)
+    axis = cls // 2
+    sign = 1.0 if cls % 2 == 0 else -1.0
+    if axis == 2:
+        ax.axhline(sign * 0.98, color="cyan", lw=1.2)
+    else:
+        phi = (0.0 if sign > 0 else math.pi) + (0.5 * math.pi if axis == 1 else 0.0)
+        ax.plot(phi, 0.0, "x", color="cyan", ms=8, mew=2)
+    leaf, _ = divmod(unit, len(CLASS_NAMES))
+    ax.set_title(f"{k + 1} (pixel {x},{y}): leaf {leaf}, normal {CLASS_NAMES[cls]}\n"
+                 f"BSDF share {float(tree.share[unit]):.1f}"
+                 + ("" if tree.learned[unit] else ", not learned"),
+                 fontsize=7, color=MARKERS[k % len(MARKERS)])
+    ax.set_xlabel("phi (world, about z)", fontsize=6)
+    if k == 0:
+        ax.set_ylabel("cos theta (world z)", fontsize=6)
+    ax.tick_params(labelsize=6)
+    return im
 
 
 @dataclasses.dataclass
