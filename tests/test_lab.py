@@ -24,7 +24,7 @@ import pytest
 import _qmc_oracle as oracle
 import integrators.path as vr_path
 from experiments.lib import execute, lab_points, lab_warps, samplers
-from experiments.lib.studies import sampler_comparison_plan
+from experiments.lib.studies.sampler_comparison import plan
 
 
 def spec(label, strategy, incidence, samples=100_000, seed=3):
@@ -218,7 +218,7 @@ def test_quick_run_writes_section_and_resumes(tmp_path, monkeypatch):
     with open(os.path.join(out, "lab", "screen.csv"), newline="") as f:
         screen = list(csv.DictReader(f))
     assert [(r["sampler"], r["spp requested"]) for r in screen] == [
-        (s, "4") for s in sampler_comparison_plan.default_screen_labels()]
+        (s, "4") for s in plan.default_screen_labels()]
     assert "made by the lab" in section["settings"]["screen-space error"]
     # a rerun computes nothing: every panel and point set comes from the cache, every
     # render from the store

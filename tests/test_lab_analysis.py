@@ -12,7 +12,7 @@ import math
 import pytest
 
 from experiments.lib import lab_points, lab_warps
-from experiments.lib.studies.sampler_comparison_analysis import Family
+from experiments.lib.studies.sampler_comparison.analysis import Family
 
 
 def panel(bsdf, inc, strategy, p, rel):

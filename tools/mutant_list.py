@@ -347,14 +347,14 @@ MUTANTS = [
            "follows the rounding",
            ("tests/test_suite.py::test_a_learning_methods_equal_time_count_comes_from_its_pilot",)),
     # ------------------------------------------------------------ the sampler study's pick
-    Mutant("pick-largest-estimate", "experiments/lib/studies/sampler_comparison_analysis.py",
+    Mutant("pick-largest-estimate", "experiments/lib/studies/sampler_comparison/analysis.py",
            "        chosen = tied[-1]",
            "        chosen = top",
            "the sampler the other studies add is the largest estimate even where the study "
            "cannot tell it from others: a re-measurement that swaps two tied estimates "
            "changes the suite's and the convergence study's methods",
            ("tests/test_samplers_study.py::test_the_pick_among_tied_samplers_survives_a_re_measurement_that_swaps_them",)),
-    Mutant("pick-deterministic", "experiments/lib/studies/sampler_comparison_analysis.py",
+    Mutant("pick-deterministic", "experiments/lib/studies/sampler_comparison/analysis.py",
            "        at = [r for r in rows if r.depth == depth and not kinds[r.sampler].deterministic\n"
            "              and r.relative_efficiency.known]",
            "        at = [r for r in rows if r.depth == depth and r.relative_efficiency.known]",

@@ -37,9 +37,10 @@ from experiments.lib.engine import Cell, Engine
 from experiments.lib.methods import Method, parse_method, strategies as registered_strategies
 from experiments.lib.study import Study, StudySettings
 from experiments.lib.studies import StudySpec, register_study
-from experiments.lib.studies import sampler_comparison, sampler_comparison_plan
-from experiments.lib.studies.sampler_comparison_analysis import families
-from experiments.lib.studies.sampler_comparison_screen import screen_floor
+from experiments.lib.studies.sampler_comparison import plan
+from experiments.lib.studies.sampler_comparison.study import screen_samplers
+from experiments.lib.studies.sampler_comparison.analysis import families
+from experiments.lib.studies.sampler_comparison.screen import screen_floor
 
 NAME = "lab"
 ORDER = 35
@@ -63,7 +64,7 @@ class Config:
     screen_counts: tuple = (4, 16)
     screen_depth: int = 2
     screen_samplers: tuple | None = None     # None: the sampler study's default labels
-    screen_reference_spp: int = sampler_comparison_plan.SCREEN_REFERENCE_SPP
+    screen_reference_spp: int = plan.SCREEN_REFERENCE_SPP
     #: the frozen guide's panels (lab_guide): the scene it trains on (None: none), film,
     #: training spp, surface points
     guide_scene: str | None = lab_guide.SCENE
@@ -79,7 +80,7 @@ class Config:
 
     def screen_labels(self) -> list[str]:
         return list(self.screen_samplers
-                    or sampler_comparison_plan.default_screen_labels())
+                    or plan.default_screen_labels())
 
 
 FULL = Config()
@@ -100,7 +101,7 @@ def build_parser() -> cli.Parser:
     p.add_argument("--quick", action="store_true",
                    help="tiny run (for tests): two BSDFs at 60 degrees, every sampler at 64 "
                         "spp on 4x4 pixels, screen-space error at 16x8 and 4 spp")
-    p.add_argument("--screen-samplers", type=sampler_comparison.screen_samplers,
+    p.add_argument("--screen-samplers", type=screen_samplers,
                    default=None,
                    help="samplers of the screen-space error images: 'default' (the sampler "
                         "study's default screen-space labels), 'all' or comma-separated "
@@ -370,22 +371,22 @@ class ScreenMeasured:
     total: int
 
 
-def plan_screen(engine: Engine, cfg: Config, reference) -> sampler_comparison_plan.Planned:
+def plan_screen(engine: Engine, cfg: Config, reference) -> plan.Planned:
     """The sampler study's screen-space declaration at ``cfg``'s settings, one repeat (the
-    same jobs as the study's first repeat: :func:`.sampler_comparison_plan.declare_screen`)."""
+    same jobs as the study's first repeat: :func:`.sampler_comparison.plan.declare_screen`)."""
     st, labels, depth = engine.study, cfg.screen_labels(), cfg.screen_depth
-    screen = sampler_comparison_plan.ScreenSettings(
+    screen = plan.ScreenSettings(
         tuple(cfg.screen_resolution), tuple(cfg.screen_counts), (depth,), tuple(labels), 1,
         cfg.screen_reference_spp, reference)
-    study = sampler_comparison_plan.Settings(
-        parse_method(sampler_comparison_plan.BASE), (depth,), (), tuple(labels), st.depth,
+    study = plan.Settings(
+        parse_method(plan.BASE), (depth,), (), tuple(labels), st.depth,
         st.info.path, (st.width, st.height), screen)
-    return sampler_comparison_plan.plan(
-        engine, sampler_comparison_plan.declare_screen(study, screen, st.info))
+    return plan.plan(
+        engine, plan.declare_screen(study, screen, st.info))
 
 
 def measure_screen(engine: Engine, cfg: Config,
-                   planned: sampler_comparison_plan.Planned) -> ScreenMeasured:
+                   planned: plan.Planned) -> ScreenMeasured:
     """Render what the stores lack (the engine), then each render's error field and
     spectrum."""
     st, decl = engine.study, planned.declaration

@@ -46,7 +46,7 @@ from experiments.lib import scenes
 from experiments.lib.methods import parse_method, strategies
 from integrators.strategies import integrator_type
 from experiments.lib.studies import StudySpec, register_study
-from experiments.lib.studies import sampler_comparison_efficiency as sampler_efficiency
+from experiments.lib.studies.sampler_comparison import efficiency as sampler_efficiency
 from experiments.lib.studies import suite_analysis
 from experiments.lib.studies import suite_bias
 from experiments.lib.studies import suite_plan

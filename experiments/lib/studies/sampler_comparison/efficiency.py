@@ -1,10 +1,11 @@
 """The sampler study's efficiency pass: every label over the ladder, at every depth.
 
-Declared on the engine (:func:`.sampler_comparison_plan.declare`; renders interleaved so
+Declared on the engine (:func:`.sampler_comparison.plan.declare`; renders interleaved so
 that drifting machine load affects every sampler alike), measured (the engine's per-repeat
-costs and errors against each depth's reference, as :class:`Point` values), the pure analysis (:mod:`.sampler_comparison_analysis`) and the report:
-the error and efficiency charts, the viewer, the table of every label, the efficiency along
-the ladder and each depth's conclusion table and sentences.
+costs and errors against each depth's reference, as :class:`Point` values), the pure
+analysis (:mod:`.sampler_comparison.analysis`) and the report: the error and efficiency
+charts, the viewer, the table of every label, the efficiency along the ladder and each
+depth's conclusion table and sentences.
 """
 from __future__ import annotations
 
@@ -16,11 +17,11 @@ from experiments.lib import figures, files, report, stats
 from experiments.lib.engine import Cell, Declaration, Measurements
 from experiments.lib.jobs import Job
 from experiments.lib.study import Study
-from experiments.lib.studies.sampler_comparison_analysis import (
+from experiments.lib.studies.sampler_comparison.analysis import (
     BASELINE, COMPARISON_HEADER, METRIC, METRIC_NAMES, Analysis, Point, Row, analyse,
     families)
-from experiments.lib.studies import sampler_comparison_words as words
-from experiments.lib.studies.sampler_comparison_plan import (
+from experiments.lib.studies.sampler_comparison import words
+from experiments.lib.studies.sampler_comparison.plan import (
     NAME, PassReport, Planned, Settings, declare, interleaved)
 
 
@@ -163,7 +164,7 @@ class Efficiency:
 
 
 def pick_near(out: str, depth: float) -> tuple[int, dict] | None:
-    """The sampler study's pick (:func:`.sampler_comparison_analysis.picks`, as its
+    """The sampler study's pick (:func:`.sampler_comparison.analysis.picks`, as its
     summary.json in ``out`` records it) at the depth nearest ``depth`` (the smaller of two
     as near): ``(depth, record)``; None where that study has not run or picked nothing."""
     summary = files.read_json(os.path.join(out, NAME, "summary.json"), {}) or {}

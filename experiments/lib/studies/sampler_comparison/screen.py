@@ -1,11 +1,11 @@
 """The sampler study's screen-space pass: FLIP, the error's power spectrum and MSE efficiency.
 
-On a larger image (:class:`.sampler_comparison_plan.ScreenSettings`), at every count of a
-short ladder: declared on the engine (:func:`.sampler_comparison_plan.declare_screen`;
+On a larger image (:class:`.sampler_comparison.plan.ScreenSettings`), at every count of a
+short ladder: declared on the engine (:func:`.sampler_comparison.plan.declare_screen`;
 renders grouped so that a process keeps their methods warm), measured from the engine's
 runs (per repeat: mean FLIP, the error's periodogram and its low-frequency share with the
 reference's floor subtracted, MSE, relMSE and cost), the pure analysis
-(:mod:`.sampler_comparison_screen_analysis`) and the report: the FLIP and spectrum charts,
+(:mod:`.sampler_comparison.screen_analysis`) and the report: the FLIP and spectrum charts,
 each depth's conclusion table and sentences, the table of every label and count.
 """
 from __future__ import annotations
@@ -19,12 +19,12 @@ from experiments.lib import execute, figures, metrics, report, screen_space, sta
 from experiments.lib.engine import Cell, Declaration, Measurements
 from experiments.lib.jobs import Job
 from experiments.lib.study import Study
-from experiments.lib.studies.sampler_comparison_analysis import families
-from experiments.lib.studies.sampler_comparison_efficiency import interval_header, point
-from experiments.lib.studies import sampler_comparison_words as words
-from experiments.lib.studies.sampler_comparison_plan import (
+from experiments.lib.studies.sampler_comparison.analysis import families
+from experiments.lib.studies.sampler_comparison.efficiency import interval_header, point
+from experiments.lib.studies.sampler_comparison import words
+from experiments.lib.studies.sampler_comparison.plan import (
     NAME, PassReport, Planned, Settings, declare_screen, default_screen_labels, interleaved)
-from experiments.lib.studies.sampler_comparison_screen_analysis import (
+from experiments.lib.studies.sampler_comparison.screen_analysis import (
     SCREEN_HEADER, ScreenAnalysis, ScreenPoint, ScreenRow, analyse_screen)
 
 
