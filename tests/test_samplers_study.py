@@ -715,18 +715,17 @@ def test_the_lab_plans_the_same_screen_jobs(tmp_path):
     """The lab's error images are the sampler study's renders (first repeat): the same
     keys, so it finds them in the store; with another seed it would not (control)."""
     from experiments.lib.engine import Engine
-    from experiments.lib.studies import lab
+    from experiments.lib.studies.lab.study import Config, plan_screen
     st, cfg = tiny_study(tmp_path)
     study = planned(st, cfg, ScreenSpace())
     keys = {j.key for j in study.renders()} | {j.key for c in study.refs.values() for j in c}
-    config = lab.Config(screen_resolution=(8, 8), screen_counts=(2,),
-                        screen_samplers=("independent", "zsobol:owen"),
-                        screen_reference_spp=16)
-    mine = lab.plan_screen(Engine(st), config, cfg.screen.reference)
+    config = Config(screen_resolution=(8, 8), screen_counts=(2,),
+                    screen_samplers=("independent", "zsobol:owen"), screen_reference_spp=16)
+    mine = plan_screen(Engine(st), config, cfg.screen.reference)
     ours = {j.key for j in mine.renders()} | {j.key for c in mine.refs.values() for j in c}
     assert len(ours) == 8 + 2 and ours <= keys
     other, _ = tiny_study(tmp_path, "--seed", "7")
-    moved = lab.plan_screen(Engine(other), config, cfg.screen.reference)
+    moved = plan_screen(Engine(other), config, cfg.screen.reference)
     assert not {j.key for j in moved.renders()} & keys
 
 

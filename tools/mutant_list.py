@@ -146,7 +146,7 @@ MUTANTS = [
            "        kernels = kernel\n",
            "only the last pass's kernels are timed (a training pass looks free)",
            ("tests/test_clock.py",)),
-    Mutant("lab-mass-against-one", "experiments/lib/lab_mass.py",
+    Mutant("lab-mass-against-one", "experiments/lib/studies/lab/mass.py",
            "    return check(mass, share, rel, quad, z)",
            "    return check(mass, 1.0, rel, quad, z)",
            "the lab's mass check compares the density's integral with 1 instead of the share "

@@ -27,7 +27,8 @@ from ..scenes import Needs, SceneInfo, unmet
 #: The built-in studies' modules in this package, a study that is a package by its
 #: ``study`` module (each registers itself when imported, under its own name:
 #: ``sampler_comparison.study`` registers the study ``samplers``).
-BUILTIN = ("sampler_comparison.study", "convergence", "writeup", "lab", "stability", "suite")
+BUILTIN = ("sampler_comparison.study", "convergence", "writeup", "lab.study", "stability",
+           "suite")
 #: ``run_all``'s choices for every study.
 MODES = ("default", "quick", "off")
 

@@ -1,12 +1,12 @@
 """Sampling lab: every vr_path strategy as a warp, and every sampler's point sets, measured.
 
-Warps (:mod:`experiments.lib.lab_warps`): each registered strategy of ``vr_path`` on
+Warps (:mod:`experiments.lib.studies.lab.warps`): each registered strategy of ``vr_path`` on
 ``phong`` (exponents 1, 10, 100, 1000), ``roughconductor`` (alpha 0.1) and
 ``roughdielectric`` (alpha 0.3, both sides) at incidence 0, 60 and 85 degrees,
 drawn by the plugin's own ``integrators.path.sample_direction`` and checked
 against its ``direction_pdf`` by a chi-square test; the integrand f cos and
 the relative variance of the weight f cos / pdf beside it. Point sets
-(:mod:`experiments.lib.lab_points`): the points one pixel receives from every
+(:mod:`experiments.lib.studies.lab.points`): the points one pixel receives from every
 sampler label of the sampler table (the sampler study's list, a ``--plugin``
 sampler included) at 64 and 256 spp, driven as a render drives them; 2-D
 projections, centered L2 discrepancy and radially averaged power spectra. Each
@@ -29,14 +29,13 @@ import time
 
 import numpy as np
 
-from experiments.lib import cli, figures, files, lab_figures, lab_guide, lab_mass, lab_points
-from experiments.lib import lab_warps
-from experiments.lib import report, screen_space
-from experiments.lib.studies import lab_checks_report
+from experiments.lib import cli, files, report, screen_space
+from experiments.lib.figures import spectrum_panels
 from experiments.lib.engine import Cell, Engine
 from experiments.lib.methods import Method, parse_method, strategies as registered_strategies
 from experiments.lib.study import Study, StudySettings
 from experiments.lib.studies import StudySpec, register_study
+from experiments.lib.studies.lab import checks_report, figures, guide, mass, points, warps
 from experiments.lib.studies.sampler_comparison import plan
 from experiments.lib.studies.sampler_comparison.study import screen_samplers
 from experiments.lib.studies.sampler_comparison.analysis import families
@@ -51,10 +50,10 @@ QUICK_SAMPLES = 10_000
 @dataclasses.dataclass(frozen=True)
 class Config:
     """What one run of the lab computes."""
-    bsdfs: tuple = lab_warps.BSDFS
-    incidences: tuple = lab_warps.INCIDENCES
+    bsdfs: tuple = warps.BSDFS
+    incidences: tuple = warps.INCIDENCES
     samplers: tuple | None = None        # None: every label of the sampler table
-    counts: tuple = lab_points.COUNTS
+    counts: tuple = points.COUNTS
     pixels: tuple = (8, 8)               # width, height of the point-set "render"
     strategies: tuple | None = None      # None: every registered strategy
     samples: int = SAMPLES               # directions per warp panel
@@ -65,15 +64,15 @@ class Config:
     screen_depth: int = 2
     screen_samplers: tuple | None = None     # None: the sampler study's default labels
     screen_reference_spp: int = plan.SCREEN_REFERENCE_SPP
-    #: the frozen guide's panels (lab_guide): the scene it trains on (None: none), film,
+    #: the frozen guide's panels (:mod:`.lab.guide`): the scene it trains on (None: none), film,
     #: training spp, surface points
-    guide_scene: str | None = lab_guide.SCENE
-    guide_film: tuple = lab_guide.FILM
-    guide_spp: int = lab_guide.SPP
-    guide_sites: int = lab_guide.SITES
+    guide_scene: str | None = guide.SCENE
+    guide_film: tuple = guide.FILM
+    guide_spp: int = guide.SPP
+    guide_sites: int = guide.SITES
 
     def sampler_labels(self) -> list[str]:
-        return list(self.samplers or lab_points.samplers())
+        return list(self.samplers or points.samplers())
 
     def strategy_names(self) -> list[str]:
         return list(self.strategies or registered_strategies())
@@ -86,7 +85,7 @@ class Config:
 FULL = Config()
 #: The screen-space part of --quick matches the sampler study's quick screen-space pass,
 #: so that run_all's quick run renders it once.
-QUICK = Config(bsdfs=(lab_warps.BSDFS[1], lab_warps.BSDFS[-1]), incidences=(60.0,),
+QUICK = Config(bsdfs=(warps.BSDFS[1], warps.BSDFS[-1]), incidences=(60.0,),
                counts=(64,), pixels=(4, 4), samples=QUICK_SAMPLES, screen_resolution=(16, 8),
                screen_counts=(4,), screen_reference_spp=16, guide_film=(24, 18),
                guide_spp=64, guide_sites=1)
@@ -135,22 +134,22 @@ def slug(label: str) -> str:
 
 @dataclasses.dataclass(frozen=True)
 class WarpsMeasured:
-    specs: list                  # lab_warps.PanelSpec, in plan order
+    specs: list                  # warps.PanelSpec, in plan order
     panels: dict                 # {spec key: panel}
     rows: list                   # one dict per panel (the warps table)
 
 
 def plan_warps(cfg: Config) -> list:
-    return lab_warps.plan(cfg.strategy_names(), cfg.samples, cfg.seed, cfg.bsdfs,
+    return warps.plan(cfg.strategy_names(), cfg.samples, cfg.seed, cfg.bsdfs,
                           cfg.incidences)
 
 
 def measure_warps(specs: list, cache: str) -> WarpsMeasured:
-    panels = {spec.key(): lab_warps.cached(spec, cache) for spec in specs}
+    panels = {spec.key(): warps.cached(spec, cache) for spec in specs}
     rows = [{"bsdf": spec.bsdf_label, "incidence_deg": spec.incidence_deg,
              "strategy": spec.strategy, "samples": spec.samples, "seed": spec.seed,
-             "grid": lab_warps.domain_for(spec).describe(),
-             **{k: panels[spec.key()][k] for k in lab_warps.SCALARS}} for spec in specs]
+             "grid": warps.domain_for(spec).describe(),
+             **{k: panels[spec.key()][k] for k in warps.SCALARS}} for spec in specs]
     return WarpsMeasured(specs, panels, rows)
 
 
@@ -159,7 +158,7 @@ WARP_HEADER = ["bsdf", "incidence_deg", "strategy", "samples", "seed", "grid", "
                "max_z"]
 
 
-def report_warps(out: str, cfg: Config, m: WarpsMeasured, found: lab_warps.Findings) -> list:
+def report_warps(out: str, cfg: Config, m: WarpsMeasured, found: warps.Findings) -> list:
     out_dir = os.path.join(out, NAME)
     strategies = list(dict.fromkeys(s.strategy for s in m.specs))
     blocks = []
@@ -169,23 +168,23 @@ def report_warps(out: str, cfg: Config, m: WarpsMeasured, found: lab_warps.Findi
         tiles = [(f"{s.strategy:8s} {s.incidence_deg:4g}°  p={m.panels[s.key()]['p_value']:.2g}"
                   f"\nVar/E²={m.panels[s.key()]['rel_variance']:.3g}", m.panels[s.key()])
                  for s in mine]
-        lab_figures.warp_mosaic(os.path.join(out_dir, stem + ".png"),
+        figures.warp_mosaic(os.path.join(out_dir, stem + ".png"),
                                 f"{label}: vr_path strategies", tiles)
         blocks.append(report.image(
             f"{NAME}/{stem}.png",
-            f"{label}, {lab_warps.domain_for(mine[0]).describe()} (x: azimuth, the whole "
+            f"{label}, {warps.domain_for(mine[0]).describe()} (x: azimuth, the whole "
             f"sphere with the mirror direction's azimuth in the middle; y: cosine, the normal "
             f"or the lobe axis at the top): per row one strategy at one incidence; left to "
             f"right the first {mine[0].scatter} drawn directions, the histogram of {cfg.samples} "
             f"directions, the strategy's density integrated over the same cells (both as "
-            f"(value/max)^{lab_figures.GAMMA:g}), their difference as a z-score (blue: too "
-            f"few samples, red: too many; ±{lab_figures.Z_RANGE:g} at full colour) and the "
+            f"(value/max)^{figures.GAMMA:g}), their difference as a z-score (blue: too "
+            f"few samples, red: too many; ±{figures.Z_RANGE:g} at full colour) and the "
             f"integrand f·cos."))
     rows = m.rows
     configs = list(dict.fromkeys((r["bsdf"], r["incidence_deg"]) for r in rows))
     values = np.array([[next(r["rel_variance"] for r in rows if (r["bsdf"], r["incidence_deg"])
                              == c and r["strategy"] == s) for s in strategies] for c in configs])
-    lab_figures.rel_variance_chart(os.path.join(out_dir, "rel_variance.png"),
+    figures.rel_variance_chart(os.path.join(out_dir, "rel_variance.png"),
                                    [f"{b} {i:g}°" for b, i in configs], strategies, values)
     blocks.append(report.image(f"{NAME}/rel_variance.png",
                                "Var[w]/E[w]^2 of the weight w = f·cos/pdf per configuration "
@@ -205,28 +204,28 @@ def report_warps(out: str, cfg: Config, m: WarpsMeasured, found: lab_warps.Findi
         + [f"p_value {s}" for s in strategies] + [f"rel_variance {s}" for s in strategies],
         wide, "Chi-square p-value and Var[w]/E[w]^2 per configuration and strategy"))
     blocks += [report.write_table(
-        out, f"{NAME}/warps_conclusion", lab_warps.HEADER, [r.cells() for r in found.rows],
+        out, f"{NAME}/warps_conclusion", warps.HEADER, [r.cells() for r in found.rows],
         f"Warps, per strategy over {found.configurations} configurations: chi-square "
         f"rejections at 1% (Sidak over the panels: p < {found.alpha:.1e}), the lowest "
-        f"p-value, where Var[w]/E[w]^2 exceeds {lab_warps.EXPLODES:g}, and in how many "
+        f"p-value, where Var[w]/E[w]^2 exceeds {warps.EXPLODES:g}, and in how many "
         f"configurations the strategy's Var[w]/E[w]^2 is the lowest"),
         report.text("\n\n".join(found.sentences))]
     return blocks
 
 
-def guide_config(cfg: Config) -> lab_guide.GuideConfig | None:
+def guide_config(cfg: Config) -> guide.GuideConfig | None:
     """The frozen guide's settings (the lab's samples per panel and seed), or None."""
     if not cfg.guide_scene:
         return None
     scene = cfg.guide_scene
     if not os.path.isabs(scene):
-        scene = os.path.join(os.path.dirname(os.path.abspath(lab_guide.__file__)), "..", "..",
-                             scene)
-    return lab_guide.GuideConfig(os.path.normpath(scene), cfg.guide_film[0], cfg.guide_film[1],
+        scene = os.path.join(os.path.dirname(os.path.abspath(guide.__file__)), "..", "..", "..",
+                             "..", scene)
+    return guide.GuideConfig(os.path.normpath(scene), cfg.guide_film[0], cfg.guide_film[1],
                                  cfg.guide_spp, cfg.seed, cfg.guide_sites, cfg.samples)
 
 
-def report_guide(out: str, gcfg: lab_guide.GuideConfig, m: lab_guide.Measured) -> list:
+def report_guide(out: str, gcfg: guide.GuideConfig, m: guide.Measured) -> list:
     """The frozen guide's mosaic (the warp panels' five tiles per surface point)."""
     out_dir = os.path.join(out, NAME)
     if not m.specs:
@@ -235,7 +234,7 @@ def report_guide(out: str, gcfg: lab_guide.GuideConfig, m: lab_guide.Measured) -
     tiles = [(f"{s.bsdf_label}\n{s.incidence_deg:g}°  p={m.panels[s.key()]['p_value']:.2g}  "
               f"Var/E²={m.panels[s.key()]['rel_variance']:.3g}", m.panels[s.key()])
              for s in m.specs]
-    lab_figures.warp_mosaic(os.path.join(out_dir, "warps_frozen_guide.png"),
+    figures.warp_mosaic(os.path.join(out_dir, "warps_frozen_guide.png"),
                             f"{gcfg.label()}: the trained strategy at scene points", tiles)
     how = ("read from the lab's cache" if m.cached else
            f"trained in {m.train_seconds:.1f} s, panels computed in "
@@ -255,7 +254,7 @@ def report_guide(out: str, gcfg: lab_guide.GuideConfig, m: lab_guide.Measured) -
             [[r[h] if not isinstance(r[h], float) else float(f"{r[h]:.6g}") for h in WARP_HEADER]
              for r in m.rows], f"The frozen guide's panels (p_value: chi-square test of the "
                                f"histogram against the strategy's density; grid "
-                               f"{lab_warps.PanelSpec.res} x {lab_warps.PanelSpec.res} cells, "
+                               f"{warps.PanelSpec.res} x {warps.PanelSpec.res} cells, "
                                f"{gcfg.ires} x {gcfg.ires} points per cell)")]
 
 
@@ -264,7 +263,7 @@ def report_guide(out: str, gcfg: lab_guide.GuideConfig, m: lab_guide.Measured) -
 @dataclasses.dataclass(frozen=True)
 class PointsMeasured:
     names: list                  # sampler labels, in order
-    results: dict                # {(spp, label): lab_points.compute's dict}
+    results: dict                # {(spp, label): points.compute's dict}
     cd: dict                     # {(spp, label, pair): mean squared CD over pixels}
     joint: dict                  # {(spp, label, pair): joint low-frequency power}
     counts: dict                 # {spp: {label: points drawn}}
@@ -272,57 +271,57 @@ class PointsMeasured:
 
 def plan_points(cfg: Config) -> list:
     width, height = cfg.pixels
-    return [lab_points.PointSpec(name, spp, seeds=(cfg.seed,), width=width, height=height)
+    return [points.PointSpec(name, spp, seeds=(cfg.seed,), width=width, height=height)
             for spp in cfg.counts for name in cfg.sampler_labels()]
 
 
 def measure_points(specs: list, cache: str) -> PointsMeasured:
     results, cd, joint, counts = {}, {}, {}, {}
     for spec in specs:
-        res = results[(spec.spp, spec.sampler)] = lab_points.cached(spec, cache)
+        res = results[(spec.spp, spec.sampler)] = points.cached(spec, cache)
         counts.setdefault(spec.spp, {})[spec.sampler] = int(res["count"])
-        for a, b in lab_points.PAIRS:
+        for a, b in points.PAIRS:
             cd[(spec.spp, spec.sampler, (a, b))] = float(np.mean(res[f"cd_{a}_{b}"]))
             joint[(spec.spp, spec.sampler, (a, b))] = float(res[f"joint_{a}_{b}"])
     names = list(dict.fromkeys(s.sampler for s in specs))
     return PointsMeasured(names, results, cd, joint, counts)
 
 
-def analyse_points(m: PointsMeasured, spp: int) -> lab_points.Findings:
+def analyse_points(m: PointsMeasured, spp: int) -> points.Findings:
     """The conclusion at ``spp`` requested (pure, from the measured numbers)."""
     at = {(n, p): v for (s, n, p), v in m.cd.items() if s == spp}
     joint = {(n, p): v for (s, n, p), v in m.joint.items() if s == spp}
-    return lab_points.analyse(at, joint, m.counts[spp], spp, families(m.names))
+    return points.analyse(at, joint, m.counts[spp], spp, families(m.names))
 
 
 def report_points(out: str, cfg: Config, m: PointsMeasured,
-                  found: lab_points.Findings) -> list:
+                  found: points.Findings) -> list:
     out_dir = os.path.join(out, NAME)
     width, height = cfg.pixels
     names, rows, blocks = m.names, [], []
     for spp in cfg.counts:
-        points, power, counts = {}, {}, m.counts[spp]
+        scatter, power, counts = {}, {}, m.counts[spp]
         for name in names:
             res = m.results[(spp, name)]
-            for a, b in lab_points.PAIRS:
+            for a, b in points.PAIRS:
                 tag = f"{a}_{b}"
-                points[(name, (a, b))] = res[f"scatter_{tag}"]
+                scatter[(name, (a, b))] = res[f"scatter_{tag}"]
                 power[(name, (a, b))] = (res["freqs"], res[f"power_{tag}"])
                 cd = res[f"cd_{tag}"]
-                expected = lab_points.random_expectation(counts[name])
+                expected = points.random_expectation(counts[name])
                 rows.append([name, spp, counts[name], f"({a},{b})",
-                             lab_points.describe_pair(a, b),
+                             points.describe_pair(a, b),
                              float(f"{np.mean(cd):.6g}"), float(f"{np.std(cd):.3g}"),
                              float(f"{np.mean(cd) / expected:.4g}"),
                              float(f"{float(res[f'joint_{tag}']):.4g}"), len(cd)])
-        lab_figures.point_grid(os.path.join(out_dir, f"points_{spp}.png"),
+        figures.point_grid(os.path.join(out_dir, f"points_{spp}.png"),
                                f"One pixel's points at {spp} spp requested (vr_path bsdf+nee "
-                               f"order)", names, list(lab_points.PAIRS), points, counts)
-        spectrum_points = lab_points.PointSpec('', 0).spectrum_points
-        lab_figures.spectra(os.path.join(out_dir, f"spectrum_{spp}.png"),
+                               f"order)", names, list(points.PAIRS), scatter, counts)
+        spectrum_points = points.PointSpec('', 0).spectrum_points
+        figures.spectra(os.path.join(out_dir, f"spectrum_{spp}.png"),
                             f"Radially averaged power spectrum at {spp} spp, mean over "
                             f"{min(width * height, max(8, spectrum_points // spp))} pixels",
-                            names, list(lab_points.PAIRS), power, counts)
+                            names, list(points.PAIRS), power, counts)
         blocks += [report.image(f"{NAME}/points_{spp}.png",
                                 f"The points pixel 0 receives at {spp} spp requested (count "
                                 f"drawn in brackets), per pair of dimensions."),
@@ -336,21 +335,21 @@ def report_points(out: str, cfg: Config, m: PointsMeasured,
         "Squared centered L2 discrepancy per sampler, count and pair (mean over pixels)",
         collapsed=True))
     spp = found.spp
-    header = ["sampler", "count"] + [f"({a},{b})" for a, b in lab_points.PAIRS]
-    wide = [[n, m.counts[spp][n]] + [f"{m.cd[(spp, n, p)]:.3g}" for p in lab_points.PAIRS]
+    header = ["sampler", "count"] + [f"({a},{b})" for a, b in points.PAIRS]
+    wide = [[n, m.counts[spp][n]] + [f"{m.cd[(spp, n, p)]:.3g}" for p in points.PAIRS]
             for n in names]
     wide.append(["(independent points, expected)", ""] + [
-        f"{lab_points.random_expectation(spp):.3g}" for _ in lab_points.PAIRS])
+        f"{points.random_expectation(spp):.3g}" for _ in points.PAIRS])
     blocks += [
         report.write_table(out, f"{NAME}/discrepancy_{spp}", header, wide,
                            f"discrepancy_cd (squared centered L2) at {spp} spp requested, "
                            f"mean over pixels; columns: dimension pairs"),
         report.write_table(
-            out, f"{NAME}/points_conclusion", lab_points.HEADER,
+            out, f"{NAME}/points_conclusion", points.HEADER,
             [r.cells() for r in found.rows],
             f"Point sets at {spp} spp requested: the pairs each sampler stratifies jointly "
-            f"(discrepancy below {lab_points.LOST} of independent points' and joint "
-            f"low-frequency power below {lab_points.JOINT}), only per coordinate, or not at "
+            f"(discrepancy below {points.LOST} of independent points' and joint "
+            f"low-frequency power below {points.JOINT}), only per coordinate, or not at "
             f"all"),
         report.text("\n\n".join(found.sentences))]
     return blocks
@@ -430,15 +429,15 @@ def screen_source(m: ScreenMeasured) -> str:
 def report_screen(out: str, cfg: Config, m: ScreenMeasured) -> list:
     out_dir = os.path.join(out, NAME)
     width, height = cfg.screen_resolution
-    by_count = {c: lab_figures.error_tiles([m.fields[(s, c)] for s in m.labels],
+    by_count = {c: figures.error_tiles([m.fields[(s, c)] for s in m.labels],
                                            [m.spectra[(s, c)] for s in m.labels])
                 for c in m.counts}
     tiles = [[t for c in m.counts for t in by_count[c][r]] for r in range(len(m.labels))]
     columns = [f"{what}, {c} spp" for c in m.counts for what in ("error", "spectrum")]
-    lab_figures.error_mosaic(os.path.join(out_dir, "screen_errors.png"),
+    figures.error_mosaic(os.path.join(out_dir, "screen_errors.png"),
                              f"Error images and their power spectra, {width}x{height}, "
                              f"max_depth {cfg.screen_depth}", m.labels, columns, tiles)
-    figures.spectrum_panels(os.path.join(out_dir, "screen_spectra.png"),
+    spectrum_panels(os.path.join(out_dir, "screen_spectra.png"),
                             {f"{c} spp requested": {s: m.radial[(s, c)] for s in m.labels}
                              for c in m.counts}, screen_space.LOW,
                             "Radially averaged power spectra of the error images above")
@@ -450,8 +449,8 @@ def report_screen(out: str, cfg: Config, m: ScreenMeasured) -> list:
                      f"Per sampler: the error (render minus reference, luminance; red too "
                      f"bright, blue too dark, one scale per count) and its power spectrum "
                      f"(frequency 0 in the middle, the Nyquist frequency at the edges; log "
-                     f"of the power over white noise's, smoothed over {lab_figures.SMOOTH}x"
-                     f"{lab_figures.SMOOTH} bins; dark centre: blue noise) at "
+                     f"of the power over white noise's, smoothed over {figures.SMOOTH}x"
+                     f"{figures.SMOOTH} bins; dark centre: blue noise) at "
                      f"{' and '.join(map(str, m.counts))} spp; {screen_source(m)}."),
         report.image(f"{NAME}/screen_spectra.png",
                      f"The same spectra radially averaged (white noise: 1); the low-"
@@ -493,28 +492,28 @@ def run(args) -> None:
     settings = settings_of(args)
     cfg, out = settings.config, settings.out
     out_dir = os.path.join(out, NAME)
-    warps = measure_warps(plan_warps(cfg), os.path.join(out_dir, "cache", "warps"))
+    warp_panels = measure_warps(plan_warps(cfg), os.path.join(out_dir, "cache", "warps"))
     gcfg = guide_config(cfg)
-    guide = (lab_guide.measure(gcfg, os.path.join(out_dir, "cache", "warps"))
+    frozen = (guide.measure(gcfg, os.path.join(out_dir, "cache", "warps"))
              if gcfg else None)
-    rows = warps.rows + (guide.rows if guide else [])
-    warp_found, checks = lab_warps.analyse(rows), lab_mass.analyse(rows)
+    rows = warp_panels.rows + (frozen.rows if frozen else [])
+    warp_found, checks = warps.analyse(rows), mass.analyse(rows)
     warp_seconds = time.perf_counter() - start
-    points = measure_points(plan_points(cfg), os.path.join(out_dir, "cache", "points"))
-    point_found = analyse_points(points, cfg.counts[0])
+    point_sets = measure_points(plan_points(cfg), os.path.join(out_dir, "cache", "points"))
+    point_found = analyse_points(point_sets, cfg.counts[0])
     point_seconds = time.perf_counter() - start - warp_seconds
     engine = Engine(Study(StudySettings(**cli.common_fields(args))))
     screen = measure_screen(engine, cfg, plan_screen(engine, cfg, settings.reference))
     screen_seconds = time.perf_counter() - start - warp_seconds - point_seconds
-    blocks = ([report.text(GUIDE)] + report_warps(out, cfg, warps, warp_found)
-              + (report_guide(out, gcfg, guide) if guide else [])
-              + lab_checks_report.report_checks(out, checks, [r["p_value"] for r in rows],
+    blocks = ([report.text(GUIDE)] + report_warps(out, cfg, warp_panels, warp_found)
+              + (report_guide(out, gcfg, frozen) if frozen else [])
+              + checks_report.report_checks(out, checks, [r["p_value"] for r in rows],
                                                 warp_found.alpha)
-              + report_points(out, cfg, points, point_found)
+              + report_points(out, cfg, point_sets, point_found)
               + report_screen(out, cfg, screen))
     described = {"samples per warp panel": cfg.samples, "seed": cfg.seed,
-                "warp grid": f"{lab_warps.PanelSpec.res} x {lab_warps.PanelSpec.res} cells, "
-                             f"{lab_warps.PanelSpec.ires} x {lab_warps.PanelSpec.ires} "
+                "warp grid": f"{warps.PanelSpec.res} x {warps.PanelSpec.res} cells, "
+                             f"{warps.PanelSpec.ires} x {warps.PanelSpec.ires} "
                              f"trapezoid points per cell",
                 "BSDFs": "; ".join(label for label, _ in cfg.bsdfs),
                 "incidences (deg)": ", ".join(f"{i:g}" for i in cfg.incidences),
@@ -527,10 +526,10 @@ def run(args) -> None:
                                       f"reference {cfg.screen_reference_spp} spp of "
                                       f"{settings.reference}; {screen_source(screen)}",
                 "frozen guide": (f"{gcfg.label()}: {gcfg.method}, {gcfg.spp} spp at "
-                                 f"{gcfg.width}x{gcfg.height}, {len(guide.specs)} surface "
-                                 f"points, training {guide.train_seconds:.1f} s"
-                                 + (" (panels cached)" if guide.cached else "")
-                                 if guide else "none"),
+                                 f"{gcfg.width}x{gcfg.height}, {len(frozen.specs)} surface "
+                                 f"points, training {frozen.train_seconds:.1f} s"
+                                 + (" (panels cached)" if frozen.cached else "")
+                                 if frozen else "none"),
                 "variant": settings.variant, "quick": settings.quick,
                 "wall time (s)": f"warps {warp_seconds:.1f}, point sets {point_seconds:.1f}, "
                                  f"screen space {screen_seconds:.1f} (panels and point sets "
@@ -540,15 +539,15 @@ def run(args) -> None:
                          "point sets", ORDER, described, blocks, settings.variant,
                          time.perf_counter() - start)
     files.write_json(os.path.join(out_dir, "summary.json"), {
-        "warps": warps.rows, "frozen_guide": guide.rows if guide else [],
+        "warps": warp_panels.rows, "frozen_guide": frozen.rows if frozen else [],
         "warp_conclusion": warp_found.sentences,
         "warp_table": [dataclasses.asdict(r) for r in warp_found.rows],
-        "mass_albedo": {"z": checks.z, "tests": checks.tests, "sentences": lab_checks_report
+        "mass_albedo": {"z": checks.z, "tests": checks.tests, "sentences": checks_report
                         .sentences(checks), "panels": [dataclasses.asdict(r) for r in checks.rows]},
         "point_conclusion": point_found.sentences,
         "point_table": [dataclasses.asdict(r) for r in point_found.rows],
         "discrepancy": [{"spp": spp, "sampler": n, "pair": list(p), "discrepancy_cd": v}
-                        for (spp, n, p), v in points.cd.items()],
+                        for (spp, n, p), v in point_sets.cd.items()],
         "screen": {"source": screen_source(screen), "shares": [
             {"sampler": s, "spp": c, "spp_rendered": screen.rendered[(s, c)],
              "low_frequency_share": screen.shares[(s, c)]}
