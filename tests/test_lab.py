@@ -192,7 +192,7 @@ def read_header(path):
 
 
 def test_quick_run_writes_section_and_resumes(tmp_path, monkeypatch):
-    from experiments.lib.studies.lab import study
+    from experiments.lib.studies.lab import config, study
     out = str(tmp_path / "out")
     study.STUDY.main(["--quick", "--out", out])
     section = json.load(open(os.path.join(out, "lab", "section.json")))
@@ -209,7 +209,7 @@ def test_quick_run_writes_section_and_resumes(tmp_path, monkeypatch):
         rows = list(csv.DictReader(f))
     # one row per quick BSDF and every strategy registered in this process (a test may have
     # registered one of its own: the lab picks it up like the built-in four)
-    assert len(rows) == 2 * len(study.QUICK.strategy_names()) >= 2 * 4
+    assert len(rows) == 2 * len(config.QUICK.strategy_names()) >= 2 * 4
     assert all(0 <= float(r["p_value"]) <= 1 for r in rows)
     for block in section["blocks"]:
         if block["kind"] == "image":

@@ -715,7 +715,8 @@ def test_the_lab_plans_the_same_screen_jobs(tmp_path):
     """The lab's error images are the sampler study's renders (first repeat): the same
     keys, so it finds them in the store; with another seed it would not (control)."""
     from experiments.lib.engine import Engine
-    from experiments.lib.studies.lab.study import Config, plan_screen
+    from experiments.lib.studies.lab.config import Config
+    from experiments.lib.studies.lab.screen_part import plan_screen
     st, cfg = tiny_study(tmp_path)
     study = planned(st, cfg, ScreenSpace())
     keys = {j.key for j in study.renders()} | {j.key for c in study.refs.values() for j in c}

@@ -182,7 +182,7 @@ def compute(cfg: GuideConfig, trained=None, strategy=None) -> tuple[list, dict, 
 
 
 def rows_of(specs: list, panels: dict) -> list[dict]:
-    """The lab's warp rows (:func:`experiments.lib.studies.lab.study.measure_warps`'s)."""
+    """The lab's warp rows (:func:`.lab.warp_part.measure_warps`'s)."""
     return [{"bsdf": s.bsdf_label, "incidence_deg": s.incidence_deg, "strategy": s.strategy,
              "samples": s.samples, "seed": s.seed, "grid": warps.domain_for(s).describe(),
              **{k: panels[s.key()][k] for k in warps.SCALARS}} for s in specs]
