@@ -1,10 +1,10 @@
 """Sampling lab: every vr_path strategy as a warp, and every sampler's point sets, measured.
 
-The study itself is :mod:`experiments.lib.studies.lab`; this is its command::
+The study itself is :mod:`experiments.lib.studies.lab.study`; this is its command::
 
     python -m experiments.lab --help
 """
-from experiments.lib.studies.lab import STUDY
+from experiments.lib.studies.lab.study import STUDY
 
 main = STUDY.main
 

@@ -14,7 +14,7 @@ are tabulated accurately.
 :func:`mass_and_albedo` checks what a chi-square test cannot see, a density off by a
 constant factor: the density's integral over the sphere against the share of directions
 drawn, and E[f cos / pdf] against the BSDF's albedo (the sampling lab's own checks,
-:mod:`experiments.lib.lab_mass`, on one lab panel).
+:mod:`experiments.lib.studies.lab.mass`, on one lab panel).
 """
 import math
 
@@ -57,15 +57,15 @@ def run_chi2(domain, sample, pdf, sample_dim, monkeypatch, tmp_path, test_count=
 def panel_checks(strategy, bsdf: dict, cos_i: float, test_count=1, samples=250_000, seed=0):
     """The sampling lab's mass and albedo checks of ``strategy`` (a registered name or a
     Strategy object) on ``bsdf`` (a Mitsuba dict) at incidence cos(theta_i) = ``cos_i``:
-    one lab panel (:func:`experiments.lib.lab_warps.compute`), checked by
-    :func:`experiments.lib.lab_mass.checks` at SIGNIFICANCE, Sidak-corrected over
+    one lab panel (:func:`experiments.lib.studies.lab.warps.compute`), checked by
+    :func:`experiments.lib.studies.lab.mass.checks` at SIGNIFICANCE, Sidak-corrected over
     ``test_count`` panels (two checks each). Returns (mass check, albedo check, panel)."""
-    from experiments.lib import lab_mass, lab_warps
-    spec = lab_warps.PanelSpec("test", bsdf, strategy, math.degrees(math.acos(cos_i)),
-                               samples, seed)
-    panel = lab_warps.compute(spec)
-    mass, albedo = lab_mass.checks(panel, samples,
-                                   lab_mass.z_value(2 * test_count, SIGNIFICANCE))
+    from experiments.lib.studies.lab import warps
+    from experiments.lib.studies.lab.mass import checks, z_value
+    spec = warps.PanelSpec("test", bsdf, strategy, math.degrees(math.acos(cos_i)), samples,
+                           seed)
+    panel = warps.compute(spec)
+    mass, albedo = checks(panel, samples, z_value(2 * test_count, SIGNIFICANCE))
     return mass, albedo, panel
 
 
@@ -73,11 +73,11 @@ def mass_and_albedo(strategy, bsdf: dict, cos_i: float, test_count=1, samples=25
                     undecided_ok=False):
     """:func:`panel_checks`, failing the test when either check fails, and when one cannot
     decide (too wide, heavy tails) unless ``undecided_ok``. Returns what it returns."""
-    from experiments.lib import lab_mass
+    from experiments.lib.studies.lab.mass import FAIL, PASS
     mass, albedo, panel = panel_checks(strategy, bsdf, cos_i, test_count, samples, seed)
     for name, c in (("mass / share drawn", mass), ("E[w] / albedo", albedo)):
         where = f"{strategy!r} on {bsdf} at cos_i={cos_i}: {name} = {c.ratio:.4g}"
-        assert c.verdict != lab_mass.FAIL, f"{where}, interval [{c.low:.4g}, {c.high:.4g}]"
-        assert undecided_ok or c.verdict == lab_mass.PASS, \
+        assert c.verdict != FAIL, f"{where}, interval [{c.low:.4g}, {c.high:.4g}]"
+        assert undecided_ok or c.verdict == PASS, \
             f"{where}: cannot decide ({c.reason}, half-width {c.half_width:.3g})"
     return mass, albedo, panel

@@ -273,7 +273,7 @@ def test_constants_stated_are_the_codes():
 
 
 def test_negative_control_a_wrong_constant_is_caught():
-    page = ("ε = `metrics.RELMSE_EPS` (0.01) and `lab_points.PAIRS` (((0, 1), (2, 3),\n"
+    page = ("ε = `metrics.RELMSE_EPS` (0.01) and `lab.points.PAIRS` (((0, 1), (2, 3),\n"
             "(10, 11), (30, 31), (1, 2))); wrong: `metrics.RELMSE_EPS` (0.02), "
             "`metrics.NO_SUCH` (1).\n")
     problems = C.constants({"docs/synthetic.md": page})

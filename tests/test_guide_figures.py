@@ -1,5 +1,5 @@
-"""Seeing the guide (experiments/lib/guide_figures.py, lab_guide.py): the figure's files on
-a tiny film, the units map (every pixel a valid unit or -1 for a miss), the picks, the
+"""Seeing the guide (experiments/lib/guide_figures.py, studies/lab/guide.py): the figure's
+files on a tiny film, the units map (every pixel a valid unit or -1 for a miss), the picks, the
 suite's choice of scenes, and the lab's frozen-guide panels: they pass the chi-square,
 mass and albedo checks, and a guide whose density is 10% high fails them (negative
 control)."""
@@ -10,8 +10,10 @@ import numpy as np
 import pytest
 
 from _paths import scene_path
-from experiments.lib import guide_figures, lab_guide, lab_mass, lab_warps
+from experiments.lib import guide_figures
 from experiments.lib.methods import parse_method
+from experiments.lib.studies.lab import guide, warps
+from experiments.lib.studies.lab.mass import FAIL, PASS, checks, z_value
 from experiments.lib.studies.suite import report as suite_report
 from integrators import sdtree, strategies
 
@@ -108,32 +110,32 @@ def trained():
 
 
 def test_frozen_guide_panels_pass_and_a_ten_percent_high_density_fails(trained):
-    cfg = lab_guide.GuideConfig(DOOR, 32, 24, 128, 0, sites=2, samples=100_000)
-    specs, panels, _ = lab_guide.compute(cfg, trained=trained)
+    cfg = guide.GuideConfig(DOOR, 32, 24, 128, 0, sites=2, samples=100_000)
+    specs, panels, _ = guide.compute(cfg, trained=trained)
     assert len(specs) == 2
     assert all(s.strategy == "guided (frozen, trained on door_room)" for s in specs)
     # the guide is in use at the points checked (else this would test BSDF sampling)
     assert any(trained.tree.share[s.bsdf["unit"]] < 1.0 for s in specs)
-    rows = lab_guide.rows_of(specs, panels)
-    alpha, z = lab_warps.significance(2 * len(rows)), lab_mass.z_value(4 * len(rows))
+    rows = guide.rows_of(specs, panels)
+    alpha, z = warps.significance(2 * len(rows)), z_value(4 * len(rows))
     for r in rows:
-        mass, albedo = lab_mass.checks(r, r["samples"], z)
+        mass, albedo = checks(r, r["samples"], z)
         assert r["p_value"] >= alpha, r
-        assert mass.verdict == lab_mass.PASS and albedo.verdict != lab_mass.FAIL, r
+        assert mass.verdict == PASS and albedo.verdict != FAIL, r
     # negative control: the same guide reporting (and weighting by) 1.1 x its density
-    bad_specs, bad, _ = lab_guide.compute(cfg, trained=trained,
+    bad_specs, bad, _ = guide.compute(cfg, trained=trained,
                                           strategy=Scaled(trained.strategy, 1.1))
-    for r in lab_guide.rows_of(bad_specs, bad):
-        mass, albedo = lab_mass.checks(r, r["samples"], z)
+    for r in guide.rows_of(bad_specs, bad):
+        mass, albedo = checks(r, r["samples"], z)
         assert r["p_value"] < alpha
-        assert mass.verdict == lab_mass.FAIL and mass.low > 1.05
-        assert albedo.verdict == lab_mass.FAIL
+        assert mass.verdict == FAIL and mass.low > 1.05
+        assert albedo.verdict == FAIL
 
 
 def test_frozen_guide_panels_are_cached(tmp_path, monkeypatch):
-    cfg = lab_guide.GuideConfig(DOOR, 16, 12, 16, 0, sites=1, samples=2000)
-    first = lab_guide.measure(cfg, str(tmp_path))
-    monkeypatch.setattr(lab_guide, "compute", lambda *a, **k: pytest.fail("recomputed"))
-    again = lab_guide.measure(cfg, str(tmp_path))
+    cfg = guide.GuideConfig(DOOR, 16, 12, 16, 0, sites=1, samples=2000)
+    first = guide.measure(cfg, str(tmp_path))
+    monkeypatch.setattr(guide, "compute", lambda *a, **k: pytest.fail("recomputed"))
+    again = guide.measure(cfg, str(tmp_path))
     assert again.cached and not first.cached
     assert again.rows == first.rows

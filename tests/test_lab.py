@@ -23,13 +23,14 @@ import pytest
 
 import _qmc_oracle as oracle
 import integrators.path as vr_path
-from experiments.lib import execute, lab_points, lab_warps, samplers
-from experiments.lib.studies import sampler_comparison_plan
+from experiments.lib import execute, samplers
+from experiments.lib.studies.lab import figures, points, warps
+from experiments.lib.studies.sampler_comparison import plan
 
 
 def spec(label, strategy, incidence, samples=100_000, seed=3):
-    bsdf = dict(lab_warps.BSDFS)[label]
-    return lab_warps.PanelSpec(label, bsdf, strategy, incidence, samples, seed)
+    bsdf = dict(warps.BSDFS)[label]
+    return warps.PanelSpec(label, bsdf, strategy, incidence, samples, seed)
 
 
 @pytest.mark.parametrize("label,strategy,incidence", [
@@ -39,14 +40,14 @@ def spec(label, strategy, incidence, samples=100_000, seed=3):
 ])
 def test_lab_p_value_is_mitsubas(label, strategy, incidence, monkeypatch, tmp_path):
     s = spec(label, strategy, incidence)
-    panel = lab_warps.compute(s)
+    panel = warps.compute(s)
     bsdf = mi.load_dict(s.bsdf)
-    wi = lab_warps.incident(incidence)
-    domain = lab_warps.domain_for(s)
+    wi = warps.incident(incidence)
+    domain = warps.domain_for(s)
     monkeypatch.chdir(tmp_path)               # ChiSquareTest may write chi2_data.py
     test = mi.chi2.ChiSquareTest(domain=domain,
-                                 sample_func=lab_warps.sample_func(strategy, bsdf, wi, domain),
-                                 pdf_func=lab_warps.pdf_func(strategy, bsdf, wi), sample_dim=3,
+                                 sample_func=warps.sample_func(strategy, bsdf, wi, domain),
+                                 pdf_func=warps.pdf_func(strategy, bsdf, wi), sample_dim=3,
                                  sample_count=s.samples, res=s.res, ires=s.ires, seed=s.seed)
     test.run(quiet=True)
     hist = np.asarray(test.histogram).reshape(s.res, s.res)
@@ -61,35 +62,35 @@ def test_chi2_test_pools_as_mitsuba():
     expected = rng.exponential(3.0, 500)
     observed = rng.poisson(expected).astype(float)
     order = np.argsort(expected, kind="stable")
-    stat, dof, p = lab_warps.chi2_test(observed, expected, order)
+    stat, dof, p = warps.chi2_test(observed, expected, order)
     ref = mi.math_py.chi2(observed[order], expected[order], 5)
     assert stat == pytest.approx(ref[0]) and dof == ref[1]
-    assert lab_warps.chi2_test([1.0, 0.0], [0.0, 1.0])[2] == 0.0     # a sample where none can be
+    assert warps.chi2_test([1.0, 0.0], [0.0, 1.0])[2] == 0.0     # a sample where none can be
 
 
 def test_discrepancy_equals_scipys():
     from scipy.stats import qmc
     for name in ("independent", "stratified", "halton:owen"):
-        pts, count = lab_points.draw(name, 16, 2, 2, 2)
-        for a, b in lab_points.PAIRS:
+        pts, count = points.draw(name, 16, 2, 2, 2)
+        for a, b in points.PAIRS:
             pair = pts[..., [a, b]]
-            ours = lab_points.centered_discrepancy(pair)
+            ours = points.centered_discrepancy(pair)
             theirs = [qmc.discrepancy(p, method="CD") for p in pair]
             np.testing.assert_allclose(ours, theirs, rtol=1e-12, atol=0)
     x = np.random.default_rng(0).random((50, 3))
-    assert lab_points.centered_discrepancy(x) == pytest.approx(qmc.discrepancy(x, method="CD"),
+    assert points.centered_discrepancy(x) == pytest.approx(qmc.discrepancy(x, method="CD"),
                                                        rel=1e-12)
 
 
 def test_power_spectrum_of_independent_points_is_flat():
     x = np.random.default_rng(0).random((200, 64, 2))
-    freqs, power, joint = lab_points.power_spectrum(x, 12)
+    freqs, power, joint = points.power_spectrum(x, 12)
     assert np.all(np.abs(power - 1.0) < 0.15) and abs(joint - 1.0) < 0.15
     # a jittered 8x8 grid is jointly stratified: low power at low frequencies
     rng = np.random.default_rng(1)
     grid = (np.stack(np.meshgrid(np.arange(8), np.arange(8)), -1).reshape(64, 2)
             + rng.random((100, 64, 2))) / 8
-    assert lab_points.power_spectrum(grid, 12)[2] < 0.6
+    assert points.power_spectrum(grid, 12)[2] < 0.6
 
 
 def test_wrong_density_is_rejected_and_visible():
@@ -102,23 +103,22 @@ def test_wrong_density_is_rejected_and_visible():
     fake = types.SimpleNamespace(sample_direction=vr_path.sample_direction,
                                  direction_pdf=wrong_pdf)
     s = spec("phong n=1", "uniform", 0.0)
-    bad, good = lab_warps.compute(s, path_module=fake), lab_warps.compute(s)
+    bad, good = warps.compute(s, path_module=fake), warps.compute(s)
     assert bad["p_value"] < 1e-6 and good["p_value"] > 1e-4
 
     def z(panel):
         return (panel["histogram"] - panel["expected"]) / np.sqrt(np.maximum(panel["expected"], 1))
-    from experiments.lib import lab_figures
-    saturated = np.mean(np.abs(z(bad)) >= lab_figures.Z_RANGE)
+    saturated = np.mean(np.abs(z(bad)) >= figures.Z_RANGE)
     assert bad["max_z"] > 20 and good["max_z"] < 7
-    assert saturated > 0.05 and np.mean(np.abs(z(good)) >= lab_figures.Z_RANGE) < 1e-3
-    tile = lab_figures.panel_tiles(bad)[3]                              # the difference tile drawn
+    assert saturated > 0.05 and np.mean(np.abs(z(good)) >= figures.Z_RANGE) < 1e-3
+    tile = figures.panel_tiles(bad)[3]                              # the difference tile drawn
     white = np.all(np.abs(tile - tile[tile.shape[0] // 2, 0]) < 0.05, axis=-1)
     assert tile.std() > 0.1 and np.mean(~white) > 0.2
 
 
 class Recorder(mi.SamplingIntegrator):
     """Records what the sampler gives a render: the camera ray (film position) and
-    every value the integrator draws, in lab_points.PATTERN's order after the camera."""
+    every value the integrator draws, in points.PATTERN's order after the camera."""
 
     def __init__(self, props):
         mi.SamplingIntegrator.__init__(self, props)
@@ -126,7 +126,7 @@ class Recorder(mi.SamplingIntegrator):
 
     def sample(self, scene, sampler, ray, medium=None, active=True):
         values = [ray.o.x, ray.o.y]
-        for kind, _ in lab_points.PATTERN[1:]:
+        for kind, _ in points.PATTERN[1:]:
             if kind == "2d":
                 p = sampler.next_2d(active)
                 values += [p.x, p.y]
@@ -136,7 +136,7 @@ class Recorder(mi.SamplingIntegrator):
         return mi.Spectrum(0.0), mi.Bool(True), []
 
 
-@pytest.mark.parametrize("name", lab_points.samplers())
+@pytest.mark.parametrize("name", points.samplers())
 def test_points_are_what_a_render_draws(name):
     mi.register_integrator("lab_recorder", Recorder)
     width, height, spp, seed = 4, 2, 16, 5
@@ -150,7 +150,7 @@ def test_points_are_what_a_render_draws(name):
     rec = scene.integrator().values
     dr.eval(rec)
     rec = np.stack([np.asarray(v, np.float64) for v in rec], axis=1)
-    lab, count = lab_points.draw(name, spp, seed, width, height)
+    lab, count = points.draw(name, spp, seed, width, height)
     assert rec.shape[0] == width * height * count           # the count actually drawn
     rec = rec.reshape(width * height, count, -1)
     # dims 2...: exactly the values the integrator received, pixel = lane // spp
@@ -174,11 +174,11 @@ def test_points_are_what_a_render_draws(name):
 def test_halton_point_sets_are_the_halton_points(randomization):
     """The lab's halton point sets are the Halton points of their definition (the numpy
     oracle of tests/_qmc_oracle.py), not merely what the sampler gives: every dimension
-    of lab_points.PATTERN, sample index = position in the pixel's set, the pixel's scramble
+    of points.PATTERN, sample index = position in the pixel's set, the pixel's scramble
     seed from the render seed."""
     width, height, spp, seed = 4, 2, 16, 5
-    pts, count = lab_points.draw(f"halton:{randomization}", spp, seed, width, height)
-    assert count == spp and pts.shape == (width * height, spp, len(lab_points.dimensions()))
+    pts, count = points.draw(f"halton:{randomization}", spp, seed, width, height)
+    assert count == spp and pts.shape == (width * height, spp, len(points.dimensions()))
     lanes = width * height * spp
     for k in range(pts.shape[-1]):
         expected = oracle.sampler_values(k, lanes, spp, seed, randomization)
@@ -192,11 +192,11 @@ def read_header(path):
 
 
 def test_quick_run_writes_section_and_resumes(tmp_path, monkeypatch):
-    from experiments.lib.studies import lab
+    from experiments.lib.studies.lab import config, study
     out = str(tmp_path / "out")
-    lab.STUDY.main(["--quick", "--out", out])
+    study.STUDY.main(["--quick", "--out", out])
     section = json.load(open(os.path.join(out, "lab", "section.json")))
-    assert section["order"] == lab.ORDER and section["name"] == "lab"
+    assert section["order"] == study.ORDER and section["name"] == "lab"
     kinds = {b["kind"] for b in section["blocks"]}
     assert {"text", "image", "table"} <= kinds
     for stem, cols in [("warps", {"p_value", "rel_variance", "strategy", "bsdf"}),
@@ -209,7 +209,7 @@ def test_quick_run_writes_section_and_resumes(tmp_path, monkeypatch):
         rows = list(csv.DictReader(f))
     # one row per quick BSDF and every strategy registered in this process (a test may have
     # registered one of its own: the lab picks it up like the built-in four)
-    assert len(rows) == 2 * len(lab.QUICK.strategy_names()) >= 2 * 4
+    assert len(rows) == 2 * len(config.QUICK.strategy_names()) >= 2 * 4
     assert all(0 <= float(r["p_value"]) <= 1 for r in rows)
     for block in section["blocks"]:
         if block["kind"] == "image":
@@ -218,37 +218,37 @@ def test_quick_run_writes_section_and_resumes(tmp_path, monkeypatch):
     with open(os.path.join(out, "lab", "screen.csv"), newline="") as f:
         screen = list(csv.DictReader(f))
     assert [(r["sampler"], r["spp requested"]) for r in screen] == [
-        (s, "4") for s in sampler_comparison_plan.default_screen_labels()]
+        (s, "4") for s in plan.default_screen_labels()]
     assert "made by the lab" in section["settings"]["screen-space error"]
     # a rerun computes nothing: every panel and point set comes from the cache, every
     # render from the store
-    monkeypatch.setattr(lab_warps, "compute", lambda *a, **k: pytest.fail("panel recomputed"))
-    monkeypatch.setattr(lab_points, "compute", lambda *a, **k: pytest.fail("point set recomputed"))
+    monkeypatch.setattr(warps, "compute", lambda *a, **k: pytest.fail("panel recomputed"))
+    monkeypatch.setattr(points, "compute", lambda *a, **k: pytest.fail("point set recomputed"))
     monkeypatch.setattr(execute, "run_job", lambda *a, **k: pytest.fail("render made again"))
-    lab.STUDY.main(["--quick", "--out", out])
+    study.STUDY.main(["--quick", "--out", out])
     assert os.path.isfile(os.path.join(out, "index.html"))
     section = json.load(open(os.path.join(out, "lab", "section.json")))
     assert "found in the job store" in section["settings"]["screen-space error"]
 
 
 def test_bad_input_is_one_line_exit_2(tmp_path, capsys):
-    from experiments.lib.studies import lab
+    from experiments.lib.studies.lab import study
     with pytest.raises(SystemExit) as e:
-        lab.STUDY.parse_args(["--samples", "0", "--out", str(tmp_path)])
+        study.STUDY.parse_args(["--samples", "0", "--out", str(tmp_path)])
     assert e.value.code == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "--samples" in err
 
 
 def test_dimension_meaning():
-    assert lab_points.describe_pair(0, 1).startswith("one next_2d: camera")
-    assert lab_points.describe_pair(2, 3).startswith("one next_2d: emitter")
-    assert lab_points.describe_pair(1, 2).startswith("two calls")
-    assert len(lab_points.dimensions()) >= 32
-    assert lab_points.random_expectation(64) == pytest.approx(
-        np.mean([lab_points.centered_discrepancy(np.random.default_rng(i).random((64, 2)))
+    assert points.describe_pair(0, 1).startswith("one next_2d: camera")
+    assert points.describe_pair(2, 3).startswith("one next_2d: emitter")
+    assert points.describe_pair(1, 2).startswith("two calls")
+    assert len(points.dimensions()) >= 32
+    assert points.random_expectation(64) == pytest.approx(
+        np.mean([points.centered_discrepancy(np.random.default_rng(i).random((64, 2)))
                  for i in range(400)]), rel=0.1)
-    assert math.isclose(lab_warps.significance(1), 0.01)
+    assert math.isclose(warps.significance(1), 0.01)
 
 
 def test_run_all_runs_the_lab(tmp_path, monkeypatch):

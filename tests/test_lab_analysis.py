@@ -1,4 +1,4 @@
-"""The sampling lab's conclusions (lab_warps.analyse, lab_points.analyse) on synthetic numbers.
+"""The sampling lab's conclusions (lab.warps.analyse, lab.points.analyse) on synthetic numbers.
 
 Each conclusion is a table computed from the numbers plus at most three sentences computed
 from that table, none over 80 words. Negative controls: a panel whose p-value is below the
@@ -11,8 +11,8 @@ import math
 
 import pytest
 
-from experiments.lib import lab_points, lab_warps
-from experiments.lib.studies.sampler_comparison_analysis import Family
+from experiments.lib.studies.lab import points, warps
+from experiments.lib.studies.sampler_comparison.analysis import Family
 
 
 def panel(bsdf, inc, strategy, p, rel):
@@ -32,8 +32,8 @@ def warp_rows(p_bad=0.3):
 
 
 def test_warps_conclusion_counts_what_the_numbers_say():
-    found = lab_warps.analyse(warp_rows())
-    assert found.alpha == pytest.approx(lab_warps.significance(12))
+    found = warps.analyse(warp_rows())
+    assert found.alpha == pytest.approx(warps.significance(12))
     by = {r.strategy: r for r in found.rows}
     assert [r.strategy for r in found.rows] == ["uniform", "cosine", "bsdf"]
     assert {s: r.rejected for s, r in by.items()} == {"uniform": 0, "cosine": 0, "bsdf": 0}
@@ -49,16 +49,16 @@ def test_warps_conclusion_counts_what_the_numbers_say():
 
 
 def test_a_rejected_panel_is_reported_and_one_just_above_the_level_is_not():
-    alpha = lab_warps.significance(12)
-    bad = lab_warps.analyse(warp_rows(p_bad=alpha / 2))
+    alpha = warps.significance(12)
+    bad = warps.analyse(warp_rows(p_bad=alpha / 2))
     assert {r.strategy: r.rejected for r in bad.rows}["cosine"] == 1
     assert bad.sentences[0].startswith("1 of 12 panels reject")
     assert "cosine on phong n=10 at 85 deg" in bad.sentences[0]
-    fine = lab_warps.analyse(warp_rows(p_bad=alpha * 1.01))
+    fine = warps.analyse(warp_rows(p_bad=alpha * 1.01))
     assert sum(r.rejected for r in fine.rows) == 0
     # many rejections stay one short sentence
     rows = [dict(r, p_value=0.0) for r in warp_rows()]
-    many = lab_warps.analyse(rows)
+    many = warps.analyse(rows)
     assert "and 9 more (table)" in many.sentences[0]
     assert len(many.sentences[0].split()) <= 80
 
@@ -66,10 +66,10 @@ def test_a_rejected_panel_is_reported_and_one_just_above_the_level_is_not():
 def test_a_cached_panel_reads_back_as_computed(tmp_path):
     """A rerun from the cache writes the same tables as the run that computed the panel
     (dof an int both times)."""
-    spec = lab_warps.PanelSpec("phong n=10", dict(lab_warps.BSDFS)["phong n=10"], "cosine", 60.0, 2000, 1)
-    first = lab_warps.cached(spec, str(tmp_path))
-    again = lab_warps.cached(spec, str(tmp_path))
-    for key in lab_warps.SCALARS:
+    spec = warps.PanelSpec("phong n=10", dict(warps.BSDFS)["phong n=10"], "cosine", 60.0, 2000, 1)
+    first = warps.cached(spec, str(tmp_path))
+    again = warps.cached(spec, str(tmp_path))
+    for key in warps.SCALARS:
         assert type(first[key]) is type(again[key]) and first[key] == again[key], key
     assert isinstance(again["dof"], int)
 
@@ -84,7 +84,7 @@ def point_numbers(halton_nee=0.3, owen_nee=0.1, native_nee=0.05):
     native 'jitter' stratifies the pairs within one call jointly, 'array' every pair;
     bundled 'halton:none'/'halton:owen' and 'mine'."""
     count = 64
-    e = lab_points.random_expectation(count)
+    e = points.random_expectation(count)
     ratios = {
         "independent": dict.fromkeys(PAIRS, 1.0),
         "jitter": {(0, 1): 0.05, (2, 3): native_nee, (10, 11): 0.2, (30, 31): 0.2,
@@ -113,7 +113,7 @@ KINDS = {"independent": Family("independent", True), "jitter": Family("jitter", 
 
 def test_point_table_classifies_each_pair():
     cd, joint, counts = point_numbers()
-    found = lab_points.analyse(cd, joint, counts, 64, KINDS)
+    found = points.analyse(cd, joint, counts, 64, KINDS)
     rows = {r.sampler: r for r in found.rows}
     assert "independent" not in rows                         # the baseline
     assert rows["jitter"].joint == ((0, 1), (2, 3))
@@ -123,13 +123,13 @@ def test_point_table_classifies_each_pair():
     assert rows["halton:none"].lost == ((10, 11), (30, 31))
     assert rows["halton:owen"].nee == pytest.approx(0.1) and rows["halton:owen"].deep == \
         pytest.approx(0.7)
-    cells = dict(zip(lab_points.HEADER, rows["mine"].cells()))
+    cells = dict(zip(points.HEADER, rows["mine"].cells()))
     assert cells["kind"] == "bundled" and cells["stratified jointly (2-D)"] == "-"
 
 
 def test_point_sentences_predict_from_the_table():
     cd, joint, counts = point_numbers()
-    found = lab_points.analyse(cd, joint, counts, 64, KINDS)
+    found = points.analyse(cd, joint, counts, 64, KINDS)
     first, nee, deep = found.sentences
     assert "jointly (2-D) (0, 1), (2, 3); array also every pair across calls" in first
     # the best native at NEE is 'array' (0.05 = jitter's: the first), each family's best
@@ -141,7 +141,7 @@ def test_point_sentences_predict_from_the_table():
     assert "halton 0.7-3" in deep and "native samplers 0.05-0.2" in deep
     assert all(len(s.split()) <= 80 for s in found.sentences)
     # negative control: halton:owen now stratifies the NEE sample better than every native
-    better = lab_points.analyse(*point_numbers(owen_nee=0.01), 64, KINDS)
+    better = points.analyse(*point_numbers(owen_nee=0.01), 64, KINDS)
     assert "halton:owen 0.01 (joint power 0.50: expect lower MSE" in better.sentences[1]
 
 
@@ -149,9 +149,9 @@ def test_point_kinds_come_from_the_table_not_the_name():
     """Negative control: 'mine' declared native joins the native samplers' sentences."""
     cd, joint, counts = point_numbers()
     kinds = dict(KINDS, mine=Family("mine", True))
-    found = lab_points.analyse(cd, joint, counts, 64, kinds)
+    found = points.analyse(cd, joint, counts, 64, kinds)
     assert next(r for r in found.rows if r.sampler == "mine").native
     assert "no pair that all of them share" in found.sentences[0]
     assert "mine 1" not in found.sentences[1]
-    assert math.isnan(lab_points.analyse({("a", (0, 1)): 0.1}, {("a", (0, 1)): 0.5}, {"a": 4}, 4,
+    assert math.isnan(points.analyse({("a", (0, 1)): 0.1}, {("a", (0, 1)): 0.5}, {"a": 4}, 4,
                                  {"a": Family("a", False)}).rows[0].nee)

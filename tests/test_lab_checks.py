@@ -1,4 +1,5 @@
-"""The lab's mass and albedo checks (experiments.lib.lab_mass): what the chi-square cannot see.
+"""The lab's mass and albedo checks (experiments.lib.studies.lab.mass): what the chi-square
+cannot see.
 
 A chi-square test of a warp compares the shape of its histogram with its density. A strategy
 whose density is off by a constant factor, every weight 10% low (the writeup's "pixels get
@@ -19,14 +20,16 @@ import math
 import mitsuba as mi
 import pytest
 
-from experiments.lib import lab_mass, lab_warps
+from experiments.lib.studies.lab import checks_report, warps
+from experiments.lib.studies.lab.mass import (
+    FAIL, PASS, TOLERANCE, UNDECIDED, analyse, check, z_value)
 from integrators import strategies
 from _chi2 import mass_and_albedo, panel_checks
 
 DIFFUSE = {"type": "diffuse"}
-GLOSSY = dict(lab_warps.BSDFS)["phong n=10"]
-NARROW = dict(lab_warps.BSDFS)["phong n=1000"]     # a cap grid in the lab
-CONDUCTOR = dict(lab_warps.BSDFS)["roughconductor a=0.1"]
+GLOSSY = dict(warps.BSDFS)["phong n=10"]
+NARROW = dict(warps.BSDFS)["phong n=1000"]     # a cap grid in the lab
+CONDUCTOR = dict(warps.BSDFS)["roughconductor a=0.1"]
 COS_I = 0.5                                          # 60 degrees
 
 
@@ -58,7 +61,7 @@ def test_weights_ten_percent_low_pass_the_chi2_and_fail_both_checks(bsdf):
     """The furnace's bug: the density the weights use is 10% high, ``pdf`` is right."""
     mass, albedo, panel = verdicts(Scaled(strategies.cosine, 1.1, reported=False), bsdf, 1)
     assert panel["p_value"] > 1e-3                  # the chi-square cannot see it
-    assert mass.verdict == albedo.verdict == lab_mass.FAIL
+    assert mass.verdict == albedo.verdict == FAIL
     assert mass.low > 1.08 and albedo.high < 0.93
 
 
@@ -68,24 +71,24 @@ def test_weights_ten_percent_low_pass_the_chi2_and_fail_both_checks(bsdf):
                          ids=["cosine-diffuse", "cosine-phong", "bsdf-roughconductor"])
 def test_a_density_ten_percent_high_fails_both_checks_and_its_twin_passes(base, bsdf):
     mass, albedo, _ = verdicts(Scaled(base, 1.1), bsdf, 2)
-    assert mass.verdict == albedo.verdict == lab_mass.FAIL
+    assert mass.verdict == albedo.verdict == FAIL
     assert mass.ratio == pytest.approx(1.1, abs=0.01)
     assert albedo.ratio == pytest.approx(1 / 1.1, abs=0.03)
     mass, albedo, _ = verdicts(Scaled(base, 1.0), bsdf, 2)
-    assert mass.verdict == albedo.verdict == lab_mass.PASS
+    assert mass.verdict == albedo.verdict == PASS
     assert mass.ratio == pytest.approx(1, abs=0.01) and albedo.ratio == pytest.approx(1, abs=0.02)
 
 
 def test_on_a_cap_grid_the_chi2_passes_a_high_density_the_mass_check_does_not():
     mass, _, panel = verdicts(Scaled(strategies.cosine, 1.1), NARROW, 3)
     assert panel["cos_min"] > -1 and panel["p_value"] > 1e-3
-    assert mass.verdict == lab_mass.FAIL and mass.ratio == pytest.approx(1.1, abs=0.01)
+    assert mass.verdict == FAIL and mass.ratio == pytest.approx(1.1, abs=0.01)
 
 
 @pytest.mark.parametrize("bsdf", [DIFFUSE, GLOSSY], ids=["diffuse", "phong n=10"])
 def test_a_density_that_integrates_to_nine_tenths_fails_the_mass_check(bsdf):
     mass, _, _ = verdicts(Scaled(strategies.cosine, 0.9), bsdf, 4)
-    assert mass.verdict == lab_mass.FAIL and mass.high < 0.92
+    assert mass.verdict == FAIL and mass.high < 0.92
 
 
 @pytest.mark.parametrize("strategy", ["uniform", "cosine", "bsdf", "mis"])
@@ -97,37 +100,37 @@ def test_builtin_strategies_pass_both_checks(strategy, bsdf):
 def test_mass_is_compared_with_the_share_drawn_not_with_one():
     """bsdf sampling of phong n=1 at 60 deg draws only about 80% of its samples (the lobe
     below the horizon): its density integrates to that share, and passes."""
-    mass, _, panel = mass_and_albedo("bsdf", dict(lab_warps.BSDFS)["phong n=1"], COS_I, seed=6)
+    mass, _, panel = mass_and_albedo("bsdf", dict(warps.BSDFS)["phong n=1"], COS_I, seed=6)
     assert panel["drawn"] < 0.9 and panel["mass"] == pytest.approx(panel["drawn"], rel=0.01)
 
 
 # ------------------------------------------------------------ the rules, by hand
 
-Z = lab_mass.z_value(10)
+Z = z_value(10)
 
 
 def test_a_fail_needs_the_interval_outside_the_tolerance():
-    assert lab_mass.check(0.9, 1.0, 0.005, 0.0, Z).verdict == lab_mass.FAIL
-    edge = 1 - lab_mass.TOLERANCE
-    assert lab_mass.check(edge - 0.001, 1.0, 0.0, 0.0, Z).verdict == lab_mass.FAIL
-    assert lab_mass.check(edge + 0.001, 1.0, 0.0, 0.0, Z).verdict == lab_mass.PASS
+    assert check(0.9, 1.0, 0.005, 0.0, Z).verdict == FAIL
+    edge = 1 - TOLERANCE
+    assert check(edge - 0.001, 1.0, 0.0, 0.0, Z).verdict == FAIL
+    assert check(edge + 0.001, 1.0, 0.0, 0.0, Z).verdict == PASS
     # the quadrature's bound widens the interval like the standard error does
-    assert lab_mass.check(0.95, 1.0, 0.0, 0.04, Z).verdict == lab_mass.PASS
-    c = lab_mass.check(1.1, 1.0, 0.005, 0.001, Z)
+    assert check(0.95, 1.0, 0.0, 0.04, Z).verdict == PASS
+    c = check(1.1, 1.0, 0.005, 0.001, Z)
     assert c.low == pytest.approx(1.1 * (1 - Z * 0.005 - 0.001))
     assert c.high == pytest.approx(1.1 * (1 + Z * 0.005 + 0.001))
 
 
 def test_wide_intervals_and_heavy_tails_cannot_decide():
-    wide = lab_mass.check(1.0, 1.0, 0.02, 0.0, Z)
-    assert wide.verdict == lab_mass.UNDECIDED and wide.reason == "wide"
+    wide = check(1.0, 1.0, 0.02, 0.0, Z)
+    assert wide.verdict == UNDECIDED and wide.reason == "wide"
     # a clear miss is a fail even with a wide interval
-    assert lab_mass.check(0.5, 1.0, 0.02, 0.0, Z).verdict == lab_mass.FAIL
-    tails = lab_mass.check(0.9, 1.0, 0.004, 0.0, Z, samples=10_000, skewness=30.0)
-    assert tails.verdict == lab_mass.UNDECIDED and tails.reason == "heavy tails"
+    assert check(0.5, 1.0, 0.02, 0.0, Z).verdict == FAIL
+    tails = check(0.9, 1.0, 0.004, 0.0, Z, samples=10_000, skewness=30.0)
+    assert tails.verdict == UNDECIDED and tails.reason == "heavy tails"
     # tails that cannot move the verdict (a tiny standard error) do not stop it
-    assert lab_mass.check(1.0, 1.0, 1e-6, 0.0, Z, 10_000, 100.0).verdict == lab_mass.PASS
-    assert lab_mass.check(1.0, 0.0, 0.0, 0.0, Z).reason == "nothing to compare"
+    assert check(1.0, 1.0, 1e-6, 0.0, Z, 10_000, 100.0).verdict == PASS
+    assert check(1.0, 0.0, 0.0, 0.0, Z).reason == "nothing to compare"
 
 
 def test_analysis_is_one_family_and_counts_per_strategy():
@@ -136,9 +139,9 @@ def test_analysis_is_one_family_and_counts_per_strategy():
                 "drawn": 1.0, "mass": mass, "mass_error": 0.0, "pdf_ratio": 1.0,
                 "pdf_ratio_se": 0.0, "albedo": albedo, "albedo_se": se,
                 "albedo_quadrature": 1.0, "albedo_error": 0.0, "weight_skewness": 0.0}
-    found = lab_mass.analyse([row("a", 1.0, 1.0), row("a", 1.1, 1.0), row("b", 1.0, 0.9),
+    found = analyse([row("a", 1.0, 1.0), row("a", 1.1, 1.0), row("b", 1.0, 0.9),
                               row("b", 1.0, 1.0, se=0.05)])
-    assert found.tests == 8 and found.z == pytest.approx(lab_mass.z_value(8))
+    assert found.tests == 8 and found.z == pytest.approx(z_value(8))
     assert found.per_strategy == [("a", 2, 1, 0), ("b", 2, 1, 1)]
     assert [(r.strategy, r.mass.verdict, r.albedo.verdict) for r in found.failed] == [
         ("a", "fail", "pass"), ("b", "pass", "fail")]
@@ -147,22 +150,21 @@ def test_analysis_is_one_family_and_counts_per_strategy():
 
 
 def test_report_words_and_table_say_what_the_checks_found(tmp_path):
-    from experiments.lib.studies import lab_checks_report
     rows = [dict(r, bsdf="phong n=10", incidence_deg=60.0) for r in [
         {"strategy": "a", "samples": 10 ** 6, "drawn": 1.0, "mass": m, "mass_error": 0.0,
          "pdf_ratio": 1.0, "pdf_ratio_se": 0.0, "albedo": w, "albedo_se": se,
          "albedo_quadrature": 1.0, "albedo_error": 0.0, "weight_skewness": 0.0}
         for m, w, se in [(1.0, 1.0, 1e-3), (1.1, 0.909, 1e-3), (1.0, 1.0, 0.05)]]]
-    found = lab_mass.analyse(rows)
-    words = lab_checks_report.sentences(found)
+    found = analyse(rows)
+    words = checks_report.sentences(found)
     assert words[0].startswith("1 of 3 panels fail the mass or albedo check at 1%")
     assert "a on phong n=10 at 60 deg (mass/share 1.1" in words[0]
     assert words[1].startswith("1 of 3 panels cannot decide one check (an interval wider")
     assert all(len(s.split()) <= 80 for s in words)
-    blocks = lab_checks_report.report_checks(str(tmp_path), found, [0.5, 0.5, 1e-9], 1e-4)
+    blocks = checks_report.report_checks(str(tmp_path), found, [0.5, 0.5, 1e-9], 1e-4)
     table = blocks[0]
     assert [r[-1] for r in table["rows"]] == ["pass", "fail", "fail"]
     assert table["rows"][2][9] == "cannot decide (wide)"
-    good = lab_mass.analyse(rows[:1])
-    assert lab_checks_report.sentences(good)[0].startswith("Every one of the 1 panels passes")
-    assert lab_checks_report.sentences(good)[1].startswith("Every check decides")
+    good = analyse(rows[:1])
+    assert checks_report.sentences(good)[0].startswith("Every one of the 1 panels passes")
+    assert checks_report.sentences(good)[1].startswith("Every check decides")

@@ -1,5 +1,5 @@
-"""The sampler study's analysis (experiments.lib.studies.sampler_comparison_analysis and
-_screen_analysis) on synthetic numbers.
+"""The sampler study's analysis (experiments.lib.studies.sampler_comparison.analysis and
+.screen_analysis) on synthetic numbers.
 
 Synthetic ladders with a known answer: every count of a ladder has R repeats whose errors
 scatter around a known value (a fixed relative spread, the same pattern for every sampler,
@@ -21,17 +21,17 @@ import math
 import pytest
 
 from experiments.lib import samplers, stats
-from experiments.lib.studies import sampler_comparison_analysis
-from experiments.lib.studies.sampler_comparison_analysis import (
+from experiments.lib.studies.sampler_comparison import analysis
+from experiments.lib.studies.sampler_comparison.analysis import (
     BEST, BUNDLED, COMPARISON_HEADER, METRIC, NATIVE, Family, Point, onsets, order_changes,
     order_text, overtakes, ratio)
-from experiments.lib.studies.sampler_comparison_efficiency import Efficiency
-from experiments.lib.studies.sampler_comparison_plan import SCREEN_REFERENCE_SPP, plan
-from experiments.lib.studies.sampler_comparison_screen import ScreenSpace
-from experiments.lib.studies.sampler_comparison_screen_analysis import (
+from experiments.lib.studies.sampler_comparison.efficiency import Efficiency
+from experiments.lib.studies.sampler_comparison.plan import SCREEN_REFERENCE_SPP, plan
+from experiments.lib.studies.sampler_comparison.screen import ScreenSpace
+from experiments.lib.studies.sampler_comparison.screen_analysis import (
     SCREEN_HEADER, UNEQUAL, ScreenPoint, analyse_screen, lower_sign, lower_verdict,
     screen_pairs)
-from experiments.lib.studies.sampler_comparison_words import conclusions, screen_conclusions
+from experiments.lib.studies.sampler_comparison.words import conclusions, screen_conclusions
 
 PIXELS = 100
 #: Relative scatter of the repeats around their mean (mean exactly 1).
@@ -59,7 +59,7 @@ def kinds(**natives):
 
 
 def analyse(points, families):
-    return sampler_comparison_analysis.analyse(points, PIXELS, families)
+    return analysis.analyse(points, PIXELS, families)
 
 
 def of(analysis, role, depth=2):
@@ -71,7 +71,7 @@ def of(analysis, role, depth=2):
 def test_table_numbers_follow_from_the_points():
     points = {2: {"independent": ladder(1.0, -1.0, 10.0),
                   "orthogonal": ladder(0.07, -1.0, 20.0)}}
-    rows = {r.sampler: r for r in sampler_comparison_analysis.table(points, PIXELS)}
+    rows = {r.sampler: r for r in analysis.table(points, PIXELS)}
     o = rows["orthogonal"]
     assert o.relative_mse.value == pytest.approx(0.07)
     assert o.relative_efficiency.value == pytest.approx(1 / (0.07 * 2.0))
@@ -89,7 +89,7 @@ def test_table_numbers_follow_from_the_points():
 
 
 def test_curves_give_the_ratio_at_every_count():
-    curves = sampler_comparison_analysis.curves({2: {"independent": ladder(1.0, -1.0, 10.0),
+    curves = analysis.curves({2: {"independent": ladder(1.0, -1.0, 10.0),
                             "orthogonal": ladder(0.07, -1.0, 20.0)}})
     pts = curves[2]["orthogonal"]
     assert [spp for spp, _ in pts] == [1, 4, 16, 64]
@@ -97,7 +97,7 @@ def test_curves_give_the_ratio_at_every_count():
 
 
 def test_slope_of_a_qmc_like_ladder():
-    rows = sampler_comparison_analysis.table({2: {"independent": ladder(1.0, -1.0, 10.0),
+    rows = analysis.table({2: {"independent": ladder(1.0, -1.0, 10.0),
                          "ldsampler": ladder(1.0, -1.5, 20.0)}}, PIXELS)
     assert [r.slope for r in rows] == pytest.approx([-1.0, -1.5])
     assert math.isfinite(rows[1].relative_efficiency.value)
@@ -199,7 +199,7 @@ def test_native_or_bundled_comes_from_the_table_not_the_name():
 
 
 def test_families_come_from_the_sampler_table():
-    table = sampler_comparison_analysis.families(samplers.labels())
+    table = analysis.families(samplers.labels())
     for label, family in table.items():
         spec, randomization = samplers.split_label(label)
         assert family == Family(spec.name, spec.native, spec.is_deterministic(randomization))
@@ -207,7 +207,7 @@ def test_families_come_from_the_sampler_table():
     spec = samplers.register_sampler(samplers.SamplerSpec("haltonlike_test", native=True))
     try:
         mine = samplers.register_sampler(samplers.SamplerSpec("independent_test"))
-        assert sampler_comparison_analysis.families(["haltonlike_test", "independent_test"]) == {
+        assert analysis.families(["haltonlike_test", "independent_test"]) == {
             "haltonlike_test": Family("haltonlike_test", True),
             "independent_test": Family("independent_test", False)}
     finally:
@@ -254,7 +254,7 @@ def test_the_table_and_the_sentences_report_the_crossing():
     points = {8: {"independent": ladder(1.0, -1.0, 10.0, SPPS),
                   "orthogonal": ladder(0.1, -1.0, 10.0, SPPS),
                   "halton:owen": ladder(0.4, -1.5, 10.0, SPPS)}}
-    a = sampler_comparison_analysis.analyse(
+    a = analysis.analyse(
         points, PIXELS, kinds(independent=IS_NATIVE, orthogonal=IS_NATIVE,
                               **{"halton:owen": IS_BUNDLED}))
     c, = [c for c in a.comparisons if c.role == BUNDLED]
@@ -286,7 +286,7 @@ def test_conclusions_are_short_and_come_from_the_table():
                      orthogonal=IS_NATIVE, ldsampler=IS_NATIVE,
                      **{"halton:none": IS_BUNDLED, "halton:permute_digits": IS_BUNDLED,
                         "halton:owen": IS_BUNDLED, "zsobol": IS_BUNDLED, "mine": IS_BUNDLED})
-    a = sampler_comparison_analysis.analyse(points, PIXELS, families)
+    a = analysis.analyse(points, PIXELS, families)
     for d in (2, 8):
         assert 1 <= len(conclusions(a)[d]) <= 3
         for sentence in conclusions(a)[d]:
@@ -321,8 +321,8 @@ def test_the_pick_among_tied_samplers_survives_a_re_measurement_that_swaps_them(
     that swaps their estimates must not change what the suite and the convergence study
     add. The pick is the last of the tied ones in the study's order; the deterministic
     label (ten times as efficient) is never picked."""
-    first = sampler_comparison_analysis.analyse(_pick_points(0.50, 0.52), PIXELS, PICK_KINDS)
-    again = sampler_comparison_analysis.analyse(_pick_points(0.52, 0.50), PIXELS, PICK_KINDS)
+    first = analysis.analyse(_pick_points(0.50, 0.52), PIXELS, PICK_KINDS)
+    again = analysis.analyse(_pick_points(0.52, 0.50), PIXELS, PICK_KINDS)
     for a in (first, again):
         p = a.picks[2]
         assert p.sampler == "x:b" and set(p.tied) == {"x:a", "x:b"} and not p.clear
@@ -335,7 +335,7 @@ def test_the_pick_among_tied_samplers_survives_a_re_measurement_that_swaps_them(
 def test_a_sampler_that_its_interval_sets_apart_is_picked_wherever_it_stands():
     """The first of the table (x:a) twice as efficient as x:b, by an interval excluding 1:
     picked, alone in its tie, although the order would prefer x:b."""
-    a = sampler_comparison_analysis.analyse(_pick_points(0.25, 0.5), PIXELS, PICK_KINDS)
+    a = analysis.analyse(_pick_points(0.25, 0.5), PIXELS, PICK_KINDS)
     p = a.picks[2]
     assert (p.sampler, p.tied, p.clear) == ("x:a", ("x:a",), True)
     assert (p.spp, p.requested) == (64, 64)
@@ -346,17 +346,17 @@ def test_no_pick_without_a_randomized_sampler_of_known_efficiency():
     """Only the baseline and a deterministic label: nothing to pick (the studies that read
     the pick say so instead of adding a sampler with no interval)."""
     points = {2: {"independent": ladder(1.0, -1.0, 10.0), "x:none": ladder(0.1, -1.0, 10.0)}}
-    a = sampler_comparison_analysis.analyse(points, PIXELS, {
+    a = analysis.analyse(points, PIXELS, {
         "independent": Family("independent", True), "x:none": Family("x", False, True)})
-    assert a.picks == {2: sampler_comparison_analysis.Pick(
+    assert a.picks == {2: analysis.Pick(
         2, "independent", 64, 64, "independent", ("independent",))}
-    a = sampler_comparison_analysis.analyse({2: {"x:none": ladder(0.1, -1.0, 10.0)}}, PIXELS,
+    a = analysis.analyse({2: {"x:none": ladder(0.1, -1.0, 10.0)}}, PIXELS,
                                             {"x:none": Family("x", False, True)})
     assert a.picks == {}
 
 
 def test_the_sampler_tables_deterministic_labels_are_known_as_such():
-    kinds = sampler_comparison_analysis.families(samplers.labels())
+    kinds = analysis.families(samplers.labels())
     assert {label for label, f in kinds.items() if f.deterministic} == \
         {label for label in samplers.labels()
          if samplers.split_label(label)[0].is_deterministic(samplers.split_label(label)[1])}
@@ -376,7 +376,7 @@ def test_the_known_floor_is_subtracted():
     assert e.value == pytest.approx(0.1) and not e.bound
     assert (e.lo, e.hi) == pytest.approx((raw.lo - floor, raw.hi - floor))
     assert p.expected("relmse").value == pytest.approx(0.2)
-    rows = sampler_comparison_analysis.table(
+    rows = analysis.table(
         {2: {"independent": ladder(1.0, -1.0, 10.0, floor=floor),
              "x": ladder(0.1, -1.0, 10.0, floor=floor)}}, PIXELS)
     row = next(r for r in rows if r.sampler == "x")
@@ -399,10 +399,10 @@ def test_an_error_below_the_floor_is_a_bound_never_nan():
     assert e.text().startswith("< ")
     base = Point(64, (1.0, 1.0, 1.0), (0.09, 0.1, 0.11), (0.19, 0.2, 0.21), 64, floor, 0.02)
     points = {2: {"independent": [base], "x": [near]}}
-    row = next(r for r in sampler_comparison_analysis.table(points, PIXELS) if r.sampler == "x")
+    row = next(r for r in analysis.table(points, PIXELS) if r.sampler == "x")
     assert row.mse.bound and row.relmse.bound and row.relative_mse.bound
     assert math.isfinite(row.relative_mse.hi) and row.relative_mse.hi < 0.1
-    a = sampler_comparison_analysis.analyse(points, PIXELS,
+    a = analysis.analyse(points, PIXELS,
                                             kinds(independent=IS_NATIVE, x=IS_BUNDLED))
     c, = [c for c in a.comparisons if c.role == BUNDLED]
     assert c.short_verdict() == "cannot be compared (below the reference's noise)"
@@ -423,7 +423,7 @@ def test_verdicts_use_relmse():
                   "a": ladder(0.1, -1.0, 10.0, rel=5.0),
                   "b": ladder(0.2, -1.0, 10.0, rel=1.0)}}
     assert METRIC == "relmse"
-    an = sampler_comparison_analysis.analyse(
+    an = analysis.analyse(
         points, PIXELS, kinds(independent=IS_NATIVE, b=IS_NATIVE, a=IS_BUNDLED))
     c, = [c for c in an.comparisons if c.role == BUNDLED]
     assert (c.a, c.b) == ("a", "b") and c.ratio.value == pytest.approx(0.4)
@@ -625,12 +625,12 @@ TINY_SCREEN = ["--resolution", "8x4", "--spp", "4", "--depths", "2", "--repeats"
 
 def tiny_study(out, *argv):
     from experiments.lib import cli
-    from experiments.lib.studies import sampler_comparison
+    from experiments.lib.studies.sampler_comparison import study
     from experiments.lib.study import Study, StudySettings
-    args = cli.parse_args(sampler_comparison.build_parser(),
+    args = cli.parse_args(study.build_parser(),
                           ["--out", str(out), *TINY_SCREEN, *argv])
     return (Study(StudySettings(**cli.common_fields(args))),
-            sampler_comparison.settings_of(args))
+            study.settings_of(args))
 
 
 def planned(st, cfg, p):
@@ -715,18 +715,18 @@ def test_the_lab_plans_the_same_screen_jobs(tmp_path):
     """The lab's error images are the sampler study's renders (first repeat): the same
     keys, so it finds them in the store; with another seed it would not (control)."""
     from experiments.lib.engine import Engine
-    from experiments.lib.studies import lab
+    from experiments.lib.studies.lab.config import Config
+    from experiments.lib.studies.lab.screen_part import plan_screen
     st, cfg = tiny_study(tmp_path)
     study = planned(st, cfg, ScreenSpace())
     keys = {j.key for j in study.renders()} | {j.key for c in study.refs.values() for j in c}
-    config = lab.Config(screen_resolution=(8, 8), screen_counts=(2,),
-                        screen_samplers=("independent", "zsobol:owen"),
-                        screen_reference_spp=16)
-    mine = lab.plan_screen(Engine(st), config, cfg.screen.reference)
+    config = Config(screen_resolution=(8, 8), screen_counts=(2,),
+                    screen_samplers=("independent", "zsobol:owen"), screen_reference_spp=16)
+    mine = plan_screen(Engine(st), config, cfg.screen.reference)
     ours = {j.key for j in mine.renders()} | {j.key for c in mine.refs.values() for j in c}
     assert len(ours) == 8 + 2 and ours <= keys
     other, _ = tiny_study(tmp_path, "--seed", "7")
-    moved = lab.plan_screen(Engine(other), config, cfg.screen.reference)
+    moved = plan_screen(Engine(other), config, cfg.screen.reference)
     assert not {j.key for j in moved.renders()} & keys
 
 

@@ -146,7 +146,7 @@ MUTANTS = [
            "        kernels = kernel\n",
            "only the last pass's kernels are timed (a training pass looks free)",
            ("tests/test_clock.py",)),
-    Mutant("lab-mass-against-one", "experiments/lib/lab_mass.py",
+    Mutant("lab-mass-against-one", "experiments/lib/studies/lab/mass.py",
            "    return check(mass, share, rel, quad, z)",
            "    return check(mass, 1.0, rel, quad, z)",
            "the lab's mass check compares the density's integral with 1 instead of the share "
@@ -359,14 +359,14 @@ MUTANTS = [
            "if they were stretches of one render",
            ("tests/test_one_loop.py",)),
     # ------------------------------------------------------------ the sampler study's pick
-    Mutant("pick-largest-estimate", "experiments/lib/studies/sampler_comparison_analysis.py",
+    Mutant("pick-largest-estimate", "experiments/lib/studies/sampler_comparison/analysis.py",
            "        chosen = tied[-1]",
            "        chosen = top",
            "the sampler the other studies add is the largest estimate even where the study "
            "cannot tell it from others: a re-measurement that swaps two tied estimates "
            "changes the suite's and the convergence study's methods",
            ("tests/test_samplers_study.py::test_the_pick_among_tied_samplers_survives_a_re_measurement_that_swaps_them",)),
-    Mutant("pick-deterministic", "experiments/lib/studies/sampler_comparison_analysis.py",
+    Mutant("pick-deterministic", "experiments/lib/studies/sampler_comparison/analysis.py",
            "        at = [r for r in rows if r.depth == depth and not kinds[r.sampler].deterministic\n"
            "              and r.relative_efficiency.known]",
            "        at = [r for r in rows if r.depth == depth and r.relative_efficiency.known]",

@@ -35,10 +35,10 @@ that the import graph has no cycle):
 * :mod:`.cli`            the argument parser shared by every script, ``load_extensions``
 * :mod:`.scene_probes`   measurements on a scene's objects without rendering (Phong mask, ...)
 * :mod:`.sweeps`         the stability sweeps (plan, analysis, prose), one module each
-* :mod:`.lab_warps`, :mod:`.lab_points`, :mod:`.lab_figures`  the sampling lab
 * :mod:`.studies`        the study registry (``StudySpec``, ``register_study``, the one
-                         ``main``) and the built-in studies, one module each; the scripts
-                         ``experiments/NAME.py`` are their commands
+                         ``main``) and the built-in studies, a module or a package each
+                         (``studies/sampler_comparison/``; ``studies/lab/``, the sampling
+                         lab); the scripts ``experiments/NAME.py`` are their commands
 
 Package data: ``viewer_assets/`` (viewer.js, viewer.css), read with
 :mod:`importlib.resources`; the bundled scenes are the :mod:`scenes` package.

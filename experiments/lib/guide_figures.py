@@ -12,8 +12,8 @@ histogram as a density over the sphere (equal-area: cos theta of the world z axi
 phi), each unit marked on the image. Reads only the tree's public attributes
 (``prob``, ``share``, ``learned``, ``leaves``, ``res``, ``lookup``).
 
-Also used by the lab's frozen-guide warp panels (:mod:`.lab_guide`): the trained strategy
-and the surface points under the picked pixels.
+Also used by the lab's frozen-guide warp panels (:mod:`.studies.lab.guide`): the trained
+strategy and the surface points under the picked pixels.
 """
 from __future__ import annotations
 

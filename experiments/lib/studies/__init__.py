@@ -9,9 +9,10 @@ numbers, tested on synthetic ones) and reports. ``quick`` is the extra argv of
 ``--NAME quick`` (tiny settings for tests); ``shared`` adds options that ``run_all`` also
 takes and passes on (``forwarded``: destination -> option string).
 
-Built-in studies are modules of this package (:data:`BUILTIN`); a researcher's own study is
-one file that calls :func:`register_study` (loaded with ``--plugin FILE``, see
-:mod:`experiments.lib.extensions`); ``docs/extending.md`` shows one.
+Built-in studies are modules of this package, or subpackages with a ``study`` module
+(:data:`BUILTIN`); a researcher's own study is one file that calls :func:`register_study`
+(loaded with ``--plugin FILE``, see :mod:`experiments.lib.extensions`);
+``docs/extending.md`` shows one.
 """
 from __future__ import annotations
 
@@ -23,9 +24,11 @@ from typing import Callable
 
 from ..scenes import Needs, SceneInfo, unmet
 
-#: The built-in studies' modules in this package (each registers itself when imported,
-#: under its own name: ``sampler_comparison`` registers the study ``samplers``).
-BUILTIN = ("sampler_comparison", "convergence", "writeup", "lab", "stability", "suite.study")
+#: The built-in studies' modules in this package, a study that is a package by its
+#: ``study`` module (each registers itself when imported, under its own name:
+#: ``sampler_comparison.study`` registers the study ``samplers``).
+BUILTIN = ("sampler_comparison.study", "convergence", "writeup", "lab.study", "stability",
+           "suite.study")
 #: ``run_all``'s choices for every study.
 MODES = ("default", "quick", "off")
 

@@ -29,7 +29,7 @@ from experiments.lib.engine import Budget, Cell, Declaration, Engine, Measuremen
 from experiments.lib.plan import doubling_targets
 from experiments.lib.methods import Method
 from experiments.lib.studies import StudySpec, register_study
-from experiments.lib.studies import sampler_comparison_efficiency as sampler_efficiency
+from experiments.lib.studies.sampler_comparison import efficiency as sampler_efficiency
 from experiments.lib.studies import convergence_analysis
 from experiments.lib.studies import convergence_report
 from experiments.lib.study import Study, StudySettings
@@ -62,7 +62,7 @@ def add_arguments(p: cli.Parser) -> None:
 @dataclass(frozen=True)
 class Best:
     """The best combination the suite offers: bsdf+nee with the sampler study's pick
-    (:func:`.sampler_comparison_analysis.picks`), and where that study chose it (None where
+    (:func:`.sampler_comparison.analysis.picks`), and where that study chose it (None where
     it was given by --best-sampler)."""
     method: Method
     sampler: str

@@ -41,7 +41,7 @@ from experiments.lib import cli, clock, references, samplers, scenes
 from experiments.lib.engine import Engine
 from experiments.lib.methods import parse_method, strategies
 from experiments.lib.studies import StudySpec, register_study
-from experiments.lib.studies import sampler_comparison_efficiency as sampler_efficiency
+from experiments.lib.studies.sampler_comparison import efficiency as sampler_efficiency
 from experiments.lib.studies.suite import analysis, bias_test, declare, measure, report
 from experiments.lib.study import Study
 from integrators.strategies import integrator_type

@@ -1,12 +1,13 @@
 """The sampling lab's mass and albedo checks in the report: a table per panel and sentences.
 
-The numbers and verdicts come from :func:`experiments.lib.lab_mass.analyse`; the words
+The numbers and verdicts come from :func:`experiments.lib.studies.lab.mass.analyse`; the words
 from the templates here (:func:`experiments.lib.prose.say`). A panel fails when its
 chi-square test rejects its density or either check fails.
 """
 from __future__ import annotations
 
-from experiments.lib import lab_mass, prose, report
+from experiments.lib import prose, report
+from experiments.lib.studies.lab import mass
 
 NAME = "lab"
 
@@ -38,14 +39,14 @@ def _where(row) -> str:
 def _failure(row) -> str:
     parts = [f"{name} {c.ratio:.3g} [{c.low:.3g}, {c.high:.3g}]"
              for name, c in (("mass/share", row.mass), ("E[w]/albedo", row.albedo))
-             if c.verdict == lab_mass.FAIL]
+             if c.verdict == mass.FAIL]
     return f"{_where(row)} ({'; '.join(parts)})"
 
 
-def sentences(found: lab_mass.Findings) -> list[str]:
+def sentences(found: mass.Findings) -> list[str]:
     """At most two sentences from the checks' findings."""
     common = {"panels": len(found.rows), "tests": found.tests, "z": found.z,
-              "tol": lab_mass.TOLERANCE}
+              "tol": mass.TOLERANCE}
     if found.failed:
         out = [prose.say(SOME_FAIL, failed=len(found.failed), shown="; ".join(
             _failure(r) for r in found.failed[:2]), more=(
@@ -55,29 +56,29 @@ def sentences(found: lab_mass.Findings) -> list[str]:
         out = [prose.say(ALL_PASS, **common)]
     if found.undecided:
         reasons = dict.fromkeys(c.reason for r in found.undecided for c in (r.mass, r.albedo)
-                                if c.verdict == lab_mass.UNDECIDED)
+                                if c.verdict == mass.UNDECIDED)
         per = [f"{s} in {u}" for s, _, _, u in found.per_strategy if u]
         out.append(prose.say(UNDECIDED, count=len(found.undecided), panels=len(found.rows),
                              reasons=prose.and_join(REASONS[r].format(
-                                 wide=f"±{100 * lab_mass.WIDE:g}%") for r in reasons),
+                                 wide=f"±{100 * mass.WIDE:g}%") for r in reasons),
                              per=prose.and_join(per)))
     else:
-        out.append(prose.say(DECIDED, wide=lab_mass.WIDE))
+        out.append(prose.say(DECIDED, wide=mass.WIDE))
     return out
 
 
-def _verdict(c: lab_mass.Check) -> str:
-    return c.verdict if c.verdict != lab_mass.UNDECIDED else f"{c.verdict} ({c.reason})"
+def _verdict(c: mass.Check) -> str:
+    return c.verdict if c.verdict != mass.UNDECIDED else f"{c.verdict} ({c.reason})"
 
 
 def panel_verdict(row, p_value: float, alpha: float) -> str:
     """fail (chi-square or either check), cannot decide, or pass."""
     if row.failed or not p_value >= alpha:
-        return lab_mass.FAIL
-    return lab_mass.UNDECIDED if row.undecided else lab_mass.PASS
+        return mass.FAIL
+    return mass.UNDECIDED if row.undecided else mass.PASS
 
 
-def report_checks(out: str, found: lab_mass.Findings, p_values: list, alpha: float) -> list:
+def report_checks(out: str, found: mass.Findings, p_values: list, alpha: float) -> list:
     """The table (one row per panel, in ``found``'s order; ``p_values`` the panels'
     chi-square p-values, ``alpha`` their Sidak level) and the sentences."""
     rows = [[r.bsdf, f"{r.incidence_deg:g}", r.strategy, f"{p:.3g}",
@@ -92,8 +93,8 @@ def report_checks(out: str, found: lab_mass.Findings, p_values: list, alpha: flo
         f"of directions drawn, and the mean weight E[f·cos/pdf] against the albedo (the "
         f"quadrature of f·cos); intervals ratio × (1 ± (z·se + quadrature bound)), z = "
         f"{found.z:.3g} (1% Sidak over {found.tests} checks); a check fails outside "
-        f"1 ± {lab_mass.TOLERANCE:g} and cannot decide when wider than ±{lab_mass.WIDE:g} "
+        f"1 ± {mass.TOLERANCE:g} and cannot decide when wider than ±{mass.WIDE:g} "
         f"or when the weights are too heavy-tailed (Cochran: n < "
-        f"{lab_mass.SKEW_SAMPLES:g} skewness²); a panel fails on either check or its "
+        f"{mass.SKEW_SAMPLES:g} skewness²); a panel fails on either check or its "
         f"chi-square", collapsed=True),
         report.text("\n\n".join(sentences(found)))]

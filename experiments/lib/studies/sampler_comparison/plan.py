@@ -1,7 +1,7 @@
 """The sampler study's settings and declarations: what a run measures, as the engine plans it.
 
 :class:`Settings` (and the screen-space pass's :class:`ScreenSettings`), built once from the
-command line by :func:`.sampler_comparison.settings_of`; the two passes as declarations on
+command line by :func:`.sampler_comparison.study.settings_of`; the two passes as declarations on
 the experiment engine (:mod:`experiments.lib.engine`): :func:`declare` (the efficiency
 pass: every label at every depth, each count of the ladder an equal-spp budget, a fresh
 render) and :func:`declare_screen` (the screen-space pass, which the lab declares too, so

@@ -40,8 +40,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import files, screen_space
-from .samplers import DEFAULT, label_dict, labels
+from experiments.lib import files, screen_space
+from experiments.lib.samplers import DEFAULT, label_dict, labels
 
 #: The calls of one sample, in order: ("2d", what) or ("1d", what).
 CAMERA = (("2d", "camera: film position"),)

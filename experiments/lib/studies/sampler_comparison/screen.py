@@ -1,11 +1,11 @@
 """The sampler study's screen-space pass: FLIP, the error's power spectrum and MSE efficiency.
 
-On a larger image (:class:`.sampler_comparison_plan.ScreenSettings`), at every count of a
-short ladder: declared on the engine (:func:`.sampler_comparison_plan.declare_screen`;
+On a larger image (:class:`.sampler_comparison.plan.ScreenSettings`), at every count of a
+short ladder: declared on the engine (:func:`.sampler_comparison.plan.declare_screen`;
 renders grouped so that a process keeps their methods warm), measured from the engine's
 runs (per repeat: mean FLIP, the error's periodogram and its low-frequency share with the
 reference's floor subtracted, MSE, relMSE and cost), the pure analysis
-(:mod:`.sampler_comparison_screen_analysis`) and the report: the FLIP and spectrum charts,
+(:mod:`.sampler_comparison.screen_analysis`) and the report: the FLIP and spectrum charts,
 each depth's conclusion table and sentences, the table of every label and count.
 """
 from __future__ import annotations
@@ -19,12 +19,12 @@ from experiments.lib import execute, figures, metrics, report, screen_space, sta
 from experiments.lib.engine import Cell, Declaration, Measurements
 from experiments.lib.jobs import Job
 from experiments.lib.study import Study
-from experiments.lib.studies.sampler_comparison_analysis import families
-from experiments.lib.studies.sampler_comparison_efficiency import interval_header, point
-from experiments.lib.studies import sampler_comparison_words as words
-from experiments.lib.studies.sampler_comparison_plan import (
+from experiments.lib.studies.sampler_comparison.analysis import families
+from experiments.lib.studies.sampler_comparison.efficiency import interval_header, point
+from experiments.lib.studies.sampler_comparison import words
+from experiments.lib.studies.sampler_comparison.plan import (
     NAME, PassReport, Planned, Settings, declare_screen, default_screen_labels, interleaved)
-from experiments.lib.studies.sampler_comparison_screen_analysis import (
+from experiments.lib.studies.sampler_comparison.screen_analysis import (
     SCREEN_HEADER, ScreenAnalysis, ScreenPoint, ScreenRow, analyse_screen)
 
 
@@ -94,73 +94,97 @@ class ScreenSpace:
 
     def report(self, st: Study, cfg: Settings, planned: Planned, measured: ScreenMeasured,
                result: ScreenAnalysis) -> PassReport:
-        sc, out = cfg.screen, st.out
+        """The introduction, per depth the charts, conclusion table and sentences, then the
+        tables of every label and count."""
         conclusions = words.screen_conclusions(result)
-        width, height = sc.resolution
         blocks = [report.text(screen_introduction(cfg, measured))]
-        for d, by_sampler in measured.points.items():
-            curves = {s: [(p.spp, p.mean_flip()) for p in pts] for s, pts in by_sampler.items()}
-            figures.estimate_lines(os.path.join(out, NAME, f"screen_flip_depth{d}.png"),
-                                   curves, "samples per pixel (rendered)", "mean FLIP",
-                                   f"max_depth {d}, {width}x{height}: mean FLIP against the "
-                                   f"reference")
-            shown = spectrum_counts(sc.counts)
-            panels = {f"{n} spp requested": {s: (pts[sc.counts.index(n)].frequencies,
-                                                 pts[sc.counts.index(n)].power)
-                                             for s, pts in by_sampler.items()} for n in shown}
-            figures.spectrum_panels(os.path.join(out, NAME, f"screen_spectra_depth{d}.png"),
-                                    panels, screen_space.LOW, f"max_depth {d}: radially "
-                                    f"averaged power spectrum of the luminance error, mean "
-                                    f"over the repeats")
-            blocks += [
-                report.image(f"{NAME}/screen_flip_depth{d}.png",
-                             f"max_depth {d}: mean FLIP against spp per sampler at "
-                             f"{width}x{height}, with {stats.LEVEL:.0%} bands over the "
-                             f"repeats (lower is better); reference: "
-                             f"{st.describe_reference(measured.floors[d])}."),
-                report.image(f"{NAME}/screen_spectra_depth{d}.png",
-                             f"max_depth {d}: power spectrum of the error (render minus "
-                             f"reference, luminance, mean subtracted; the reference's white "
-                             f"noise subtracted), relative to its mean (white noise: 1), at "
-                             f"{' and '.join(map(str, shown))} spp. Dashed: "
-                             f"{screen_space.LOW} cycles per pixel, below which the "
-                             f"low-frequency share is taken."),
-                report.write_table(out, f"{NAME}/screen_conclusion_depth{d}",
-                                   SCREEN_HEADER,
-                                   [c.cells() for c in result.comparisons if c.depth == d],
-                                   f"Screen-space conclusion at max_depth {d}: each bundled "
-                                   f"sampler's best (lowest FLIP) against every native "
-                                   f"sampler and the other bundled ones, at every count; "
-                                   f"ratios A / B with {stats.LEVEL:.0%} intervals; a verdict "
-                                   f"only where the interval excludes 1, in FLIP only "
-                                   f"between equal counts rendered"),
-                report.text("\n\n".join(conclusions[d]))]
-        header = (["max_depth", "sampler", "spp rendered", "spp requested", "repeats"]
-                  + interval_header("mean FLIP") + interval_header("low-frequency share")
-                  + interval_header("MSE") + ["µs / sample"])
-        blocks += [
-            report.write_table(out, f"{NAME}/screen_space", header, screen_table_rows(
-                result.rows), f"Every sampler and count of the screen-space pass at "
-                f"{width}x{height} (means over the repeats, {stats.LEVEL:.0%} intervals; "
-                f"low-frequency share of white noise on this grid: {result.white:.4f})"),
-            report.write_table(out, f"{NAME}/screen_spectra",
-                               ["max_depth", "sampler", "spp rendered", "frequency (cycles "
-                                "per pixel)", "power / mean"],
-                               [[d, s, p.spp, f"{f:.5g}", f"{v:.4g}"]
-                                for d, by in measured.points.items() for s, pts in by.items()
-                                for p in pts for f, v in zip(p.frequencies, p.power)],
-                               "Radially averaged error spectra (white noise: 1)",
-                               collapsed=True)]
-        summary = {"screen": {
-            "resolution": f"{width}x{height}", "counts": list(sc.counts),
-            "depths": list(sc.depths), "samplers": list(sc.samplers),
-            "repeats": sc.repeats, "reference_spp": sc.reference_spp,
-            "white_share": result.white, "low_frequency_cutoff": screen_space.LOW,
-            "spectrum_floor": {d: f["spectrum_floor"] for d, f in measured.floors.items()},
-            "rows": [r.record() for r in result.rows],
-            "comparisons": [c.record() for c in result.comparisons],
-            "conclusion": conclusions}}
-        return PassReport(blocks, summary, self.jobs(planned))
+        for d in measured.points:
+            blocks += depth_blocks(st, cfg, measured, result, conclusions[d], d)
+        blocks += screen_tables(st.out, cfg, measured, result)
+        return PassReport(blocks, screen_summary(cfg, measured, result, conclusions),
+                          self.jobs(planned))
+
+
+def depth_blocks(st: Study, cfg: Settings, measured: ScreenMeasured, result: ScreenAnalysis,
+                 sentences: list, d: int) -> list:
+    """At max_depth ``d``: the FLIP chart, the spectra, the conclusion table and its
+    sentences."""
+    sc, out, by_sampler = cfg.screen, st.out, measured.points[d]
+    width, height = sc.resolution
+    curves = {s: [(p.spp, p.mean_flip()) for p in pts] for s, pts in by_sampler.items()}
+    figures.estimate_lines(os.path.join(out, NAME, f"screen_flip_depth{d}.png"),
+                           curves, "samples per pixel (rendered)", "mean FLIP",
+                           f"max_depth {d}, {width}x{height}: mean FLIP against the "
+                           f"reference")
+    shown = spectrum_counts(sc.counts)
+    panels = {f"{n} spp requested": {s: (pts[sc.counts.index(n)].frequencies,
+                                         pts[sc.counts.index(n)].power)
+                                     for s, pts in by_sampler.items()} for n in shown}
+    figures.spectrum_panels(os.path.join(out, NAME, f"screen_spectra_depth{d}.png"),
+                            panels, screen_space.LOW, f"max_depth {d}: radially "
+                            f"averaged power spectrum of the luminance error, mean "
+                            f"over the repeats")
+    return [
+        report.image(f"{NAME}/screen_flip_depth{d}.png",
+                     f"max_depth {d}: mean FLIP against spp per sampler at "
+                     f"{width}x{height}, with {stats.LEVEL:.0%} bands over the "
+                     f"repeats (lower is better); reference: "
+                     f"{st.describe_reference(measured.floors[d])}."),
+        report.image(f"{NAME}/screen_spectra_depth{d}.png",
+                     f"max_depth {d}: power spectrum of the error (render minus "
+                     f"reference, luminance, mean subtracted; the reference's white "
+                     f"noise subtracted), relative to its mean (white noise: 1), at "
+                     f"{' and '.join(map(str, shown))} spp. Dashed: "
+                     f"{screen_space.LOW} cycles per pixel, below which the "
+                     f"low-frequency share is taken."),
+        report.write_table(out, f"{NAME}/screen_conclusion_depth{d}",
+                           SCREEN_HEADER,
+                           [c.cells() for c in result.comparisons if c.depth == d],
+                           f"Screen-space conclusion at max_depth {d}: each bundled "
+                           f"sampler's best (lowest FLIP) against every native "
+                           f"sampler and the other bundled ones, at every count; "
+                           f"ratios A / B with {stats.LEVEL:.0%} intervals; a verdict "
+                           f"only where the interval excludes 1, in FLIP only "
+                           f"between equal counts rendered"),
+        report.text("\n\n".join(sentences))]
+
+
+def screen_tables(out: str, cfg: Settings, measured: ScreenMeasured,
+                  result: ScreenAnalysis) -> list:
+    """The table of every label and count, and the spectra as numbers."""
+    width, height = cfg.screen.resolution
+    header = (["max_depth", "sampler", "spp rendered", "spp requested", "repeats"]
+              + interval_header("mean FLIP") + interval_header("low-frequency share")
+              + interval_header("MSE") + ["µs / sample"])
+    return [
+        report.write_table(out, f"{NAME}/screen_space", header, screen_table_rows(
+            result.rows), f"Every sampler and count of the screen-space pass at "
+            f"{width}x{height} (means over the repeats, {stats.LEVEL:.0%} intervals; "
+            f"low-frequency share of white noise on this grid: {result.white:.4f})"),
+        report.write_table(out, f"{NAME}/screen_spectra",
+                           ["max_depth", "sampler", "spp rendered", "frequency (cycles "
+                            "per pixel)", "power / mean"],
+                           [[d, s, p.spp, f"{f:.5g}", f"{v:.4g}"]
+                            for d, by in measured.points.items() for s, pts in by.items()
+                            for p in pts for f, v in zip(p.frequencies, p.power)],
+                           "Radially averaged error spectra (white noise: 1)",
+                           collapsed=True)]
+
+
+def screen_summary(cfg: Settings, measured: ScreenMeasured, result: ScreenAnalysis,
+                   conclusions: dict) -> dict:
+    """The pass's part of summary.json."""
+    sc = cfg.screen
+    width, height = sc.resolution
+    return {"screen": {
+        "resolution": f"{width}x{height}", "counts": list(sc.counts),
+        "depths": list(sc.depths), "samplers": list(sc.samplers),
+        "repeats": sc.repeats, "reference_spp": sc.reference_spp,
+        "white_share": result.white, "low_frequency_cutoff": screen_space.LOW,
+        "spectrum_floor": {d: f["spectrum_floor"] for d, f in measured.floors.items()},
+        "rows": [r.record() for r in result.rows],
+        "comparisons": [c.record() for c in result.comparisons],
+        "conclusion": conclusions}}
 
 
 def screen_point(runs: list, rendered: list, ref, floor: float, meta: dict,

@@ -14,7 +14,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from . import figure_pool  # noqa: E402
+from experiments.lib import figure_pool  # noqa: E402
 
 #: Standardized residual shown at full colour in the difference tiles.
 Z_RANGE = 5.0

@@ -1,6 +1,6 @@
 """The sampler study's sentences: words made from its analysis data (the report layer).
 
-The analyses (:mod:`.sampler_comparison_analysis`, :mod:`.sampler_comparison_screen_analysis`)
+The analyses (:mod:`.sampler_comparison.analysis`, :mod:`.sampler_comparison.screen_analysis`)
 return numbers and verdicts; this module makes the at most three sentences per depth under
 each conclusion table from them alone: :func:`sentences` (the efficiency pass: the winner,
 the bundled samplers against the best native one, where an order changes along the ladder),
@@ -12,10 +12,10 @@ templates.
 from __future__ import annotations
 
 from experiments.lib import prose
-from experiments.lib.studies.sampler_comparison_analysis import (
+from experiments.lib.studies.sampler_comparison.analysis import (
     BEST, BUNDLED, METRIC, METRIC_NAMES, NATIVE, WORDS, Analysis, Comparison, Family,
     order_text, sign)
-from experiments.lib.studies.sampler_comparison_screen_analysis import (
+from experiments.lib.studies.sampler_comparison.screen_analysis import (
     FLIP_WORDS, ScreenAnalysis, ScreenComparison, ScreenRow)
 
 WINNER = """At max_depth {{ depth }} and {{ spp }} spp, {{ a }} is the most efficient sampler

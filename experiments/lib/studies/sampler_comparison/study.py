@@ -14,7 +14,7 @@ against the best native sampler and the others, with the counts where the order 
 and three sentences computed from it. Renders of one depth are interleaved (every sampler at
 one spp, then the next spp) so that changing machine load affects them alike.
 
-The screen-space pass (:class:`.sampler_comparison_screen.ScreenSpace`, options --screen-*)
+The screen-space pass (:class:`.sampler_comparison.screen.ScreenSpace`, options --screen-*)
 renders a short ladder (1, 4, 16 spp) on a larger image (128x128; a spectrum needs it) at
 max_depth 2, for a subset of labels by default (the baseline, multijitter, ldsampler and
 each bundled sampler at its last randomization: every FLIP of a 128x128 image costs a few
@@ -27,12 +27,12 @@ count) and three sentences computed from it.
 
 The study is a list of measurement passes (:data:`PASSES`), each a declaration on the
 experiment engine (:mod:`experiments.lib.engine`, which plans, renders, costs and measures)
--> pure analysis -> report: its settings and declarations (:mod:`.sampler_comparison_plan`),
-the efficiency pass (:mod:`.sampler_comparison_efficiency`, analysed by
-:mod:`.sampler_comparison_analysis`) and the screen-space pass (:mod:`.sampler_comparison_screen`, analysed by
-:mod:`.sampler_comparison_screen_analysis`). This module is the entry point: the command
-line, :func:`settings_of` (the one place that reads it), the report's introduction and
-settings, and the registration of the study as ``samplers``.
+-> pure analysis -> report: its settings and declarations (:mod:`.plan`), the efficiency
+pass (:mod:`.efficiency`, analysed by :mod:`.analysis`) and the screen-space pass
+(:mod:`.screen`, analysed by :mod:`.screen_analysis`), modules of this package
+(:mod:`experiments.lib.studies.sampler_comparison`). This module is the entry point: the
+command line, :func:`settings_of` (the one place that reads it), the report's introduction
+and settings, and the registration of the study as ``samplers``.
 
     python -m experiments.samplers --help
 """
@@ -47,12 +47,12 @@ from experiments.lib.methods import Method
 from experiments.lib.plan import doubling_targets
 from experiments.lib.study import Study, StudySettings
 from experiments.lib.studies import StudySpec, register_study
-from experiments.lib.studies.sampler_comparison_analysis import BASELINE, METRIC, METRIC_NAMES
-from experiments.lib.studies.sampler_comparison_efficiency import Efficiency
-from experiments.lib.studies.sampler_comparison_plan import (
+from experiments.lib.studies.sampler_comparison.analysis import BASELINE, METRIC, METRIC_NAMES
+from experiments.lib.studies.sampler_comparison.efficiency import Efficiency
+from experiments.lib.studies.sampler_comparison.plan import (
     BASE, NAME, SCREEN_COUNTS, SCREEN_DEPTHS, SCREEN_NATIVES, SCREEN_REFERENCE_SPP,
     SCREEN_REPEATS, SCREEN_RESOLUTION, ScreenSettings, Settings, default_screen_labels, plan)
-from experiments.lib.studies.sampler_comparison_screen import ScreenSpace
+from experiments.lib.studies.sampler_comparison.screen import ScreenSpace
 
 TITLE = "Samplers: the bundled samplers against Mitsuba's own"
 ORDER = 10

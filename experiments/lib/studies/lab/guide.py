@@ -1,6 +1,6 @@
 """The lab's warp panels of a frozen, trained guide.
 
-Every registered strategy gets its panels on the lab's BSDFs (:mod:`.lab_warps`); there
+Every registered strategy gets its panels on the lab's BSDFs (:mod:`.lab.warps`); there
 ``guided`` is untrained (every BSDF share 1: plain BSDF sampling), since a guide is learned
 state. Here a guide is trained on a scene (``vr_guided_path`` renders a job of its own
 passes: :func:`.guide_figures.train`), frozen (its last iteration records nothing; the
@@ -9,9 +9,9 @@ GuidedStrategy` with the learned tree and shares, is checked as a warp at a few 
 points of that scene: the camera rays' first hits under the pixels
 :func:`.guide_figures.pick_units` chooses (the learned units the guide is used most in), with
 the scene's own BSDF there and the camera direction as the incident direction. Each panel
-is :func:`.lab_warps.compute` with that strategy, BSDF and interaction (point, geometric
+is :func:`.lab.warps.compute` with that strategy, BSDF and interaction (point, geometric
 normal, shading frame, uv): the same chi-square test against the strategy's reported
-density, the same mass and albedo checks (:mod:`.lab_mass`), over the local sphere of
+density, the same mass and albedo checks (:mod:`.lab.mass`), over the local sphere of
 directions.
 
 Cache: the panels are stored in the lab's warp cache under a key of every setting (the
@@ -29,7 +29,8 @@ import time
 
 import numpy as np
 
-from . import files, lab_warps
+from experiments.lib import files
+from experiments.lib.studies.lab import warps
 
 #: The scene a guide is trained on, its film and samples per pixel.
 SCENE = "scenes/suite/door_room.xml"
@@ -69,8 +70,8 @@ class GuideConfig:
         return f"guided (frozen, trained on {self.name})"
 
     def key(self) -> str:
-        from .scenes import scene_hash
-        text = json.dumps({"v": VERSION, "panel": lab_warps.VERSION,
+        from experiments.lib.scenes import scene_hash
+        text = json.dumps({"v": VERSION, "panel": warps.VERSION,
                            "scene": scene_hash(self.scene), "film": [self.width, self.height],
                            "spp": self.spp, "seed": self.seed, "sites": self.sites,
                            "samples": self.samples, "method": self.method,
@@ -115,7 +116,7 @@ def sites(trained, count: int) -> list[Site]:
     """The surface points under the pixels of :func:`.guide_figures.pick_units` (misses and
     BSDFs with a Dirac lobe left out: the strategy uses the BSDF's own sampling there)."""
     import mitsuba as mi
-    from . import guide_figures
+    from experiments.lib import guide_figures
     tree = trained.tree
     units = guide_figures.unit_map(tree, trained.scene, trained.sensor)
     si = guide_figures.camera_hits(trained.scene, trained.sensor)
@@ -138,14 +139,14 @@ def sites(trained, count: int) -> list[Site]:
     return out
 
 
-def spec_of(cfg: GuideConfig, site: Site, index: int) -> lab_warps.PanelSpec:
+def spec_of(cfg: GuideConfig, site: Site, index: int) -> warps.PanelSpec:
     """The panel's settings (its label, incidence, samples, seed) as a lab PanelSpec; its
     ``bsdf`` holds what identifies the site (no Mitsuba dict: the BSDF is the scene's)."""
-    from .guide_figures import CLASS_NAMES
+    from experiments.lib.guide_figures import CLASS_NAMES
     leaf, cls = divmod(site.unit, len(CLASS_NAMES))
     label = (f"{cfg.name} px {site.pixel[0]},{site.pixel[1]} ({site.bsdf_id}, leaf {leaf} "
              f"{CLASS_NAMES[cls]}, share {site.share:.1f})")
-    return lab_warps.PanelSpec(label, {"scene": cfg.name, "pixel": list(site.pixel),
+    return warps.PanelSpec(label, {"scene": cfg.name, "pixel": list(site.pixel),
                                        "unit": site.unit}, cfg.label(),
                                round(site.incidence_deg, 1), cfg.samples,
                                cfg.seed * 7919 + 100_003 + index, ires=cfg.ires)
@@ -166,7 +167,7 @@ def compute(cfg: GuideConfig, trained=None, strategy=None) -> tuple[list, dict, 
     """Train (unless ``trained`` is given), freeze, and compute the panels: (specs, panels,
     training seconds). ``strategy``: another strategy object to check at the same sites
     (the tests' wrong-density control); default the trained guide."""
-    from . import guide_figures
+    from experiments.lib import guide_figures
     if trained is None:
         trained = guide_figures.train(cfg.scene, cfg.width, cfg.height, cfg.method, cfg.spp,
                                       cfg.seed + 1)
@@ -174,17 +175,17 @@ def compute(cfg: GuideConfig, trained=None, strategy=None) -> tuple[list, dict, 
     specs, panels = [], {}
     for k, site in enumerate(sites(trained, cfg.sites)):
         spec = spec_of(cfg, site, k)
-        panels[spec.key()] = lab_warps.compute(spec, strategy=strategy, bsdf=site.bsdf,
+        panels[spec.key()] = warps.compute(spec, strategy=strategy, bsdf=site.bsdf,
                                                site=site.interaction)
         specs.append(spec)
     return specs, panels, trained.seconds
 
 
 def rows_of(specs: list, panels: dict) -> list[dict]:
-    """The lab's warp rows (:func:`experiments.lib.studies.lab.measure_warps`'s)."""
+    """The lab's warp rows (:func:`.lab.warp_part.measure_warps`'s)."""
     return [{"bsdf": s.bsdf_label, "incidence_deg": s.incidence_deg, "strategy": s.strategy,
-             "samples": s.samples, "seed": s.seed, "grid": lab_warps.domain_for(s).describe(),
-             **{k: panels[s.key()][k] for k in lab_warps.SCALARS}} for s in specs]
+             "samples": s.samples, "seed": s.seed, "grid": warps.domain_for(s).describe(),
+             **{k: panels[s.key()][k] for k in warps.SCALARS}} for s in specs]
 
 
 def measure(cfg: GuideConfig, cache: str) -> Measured:
@@ -194,13 +195,13 @@ def measure(cfg: GuideConfig, cache: str) -> Measured:
     data = files.read_npz(path)
     if data is not None:
         meta = json.loads(str(data["meta"]))
-        specs = [lab_warps.PanelSpec(**m) for m in meta["specs"]]
+        specs = [warps.PanelSpec(**m) for m in meta["specs"]]
         panels = {}
         for k, s in enumerate(specs):
             panel = {name[len(f"p{k}__"):]: v for name, v in data.items()
                      if name.startswith(f"p{k}__")}
-            panels[s.key()] = {n: (int(v) if n in lab_warps.INTEGERS else float(v)
-                                   if n in lab_warps.SCALARS else v) for n, v in panel.items()}
+            panels[s.key()] = {n: (int(v) if n in warps.INTEGERS else float(v)
+                                   if n in warps.SCALARS else v) for n, v in panel.items()}
         return Measured(specs, panels, rows_of(specs, panels), meta["train_seconds"],
                         time.perf_counter() - start, True)
     specs, panels, train_seconds = compute(cfg)

@@ -30,7 +30,7 @@ holds:
   estimate of the BSDF's albedo, which sets how many samples a bounce needs;
 - what the chi-square cannot see (a density off by a constant factor): the
   density's integral over the sphere and the albedo from a quadrature of f cos,
-  with the sampled sides' standard errors (:mod:`.lab_mass`, which checks them).
+  with the sampled sides' standard errors (:mod:`.lab.mass`, which checks them).
 
 The uniform variates are Mitsuba's chi-square test's own (TEA-hashed PCG32
 streams, see :func:`variates`), so a panel and ``ChiSquareTest`` with the same
@@ -47,7 +47,7 @@ import numpy as np
 
 from integrators.chi2 import EqualAreaDomain, cap_cos_min, interaction
 
-from . import lab_mass
+from experiments.lib.studies.lab import mass
 
 #: Pool threshold of the chi-square test (expected count per cell), as mitsuba.chi2.
 POOL_THRESHOLD = 5.0
@@ -261,7 +261,7 @@ def compute(spec: PanelSpec, path_module=None, strategy=None, bsdf=None, site=No
     strategy named ``spec.strategy`` on ``spec.bsdf`` at the z-up interaction of
     ``spec.incidence_deg``; ``strategy`` (an object: its state, e.g. a trained guide),
     ``bsdf`` (an instantiated BSDF) and ``site`` (``n -> n`` surface interactions, e.g. at a
-    scene point: :mod:`.lab_guide`) replace them."""
+    scene point: :mod:`.lab.guide`) replace them."""
     import drjit as dr
     import mitsuba as mi
     path = path_module or _path()
@@ -292,10 +292,10 @@ def compute(spec: PanelSpec, path_module=None, strategy=None, bsdf=None, site=No
     stat, dof, p = chi2_test(hist, expected, drjit_order(expected))
     pdf_at = pdf(wo)                                           # pdf where each was drawn
     ratio = dr.select(drawn, ds.pdf / dr.maximum(pdf_at, 1e-30), 1.0)
-    mass, mass_error = lab_mass.sphere_integral(
+    pdf_mass, mass_error = mass.sphere_integral(
         tabulate, domain, pdf, spec.res, spec.ires,
         float(np.sum(expected, dtype=np.float64)) / n)
-    albedo, albedo_error = lab_mass.sphere_integral(
+    albedo, albedo_error = mass.sphere_integral(
         tabulate, domain, fcos_func(bsdf, wi, site), spec.res, spec.ires,
         np.sum(fcos, dtype=np.float64))
     mean_w = float(np.mean(w))
@@ -310,13 +310,13 @@ def compute(spec: PanelSpec, path_module=None, strategy=None, bsdf=None, site=No
             "in_grid": float(np.mean(counted_np)), "cos_min": domain.cos_min,
             "max_weight": float(np.max(w)) if n else 0.0,
             "max_z": float(np.max(np.abs(hist - expected) / np.sqrt(np.maximum(expected, 1.0)))),
-            "mass": mass, "mass_error": mass_error, "albedo_quadrature": albedo,
+            "mass": pdf_mass, "mass_error": mass_error, "albedo_quadrature": albedo,
             "albedo_error": albedo_error,
-            **lab_mass.sample_moments(w, np.asarray(ratio, np.float64)[drawn_np])}
+            **mass.sample_moments(w, np.asarray(ratio, np.float64)[drawn_np])}
 
 
 SCALARS = ("p_value", "chi2", "dof", "rel_variance", "albedo", "drawn", "in_grid", "cos_min",
-           "max_weight", "max_z") + lab_mass.SCALARS
+           "max_weight", "max_z") + mass.SCALARS
 #: The scalars that are counts (a panel read back from the cache gives them as ints, as
 #: :func:`compute` does, so a rerun writes the same tables).
 INTEGERS = ("dof",)
@@ -327,7 +327,7 @@ def cached(spec: PanelSpec, cache_dir: str) -> dict:
     the same settings (written atomically, so an interrupted run loses only the
     panel it was computing)."""
     import os
-    from . import files
+    from experiments.lib import files
     path = os.path.join(cache_dir, spec.key() + ".npz")
     data = files.read_npz(path)
     if data is not None:

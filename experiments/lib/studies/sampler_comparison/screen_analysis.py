@@ -7,7 +7,7 @@ and MSE per repeat at one count; the result is a :class:`ScreenRow` per label an
 against every native label and the other families': mean FLIP A / B, share A / B and MSE
 efficiency A / B, each with its interval and a verdict only where the interval excludes
 1, FLIP only between equal counts rendered); the sentences made from them are the report
-layer's (:func:`.sampler_comparison_words.screen_sentences`).
+layer's (:func:`.sampler_comparison.words.screen_sentences`).
 
 Every label renders every count of a short ladder R times at a resolution with a spectrum
 worth the name (128x128 by default). Per count: the mean FLIP against the reference, the
@@ -21,7 +21,7 @@ excludes 1, in FLIP only where both rendered the same count (orthogonal renders 
 for 16: more samples, not a better sampler; the efficiency, per unit of time, allows for
 it).
 
-Which label is bundled and which native comes from :class:`.sampler_comparison_analysis.Family`
+Which label is bundled and which native comes from :class:`.sampler_comparison.analysis.Family`
 values (the sampler table's ``native``), never from a name. Tests feed synthetic points
 whose answer is known.
 """
@@ -31,7 +31,7 @@ import math
 from dataclasses import dataclass
 
 from experiments.lib import stats
-from experiments.lib.studies.sampler_comparison_analysis import (
+from experiments.lib.studies.sampler_comparison.analysis import (
     Family, Point, ratio, sign)
 
 

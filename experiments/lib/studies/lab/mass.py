@@ -13,7 +13,7 @@ density the weights use and not in the one the test reads). Two checks see it:
 * **albedo**: the expected weight E[f cos / pdf] over the strategy's samples equals the
   BSDF's albedo, the quadrature of ``bsdf.eval`` (f cos) over the sphere.
 
-Quadrature: the trapezoid tabulation of the panel's grid (:func:`.lab_warps.tabulate`),
+Quadrature: the trapezoid tabulation of the panel's grid (:func:`.lab.warps.tabulate`),
 over the panel's domain and, for a cap, over the rest of the sphere about the same axis
 (:class:`Band`); its error is bounded by the difference with the same rule at half the
 points per cell (a trapezoid rule's error falls at least linearly with the spacing, so
@@ -68,7 +68,7 @@ class Band(EqualAreaDomain):
 def sphere_integral(tabulate, domain, func, res: int, ires: int,
                     inside=None) -> tuple[float, float]:
     """(integral of ``func`` over the whole sphere, bound on its quadrature error):
-    ``domain``'s tabulation by ``tabulate`` (:func:`.lab_warps.tabulate`; ``inside``: its
+    ``domain``'s tabulation by ``tabulate`` (:func:`.lab.warps.tabulate`; ``inside``: its
     sum at ``ires``, when already computed) plus, for a cap, the band outside it; the
     bound is the difference with ``ires // 2`` points per cell and axis."""
     parts = [domain] if domain.cos_min <= -1.0 else [domain, Band(domain.axis, domain.cos_min)]
@@ -94,7 +94,7 @@ def sample_moments(weight: np.ndarray, ratio: np.ndarray) -> dict:
             "pdf_ratio_se": float(np.std(r)) / math.sqrt(r.size) if r.size else 0.0}
 
 
-#: The panel scalars these checks add (:func:`.lab_warps.compute`).
+#: The panel scalars these checks add (:func:`.lab.warps.compute`).
 SCALARS = ("mass", "mass_error", "pdf_ratio", "pdf_ratio_se", "albedo_quadrature",
            "albedo_error", "albedo_se", "weight_skewness")
 
@@ -158,7 +158,7 @@ def albedo_check(panel: dict, samples: int, z: float) -> Check:
 
 
 def checks(panel: dict, samples: int, z: float) -> tuple[Check, Check]:
-    """(mass check, albedo check) of one panel (:func:`.lab_warps.compute`'s dict)."""
+    """(mass check, albedo check) of one panel (:func:`.lab.warps.compute`'s dict)."""
     return mass_check(panel, samples, z), albedo_check(panel, samples, z)
 
 

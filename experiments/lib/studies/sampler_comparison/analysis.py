@@ -24,9 +24,9 @@ errors (the floors under them). :func:`analyse`, a pure function of those number
   bundled ones), so that a re-measurement that swaps two tied estimates picks the same.
 
 The sentences made from the conclusion table are the report layer's
-(:mod:`.sampler_comparison_words`).
+(:mod:`.sampler_comparison.words`).
 
-The screen-space pass's analysis is :mod:`.sampler_comparison_screen_analysis`.
+The screen-space pass's analysis is :mod:`.sampler_comparison.screen_analysis`.
 
 Which label is bundled and which native comes from :class:`Family` values (the sampler
 table's ``native``), never from a name. Tests feed synthetic points whose answer is known.

@@ -1,10 +1,11 @@
 """The sampler study's efficiency pass: every label over the ladder, at every depth.
 
-Declared on the engine (:func:`.sampler_comparison_plan.declare`; renders interleaved so
+Declared on the engine (:func:`.sampler_comparison.plan.declare`; renders interleaved so
 that drifting machine load affects every sampler alike), measured (the engine's per-repeat
-costs and errors against each depth's reference, as :class:`Point` values), the pure analysis (:mod:`.sampler_comparison_analysis`) and the report:
-the error and efficiency charts, the viewer, the table of every label, the efficiency along
-the ladder and each depth's conclusion table and sentences.
+costs and errors against each depth's reference, as :class:`Point` values), the pure
+analysis (:mod:`.sampler_comparison.analysis`) and the report: the error and efficiency
+charts, the viewer, the table of every label, the efficiency along the ladder and each
+depth's conclusion table and sentences.
 """
 from __future__ import annotations
 
@@ -16,11 +17,11 @@ from experiments.lib import figures, files, report, stats
 from experiments.lib.engine import Cell, Declaration, Measurements
 from experiments.lib.jobs import Job
 from experiments.lib.study import Study
-from experiments.lib.studies.sampler_comparison_analysis import (
+from experiments.lib.studies.sampler_comparison.analysis import (
     BASELINE, COMPARISON_HEADER, METRIC, METRIC_NAMES, Analysis, Point, Row, analyse,
     families)
-from experiments.lib.studies import sampler_comparison_words as words
-from experiments.lib.studies.sampler_comparison_plan import (
+from experiments.lib.studies.sampler_comparison import words
+from experiments.lib.studies.sampler_comparison.plan import (
     NAME, PassReport, Planned, Settings, declare, interleaved)
 
 
@@ -96,74 +97,102 @@ class Efficiency:
 
     def report(self, st: Study, cfg: Settings, planned: Planned, measured: Measured,
                result: Analysis) -> PassReport:
-        out, blocks, metric = st.out, [], METRIC_NAMES[METRIC]
+        """Per depth the charts and the viewer, then the tables of every label, then per
+        depth the conclusion table and its sentences."""
         conclusions = words.conclusions(result)
-        for d, by_sampler in measured.points.items():
-            bands = {s: ([p.spp for p in pts], [sum(p.seconds) / len(p.seconds) for p in pts],
-                         [p.expected(METRIC) for p in pts])
-                     for s, pts in by_sampler.items()}
-            figures.error_bands(os.path.join(out, NAME, f"error_depth{d}.png"), bands, metric)
-            blocks.append(report.image(
-                f"{NAME}/error_depth{d}.png", f"max_depth {d}: expected {metric} against "
-                f"spp and against render (CPU) time per sampler, with {stats.LEVEL:.0%} "
-                f"bands over the repeats (log-log, fitted slopes in the legend); "
-                f"reference: {st.describe_reference(measured.floors[d])}."))
-            if any(math.isfinite(e.value) for pts in result.curves[d].values() for _, e in pts):
-                figures.ratio_bands(os.path.join(out, NAME, f"efficiency_depth{d}.png"),
-                                    result.curves[d], EFFICIENCY,
-                                    f"max_depth {d}: efficiency relative to {BASELINE}")
-                blocks.append(report.image(
-                    f"{NAME}/efficiency_depth{d}.png", f"max_depth {d}: {EFFICIENCY} at "
-                    f"every count of the ladder, with {stats.LEVEL:.0%} bands: where the "
-                    f"curves cross, the order of the samplers changes with the sample "
-                    f"count."))
-            else:
-                blocks.append(report.text(
-                    f"max_depth {d}: no efficiency relative to {BASELINE} is known at "
-                    f"this budget (at every count an error is below the reference's own "
-                    f"noise, only a bound), so no chart of them is drawn; a better reference "
-                    f"(--reference-spp) or more repeats cure it."))
-            blocks.append(comparison_viewer(st, cfg, measured, d))
-        blocks += [
-            report.write_table(out, f"{NAME}/samplers", TABLE_HEADER, table_rows(result.rows),
-                               f"Samplers with {cfg.base} at the largest sample count "
-                               f"(expected values over {st.repeats} runs with the "
-                               f"reference's own expected error subtracted, '< x' where an "
-                               f"error is below the reference's noise; {stats.LEVEL:.0%} "
-                               f"intervals as _lo/_hi; the efficiency uses {metric})"),
-            report.write_table(out, f"{NAME}/efficiency_ladder",
-                               ["max_depth", "sampler", "ladder index", "spp rendered"]
-                               + interval_header(EFFICIENCY), curve_rows(result.curves),
-                               f"{EFFICIENCY} at every count of the ladder", collapsed=True)]
+        blocks = []
         for d in measured.points:
-            mine = [c for c in result.comparisons if c.depth == d]
-            blocks += [report.write_table(
-                out, f"{NAME}/conclusion_depth{d}", COMPARISON_HEADER,
-                [c.cells() for c in mine],
-                f"Conclusion at max_depth {d}: efficiency 1/({metric} x time) of A over B at "
-                f"the largest count, its {stats.LEVEL:.0%} interval, "
-                f"the verdict (only where the interval excludes 1) and the counts where the "
-                f"order changes along the ladder"),
-                report.text("\n\n".join(conclusions[d]))]
-            if d in result.picks:
-                p = result.picks[d]
-                blocks.append(report.text(
-                    f"The suite and the convergence study add bsdf+nee with {p.sampler}: "
-                    f"{pick_text(d, p.record())}."))
-        summary = {
-            "rows": [r.record() for r in result.rows],
-            "conclusion": {d: s for d, s in conclusions.items()},
-            "comparisons": [c.record() for c in result.comparisons],
-            "best": {d: r.sampler for d, r in result.best.items()},
-            "pick": {d: p.record() for d, p in result.picks.items()},
-            "curves": {d: {s: [dict(spp=spp, **e.fields("relative_efficiency"))
-                               for spp, e in pts] for s, pts in by.items()}
-                       for d, by in result.curves.items()}}
-        return PassReport(blocks, summary, self.jobs(planned))
+            blocks += depth_charts(st, cfg, measured, result, d)
+        blocks += label_tables(st, cfg, result)
+        for d in measured.points:
+            blocks += depth_conclusion(st.out, result, conclusions[d], d)
+        return PassReport(blocks, summary_of(result, conclusions), self.jobs(planned))
+
+
+def depth_charts(st: Study, cfg: Settings, measured: Measured, result: Analysis,
+                 d: int) -> list:
+    """At max_depth ``d``: the error chart, the efficiency chart (or why there is none) and
+    the viewer."""
+    out, metric = st.out, METRIC_NAMES[METRIC]
+    bands = {s: ([p.spp for p in pts], [sum(p.seconds) / len(p.seconds) for p in pts],
+                 [p.expected(METRIC) for p in pts])
+             for s, pts in measured.points[d].items()}
+    figures.error_bands(os.path.join(out, NAME, f"error_depth{d}.png"), bands, metric)
+    blocks = [report.image(
+        f"{NAME}/error_depth{d}.png", f"max_depth {d}: expected {metric} against "
+        f"spp and against render (CPU) time per sampler, with {stats.LEVEL:.0%} "
+        f"bands over the repeats (log-log, fitted slopes in the legend); "
+        f"reference: {st.describe_reference(measured.floors[d])}.")]
+    if any(math.isfinite(e.value) for pts in result.curves[d].values() for _, e in pts):
+        figures.ratio_bands(os.path.join(out, NAME, f"efficiency_depth{d}.png"),
+                            result.curves[d], EFFICIENCY,
+                            f"max_depth {d}: efficiency relative to {BASELINE}")
+        blocks.append(report.image(
+            f"{NAME}/efficiency_depth{d}.png", f"max_depth {d}: {EFFICIENCY} at "
+            f"every count of the ladder, with {stats.LEVEL:.0%} bands: where the "
+            f"curves cross, the order of the samplers changes with the sample "
+            f"count."))
+    else:
+        blocks.append(report.text(
+            f"max_depth {d}: no efficiency relative to {BASELINE} is known at "
+            f"this budget (at every count an error is below the reference's own "
+            f"noise, only a bound), so no chart of them is drawn; a better reference "
+            f"(--reference-spp) or more repeats cure it."))
+    blocks.append(comparison_viewer(st, cfg, measured, d))
+    return blocks
+
+
+def label_tables(st: Study, cfg: Settings, result: Analysis) -> list:
+    """The table of every label at the largest count and the efficiency along the ladder."""
+    out, metric = st.out, METRIC_NAMES[METRIC]
+    return [
+        report.write_table(out, f"{NAME}/samplers", TABLE_HEADER, table_rows(result.rows),
+                           f"Samplers with {cfg.base} at the largest sample count "
+                           f"(expected values over {st.repeats} runs with the "
+                           f"reference's own expected error subtracted, '< x' where an "
+                           f"error is below the reference's noise; {stats.LEVEL:.0%} "
+                           f"intervals as _lo/_hi; the efficiency uses {metric})"),
+        report.write_table(out, f"{NAME}/efficiency_ladder",
+                           ["max_depth", "sampler", "ladder index", "spp rendered"]
+                           + interval_header(EFFICIENCY), curve_rows(result.curves),
+                           f"{EFFICIENCY} at every count of the ladder", collapsed=True)]
+
+
+def depth_conclusion(out: str, result: Analysis, sentences: list, d: int) -> list:
+    """At max_depth ``d``: the conclusion table, its sentences and the pick."""
+    metric = METRIC_NAMES[METRIC]
+    mine = [c for c in result.comparisons if c.depth == d]
+    blocks = [report.write_table(
+        out, f"{NAME}/conclusion_depth{d}", COMPARISON_HEADER,
+        [c.cells() for c in mine],
+        f"Conclusion at max_depth {d}: efficiency 1/({metric} x time) of A over B at "
+        f"the largest count, its {stats.LEVEL:.0%} interval, "
+        f"the verdict (only where the interval excludes 1) and the counts where the "
+        f"order changes along the ladder"),
+        report.text("\n\n".join(sentences))]
+    if d in result.picks:
+        p = result.picks[d]
+        blocks.append(report.text(
+            f"The suite and the convergence study add bsdf+nee with {p.sampler}: "
+            f"{pick_text(d, p.record())}."))
+    return blocks
+
+
+def summary_of(result: Analysis, conclusions: dict) -> dict:
+    """The pass's part of summary.json (the pick is what the other studies read)."""
+    return {
+        "rows": [r.record() for r in result.rows],
+        "conclusion": {d: s for d, s in conclusions.items()},
+        "comparisons": [c.record() for c in result.comparisons],
+        "best": {d: r.sampler for d, r in result.best.items()},
+        "pick": {d: p.record() for d, p in result.picks.items()},
+        "curves": {d: {s: [dict(spp=spp, **e.fields("relative_efficiency"))
+                           for spp, e in pts] for s, pts in by.items()}
+                   for d, by in result.curves.items()}}
 
 
 def pick_near(out: str, depth: float) -> tuple[int, dict] | None:
-    """The sampler study's pick (:func:`.sampler_comparison_analysis.picks`, as its
+    """The sampler study's pick (:func:`.sampler_comparison.analysis.picks`, as its
     summary.json in ``out`` records it) at the depth nearest ``depth`` (the smaller of two
     as near): ``(depth, record)``; None where that study has not run or picked nothing."""
     summary = files.read_json(os.path.join(out, NAME, "summary.json"), {}) or {}
