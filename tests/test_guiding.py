@@ -1,6 +1,6 @@
 """Path guiding (integrators/guided.py, guide_record.py, guide_roulette.py, guide_passes.py,
 guided_path.py, sdtree.py, guide_warps.py): the frozen guide's warp (chi-square, integral),
-what a draw hands to the roulette, the learning against known radiance
+what a draw hands to the recorder and the roulette, the learning against known radiance
 fields, per-block agreement of the trained multi-pass render with Mitsuba's path (with and
 without NEE), the pass weights on a hand-computed case, no recompilation over a job's
 passes, the record cap and the refusals."""
@@ -19,8 +19,10 @@ from _chi2 import CapDomain, incident, interaction, run_chi2
 from experiments.lib import methods
 from experiments.lib.execute import kernels_compiled
 from integrators import guide_passes, guide_warps, sdtree
+from integrators.guide_record import Recorder
 from integrators.guide_roulette import Roulette
 from integrators.guided import GuideDraw, GuidedStrategy
+from integrators.strategies import DirectionSample
 
 RES = 8
 
@@ -72,6 +74,59 @@ def test_drawn_pdf_and_weights(share):
     assert np.allclose(np.array(ds.pdf)[drawn], reported[drawn], rtol=1e-4)
     weight = np.array(ds.weight[0])
     assert abs(weight.mean() - 0.5) < 5 * weight.std() / np.sqrt(n)
+
+
+@pytest.mark.parametrize("bsdf", ["diffuse", "conductor"])
+def test_a_draw_carries_what_it_drew(bsdf):
+    """The sample record of a draw (share 0.5) carries the vertex's unit, the technique
+    that drew, the BSDF's and the guide's densities at the direction (their mixture is the
+    reported density) and whether the BSDF has a Dirac lobe (a conductor: its own
+    sampling, densities 0); the strategy itself keeps nothing of the draw."""
+    strategy, n = frozen_guide(0.5), 4096
+    b = mi.load_dict({"type": bsdf})
+    ptr, ctx, si = mi.BSDFPtr(b), mi.BSDFContext(), interaction(incident(0.6), n)
+    state = dict(vars(strategy))
+    u = np.random.default_rng(4).random((3, n))
+    ds = vr_path.sample_direction(strategy, ptr, ctx, si, mi.Float(u[0]), mi.Point2f(u[1], u[2]))
+    assert set(vars(strategy)) == set(state) and all(vars(strategy)[k] is v
+                                                   for k, v in state.items())
+    unit = strategy.tree.lookup(si.p, si.n)
+    assert np.array_equal(np.array(ds.guide.unit), np.array(unit))
+    drawn = np.array(ds.pdf) > 0
+    p_bsdf, p_guide = np.array(ds.guide.p_bsdf), np.array(ds.guide.p_guide)
+    if bsdf == "conductor":
+        assert np.all(np.array(ds.guide.delta)) and not np.any(np.array(ds.guide.from_guide))
+        assert np.all(p_bsdf == 0) and np.all(p_guide == 0)
+        return
+    assert not np.any(np.array(ds.guide.delta))
+    assert np.array_equal(np.array(ds.guide.from_guide), u[0] >= 0.5)
+    assert np.allclose(p_bsdf[drawn], np.array(b.pdf(ctx, si, ds.wo))[drawn], rtol=1e-5)
+    guide = np.array(strategy.tree.pdf(unit, si.to_world(ds.wo)))
+    assert np.allclose(p_guide[drawn], guide[drawn], rtol=1e-5) and np.any(guide[drawn] > 0)
+    assert np.allclose(np.array(ds.pdf)[drawn], 0.5 * (p_bsdf + p_guide)[drawn], rtol=1e-5)
+
+
+def test_the_recorder_files_the_draws_densities():
+    """What the recorder files of a vertex comes from the direction's sample record: the
+    record's bin (the draw's unit, the world direction's bin) and, for the learned share,
+    p_bsdf / pdf and p_guide / pdf, each the draw's own."""
+    tree, n = sdtree.SDTree(RES, 4), 4
+    recorder = Recorder(tree, n, 1, dr.opaque(mi.UInt32, 1, 1))
+    si = interaction(incident(0.6), n)
+    wo = dr.normalize(mi.Vector3f([0.1, -0.3, 0.5, 0.0], [0.2, 0.4, -0.5, 0.0], 1.0))
+    unit = mi.UInt32([4, 4, 10, 22])
+    p_bsdf, p_guide, pdf = mi.Float([0.1, 0.2, 0.3, 0.4]), mi.Float([1.0, 0.0, 2.0, 4.0]), \
+        mi.Float([0.5, 0.1, 1.0, 2.0])
+    guide = GuideDraw(unit, mi.Bool([True, False, True, False]), p_bsdf, p_guide, mi.Bool(False))
+    direction = DirectionSample(wo, pdf, mi.Spectrum(0.5), mi.Bool(False), mi.Float(1.0),
+                                mi.Bool(False), guide)
+    recorder.vertex(mi.UInt32(0), si, direction, mi.Spectrum(1.0), mi.Spectrum(0.5),
+                    mi.Spectrum(1.0), mi.Bool(True))
+    assert np.array_equal(np.array(recorder.index),
+                          np.array(tree.record_index(unit, si.to_world(wo))))
+    ratios = np.array(recorder.ratios)
+    assert np.allclose(ratios[0], np.array(p_bsdf) / np.array(pdf))
+    assert np.allclose(ratios[1], np.array(p_guide) / np.array(pdf))
 
 
 def test_guide_density_integrates_to_one():

@@ -240,6 +240,21 @@ MUTANTS = [
            "records' radiance not divided by the sampling pdf (the guide learns the "
            "radiance times the density that sampled it)",
            ("tests/test_guiding.py::test_training_learns_the_sky_from_the_floor",)),
+    Mutant("guide-record-densities-swapped", "integrators/guide_record.py",
+           "mi.Vector2f(drawn.p_bsdf * rcp, drawn.p_guide * rcp)",
+           "mi.Vector2f(drawn.p_bsdf * rcp, drawn.p_bsdf * rcp)",
+           "the recorder takes the BSDF's density from the draw's record as the guide's too: "
+           "every candidate share rates the same, and no unit learns to guide",
+           ("tests/test_guiding.py::test_the_recorder_files_the_draws_densities",
+            "tests/test_guiding.py::test_shares_go_down_where_guiding_helps")),
+    Mutant("guide-draw-delta-densities", "integrators/guided.py",
+           "        guide = GuideDraw(unit, ~use_bsdf, dr.select(delta, 0.0, pdf_bsdf),\n"
+           "                          dr.select(delta, 0.0, p), delta)\n",
+           "        guide = GuideDraw(unit, ~use_bsdf, pdf_bsdf, p, delta)\n",
+           "the draw's record keeps the densities on a BSDF with a Dirac lobe, whose share is "
+           "always 1: its smooth lobe's records rate the unit's candidate shares as if they "
+           "could be guided",
+           ("tests/test_guiding.py::test_a_draw_carries_what_it_drew",)),
     Mutant("guide-share-no-reweighting", "integrators/sdtree.py",
            "            dr.scatter_add(self.moments, x2 / dr.maximum(mix, 1e-20), row + k,",
            "            dr.scatter_add(self.moments, x2 / dr.maximum(dr.square(mix), 1e-20), "
