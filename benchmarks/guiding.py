@@ -23,7 +23,7 @@ pass, the guide's training passes included, plus the host work between passes).
    passes in proportion to their wall-clock seconds (``JobResult.pass_seconds``; the
    clock keeps kernel time per job, not per pass), the host work counted as training.
    The passes of the last iteration are the last ``len(split(iterations(spp)[-1]))``
-   (:func:`integrators.guiding.iterations`, :func:`~integrators.guiding.split`).
+   (:func:`integrators.guide_passes.iterations`, :func:`~integrators.guide_passes.split`).
 
 ``--methods`` adds other methods at path's time the same way (e.g. ``bsdf+nee``), and
 ``--scene``/``--path-spp`` measure another scene or budget (how the suite's guiding
@@ -46,6 +46,7 @@ from experiments.lib.jobs import derive_seed
 from experiments.lib.methods import parse_method
 from experiments.lib.plan import make_job
 from experiments.lib.scenes import effective_depth, read_scene
+from integrators import guide_passes
 
 SCENE = scenes.path("suite/door_room.xml")
 WIDTH, HEIGHT, PATH_SPP, REPEATS = 64, 48, 1024, 5
@@ -75,17 +76,10 @@ def reference(info, width, height, depth, spp: int, chunk: int) -> tuple[np.ndar
     return mean, floor
 
 
-def _guiding():
-    """:mod:`integrators.guiding` (defined once a variant is set)."""
-    from integrators import guiding
-    return guiding
-
-
 def _final_share(result, spp: int) -> float:
     """The share of a guided job's pass seconds spent in its last iteration (the
     integrator's default ``max_pass_spp``, 64)."""
-    guiding = _guiding()
-    last = len(guiding.split(guiding.iterations(spp)[-1], 64))
+    last = len(guide_passes.split(guide_passes.iterations(spp)[-1], 64))
     seconds = np.asarray(result.pass_seconds, float)
     return float(seconds[-last:].sum() / seconds.sum())
 
@@ -135,7 +129,7 @@ def measure(scene: str = SCENE, width: int = WIDTH, height: int = HEIGHT,
         o["efficiency"] = [eff.value, eff.lo, eff.hi]
         if o["final_share"]:
             share = float(np.mean(o["final_share"]))
-            last = _guiding().iterations(o["spp"])[-1]
+            last = guide_passes.iterations(o["spp"])[-1]
             per_sample = np.mean(o["cost"]) * share / last
             o["after_training_per_sample_over_path"] = float(
                 per_sample / (np.mean(p["cost"]) / path_spp))

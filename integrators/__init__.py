@@ -42,7 +42,9 @@ __all__ = ["register", "register_strategy", "strategies", "PLUGIN_MODULES",
            "supported_variant"]
 
 #: Modules that each define and register one plugin for the current variant.
-PLUGIN_MODULES = ("phong", "path", "guiding", "moments", "halton", "zsobol")
+#: (``guided`` registers the strategy ``guided``, ``guided_path`` the integrator that
+#: trains it; the recorder, roulette and pass maths it imports define nothing per variant.)
+PLUGIN_MODULES = ("phong", "path", "guided", "guided_path", "moments", "halton", "zsobol")
 #: Modules of per-variant base classes, defined again before the plugins that derive from them.
 BASE_MODULES = ("sequence_sampler",)
 
@@ -97,7 +99,7 @@ def _on_variant_change(old: str | None, new: str | None) -> None:
 
 class _VariantStrategy:
     """The registry's entry for a strategy whose class a plugin module defines per variant
-    (``guided``, in :mod:`.guiding`), until a variant is set and that module registers the
+    (``guided``, in :mod:`.guided`), until a variant is set and that module registers the
     class in its place: its name and its integrator are known before, so that method names
     such as ``guided+nee`` parse (and a suite's default methods are the same) whether or
     not a variant is set yet."""
@@ -114,7 +116,7 @@ class _VariantStrategy:
 
 
 #: Strategies defined by a plugin module per variant: (name, module, integrator type).
-VARIANT_STRATEGIES = (("guided", "guiding", "vr_guided_path"),)
+VARIANT_STRATEGIES = (("guided", "guided", "vr_guided_path"),)
 for _name, _module, _integrator in VARIANT_STRATEGIES:
     if _name not in strategies.names():
         strategies.register(_name, _VariantStrategy(_name, _module, _integrator))

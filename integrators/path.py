@@ -286,6 +286,16 @@ class VRPathIntegrator(mi.SamplingIntegrator):
 
     @dr.syntax
     def sample(self, scene, sampler, ray, medium=None, active=True):
+        """One path per lane: the symbolic loop body, traced once into one megakernel.
+
+        One function, as Mitsuba's ``prb.py`` writes it: the loop state is declared up
+        front and every vertex's steps (emission found, NEE, the next direction, roulette)
+        read and update it in order; split into methods, each would take and return most
+        of that state. A learning subclass's hooks run inside: its recorder
+        (:meth:`_recorder`) gets the drawn direction sample and its roulette
+        (:meth:`_roulette`) what the strategy drew, which that sample carries
+        (``direction.guide``).
+        """
         self._check_scene(scene)
         if dr.hint(self.max_depth == 0, mode='scalar'):
             return mi.Spectrum(0.0), mi.Bool(False), self._aovs(mi.UInt32(0), mi.UInt32(0))
@@ -374,8 +384,8 @@ class VRPathIntegrator(mi.SamplingIntegrator):
                 recorder.vertex(depth, si, direction, L, L_arrived, beta, active_next)
             survival = mi.Float(0.0)
             if dr.hint(guided_rr, mode='scalar'):
-                survival, rr_reference = roulette.survival(depth, si, beta, rr_reference,
-                                                           active_next)
+                survival, rr_reference = roulette.survival(depth, direction.guide, beta,
+                                                           rr_reference, active_next)
             valid_ray |= on & si.is_valid() & ~direction.null
             ray = dr.select(skip, si.spawn_ray(ray.d), si.spawn_ray(si.to_world(direction.wo)))
             beta *= dr.select(active_next, direction.weight, dr.select(skip, 1.0, 0.0))
@@ -405,15 +415,18 @@ class VRPathIntegrator(mi.SamplingIntegrator):
         return result, valid_ray, self._aovs(segments, shadow_rays, result)
 
     def _recorder(self, scene, sampler, ray):
-        """What records the path's vertices for a learning subclass (``vertex`` after a
-        direction is drawn, ``finish`` with the path's radiance); None here."""
+        """What records the path's vertices for a learning subclass
+        (``vertex(depth, si, direction, L, L_arrived, beta, active)`` after a direction is
+        drawn, with its :class:`~.strategies.DirectionSample`; ``emitted`` with the
+        emission a direction found; ``finish`` with the path's radiance); None here."""
         return None
 
     def _roulette(self):
         """What sets the Russian roulette's survival probability for a learning subclass
-        (``survival(depth, si, beta, reference, active)`` before the direction's weight
-        is applied: a probability, or 0 for the throughput rule, and the pixel estimate
-        carried along the path); None here (the throughput rule)."""
+        (``survival(depth, direction.guide, beta, reference, active)`` before the
+        direction's weight is applied, with what the strategy drew at the vertex: a
+        probability, or 0 for the throughput rule, and the pixel estimate carried along
+        the path); None here (the throughput rule)."""
         return None
 
     def _aovs(self, segments, shadow_rays, result=None):

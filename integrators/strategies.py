@@ -51,6 +51,9 @@ class DirectionSample(NamedTuple):
     delta: mi.Bool        # sampled from a Dirac delta lobe
     eta: mi.Float         # relative index of refraction crossed (1 for reflection)
     null: mi.Bool         # passed straight through a ``null`` component
+    guide: object = None  # what a strategy that learns drew, for its recorder and roulette
+                          # (``guided``: a :class:`.guided.GuideDraw`); None for the others
+                          # (not carried through a dispatch: such strategies take none)
 
 
 class VertexSample(NamedTuple):

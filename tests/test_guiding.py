@@ -1,8 +1,9 @@
-"""Path guiding (integrators/guiding.py, sdtree.py, guide_warps.py): the frozen guide's warp
-(chi-square, integral), the learning against known radiance fields, per-block agreement of
-the trained multi-pass render with Mitsuba's path (with and without NEE), the pass weights
-on a hand-computed case, no recompilation over a job's passes, the record cap and the
-refusals."""
+"""Path guiding (integrators/guided.py, guide_record.py, guide_roulette.py, guide_passes.py,
+guided_path.py, sdtree.py, guide_warps.py): the frozen guide's warp (chi-square, integral),
+what a draw hands to the recorder and the roulette, the learning against known radiance
+fields, per-block agreement of the trained multi-pass render with Mitsuba's path (with and
+without NEE), the pass weights on a hand-computed case, no recompilation over a job's
+passes, the record cap and the refusals."""
 import math
 from pathlib import Path
 
@@ -17,7 +18,11 @@ import integrators.path as vr_path
 from _chi2 import CapDomain, incident, interaction, run_chi2
 from experiments.lib import methods
 from experiments.lib.execute import kernels_compiled
-from integrators import guide_warps, guiding, sdtree
+from integrators import guide_passes, guide_warps, sdtree
+from integrators.guide_record import Recorder
+from integrators.guide_roulette import Roulette
+from integrators.guided import GuideDraw, GuidedStrategy
+from integrators.strategies import DirectionSample
 
 RES = 8
 
@@ -25,7 +30,7 @@ RES = 8
 def frozen_guide(share):
     """A guided strategy whose leaf 0 holds a lumpy histogram (cos theta and phi both
     matter), BSDF share ``share``."""
-    g = guiding.GuidedStrategy(RES, 4)
+    g = GuidedStrategy(RES, 4)
     i_cos, i_phi = np.divmod(np.arange(RES * RES), RES)
     p = (1 + 3 * (i_cos == RES - 2)) * (1 + np.cos(2 * np.pi * (i_phi + 0.5) / RES) ** 2)
     p[:RES] = 0.0                                         # an empty band of bins
@@ -71,6 +76,59 @@ def test_drawn_pdf_and_weights(share):
     assert abs(weight.mean() - 0.5) < 5 * weight.std() / np.sqrt(n)
 
 
+@pytest.mark.parametrize("bsdf", ["diffuse", "conductor"])
+def test_a_draw_carries_what_it_drew(bsdf):
+    """The sample record of a draw (share 0.5) carries the vertex's unit, the technique
+    that drew, the BSDF's and the guide's densities at the direction (their mixture is the
+    reported density) and whether the BSDF has a Dirac lobe (a conductor: its own
+    sampling, densities 0); the strategy itself keeps nothing of the draw."""
+    strategy, n = frozen_guide(0.5), 4096
+    b = mi.load_dict({"type": bsdf})
+    ptr, ctx, si = mi.BSDFPtr(b), mi.BSDFContext(), interaction(incident(0.6), n)
+    state = dict(vars(strategy))
+    u = np.random.default_rng(4).random((3, n))
+    ds = vr_path.sample_direction(strategy, ptr, ctx, si, mi.Float(u[0]), mi.Point2f(u[1], u[2]))
+    assert set(vars(strategy)) == set(state) and all(vars(strategy)[k] is v
+                                                   for k, v in state.items())
+    unit = strategy.tree.lookup(si.p, si.n)
+    assert np.array_equal(np.array(ds.guide.unit), np.array(unit))
+    drawn = np.array(ds.pdf) > 0
+    p_bsdf, p_guide = np.array(ds.guide.p_bsdf), np.array(ds.guide.p_guide)
+    if bsdf == "conductor":
+        assert np.all(np.array(ds.guide.delta)) and not np.any(np.array(ds.guide.from_guide))
+        assert np.all(p_bsdf == 0) and np.all(p_guide == 0)
+        return
+    assert not np.any(np.array(ds.guide.delta))
+    assert np.array_equal(np.array(ds.guide.from_guide), u[0] >= 0.5)
+    assert np.allclose(p_bsdf[drawn], np.array(b.pdf(ctx, si, ds.wo))[drawn], rtol=1e-5)
+    guide = np.array(strategy.tree.pdf(unit, si.to_world(ds.wo)))
+    assert np.allclose(p_guide[drawn], guide[drawn], rtol=1e-5) and np.any(guide[drawn] > 0)
+    assert np.allclose(np.array(ds.pdf)[drawn], 0.5 * (p_bsdf + p_guide)[drawn], rtol=1e-5)
+
+
+def test_the_recorder_files_the_draws_densities():
+    """What the recorder files of a vertex comes from the direction's sample record: the
+    record's bin (the draw's unit, the world direction's bin) and, for the learned share,
+    p_bsdf / pdf and p_guide / pdf, each the draw's own."""
+    tree, n = sdtree.SDTree(RES, 4), 4
+    recorder = Recorder(tree, n, 1, dr.opaque(mi.UInt32, 1, 1))
+    si = interaction(incident(0.6), n)
+    wo = dr.normalize(mi.Vector3f([0.1, -0.3, 0.5, 0.0], [0.2, 0.4, -0.5, 0.0], 1.0))
+    unit = mi.UInt32([4, 4, 10, 22])
+    p_bsdf, p_guide, pdf = mi.Float([0.1, 0.2, 0.3, 0.4]), mi.Float([1.0, 0.0, 2.0, 4.0]), \
+        mi.Float([0.5, 0.1, 1.0, 2.0])
+    guide = GuideDraw(unit, mi.Bool([True, False, True, False]), p_bsdf, p_guide, mi.Bool(False))
+    direction = DirectionSample(wo, pdf, mi.Spectrum(0.5), mi.Bool(False), mi.Float(1.0),
+                                mi.Bool(False), guide)
+    recorder.vertex(mi.UInt32(0), si, direction, mi.Spectrum(1.0), mi.Spectrum(0.5),
+                    mi.Spectrum(1.0), mi.Bool(True))
+    assert np.array_equal(np.array(recorder.index),
+                          np.array(tree.record_index(unit, si.to_world(wo))))
+    ratios = np.array(recorder.ratios)
+    assert np.allclose(ratios[0], np.array(p_bsdf) / np.array(pdf))
+    assert np.allclose(ratios[1], np.array(p_guide) / np.array(pdf))
+
+
 def test_guide_density_integrates_to_one():
     """A quadrature of the guide's density over the sphere (midpoints of a fine grid in
     cos theta, phi: d omega = d cos d phi) is 1; the chi-square cannot see a constant
@@ -100,7 +158,7 @@ def test_learning_recovers_a_known_field(monkeypatch):
 
     def field(x):
         return 1 + 9 * np.maximum(x @ axis, 0) ** 4
-    tree = guiding.SDTree(RES, 4)
+    tree = sdtree.SDTree(RES, 4)
     dirs = mi.Vector3f(*(mi.Float(d[:, k]) for k in range(3)))
     index = tree.record_index(mi.UInt32(0), dirs)
     dr.scatter_add(tree.energy, mi.Float(field(d) * 4 * np.pi), index)
@@ -214,7 +272,7 @@ def test_roulette_survival_by_hand():
     """Survival ``3 beta L_after / I``, I (after + NEE) at the path's first vertex,
     clamped to [0.05, 0.95]; 0 (the throughput rule) where the unit or the pixel has no
     estimate. One leaf: the unit is the normal's class (+x 0, +y 2, -z 5)."""
-    g = guiding.GuidedStrategy(RES, 1)
+    g = GuidedStrategy(RES, 1)
     g.tree.reflected[:] = -1.0
     g.tree.reflected[0] = (2.0, 1.0)
     g.tree.reflected[2] = (0.5, 0.25)
@@ -225,8 +283,10 @@ def test_roulette_survival_by_hand():
     depth = mi.UInt32([0, 3, 3, 3, 3, 0])
     beta = mi.Spectrum(mi.Float([1, 0.4, 0.01, 1, 1, 1]))
     reference = mi.Float([0, 3, 3, 3, 0, 0])
-    g.unit = g.tree.lookup(si.p, si.n)          # as the strategy's draw at the vertex
-    q, ref = guiding.Roulette(g).survival(depth, si, beta, reference, mi.Bool(True))
+    # what the strategy's draw at the vertex hands on: its unit
+    drawn = GuideDraw(g.tree.lookup(si.p, si.n), mi.Bool(False), mi.Float(0.0), mi.Float(0.0),
+                      mi.Bool(False))
+    q, ref = Roulette(g.tree).survival(depth, drawn, beta, reference, mi.Bool(True))
     assert np.allclose(np.array(ref), [3, 3, 3, 3, 0, 0])
     assert np.allclose(np.array(q), [0.95, 0.2, 0.05, 0, 0, 0])
 
@@ -281,13 +341,13 @@ def test_no_recompile_between_passes():
 def test_pass_weights_by_hand():
     """Two iterations: variances 0.04 and 0.01 -> weights 0.2 and 0.8; a pixel's variance
     from its mean and mean square: (m2 - mean^2) / (n - 1)."""
-    assert np.allclose(guiding.pass_weights([0.04, 0.01], [2, 4]), [0.2, 0.8])
-    assert np.allclose(guiding.pass_weights([0.0, 0.01], [2, 4]), [1 / 3, 2 / 3])
+    assert np.allclose(guide_passes.pass_weights([0.04, 0.01], [2, 4]), [0.2, 0.8])
+    assert np.allclose(guide_passes.pass_weights([0.0, 0.01], [2, 4]), [1 / 3, 2 / 3])
     mean, m2 = np.array([[1.0, 2.0]]), np.array([[1.5, 4.0]])
-    assert np.allclose(guiding.pixel_variance(mean, m2, 3), [[0.5 / 2, 0.0]])
-    assert np.all(np.isinf(guiding.pixel_variance(mean, m2, 1)))
-    assert guiding.iterations(64) == [2, 4, 8, 16, 34]
-    assert guiding.split(100, 64) == [50, 50]
+    assert np.allclose(guide_passes.pixel_variance(mean, m2, 3), [[0.5 / 2, 0.0]])
+    assert np.all(np.isinf(guide_passes.pixel_variance(mean, m2, 1)))
+    assert guide_passes.iterations(64) == [2, 4, 8, 16, 34]
+    assert guide_passes.split(100, 64) == [50, 50]
 
 
 def test_combined_image_and_its_variance_by_hand():
@@ -463,8 +523,8 @@ def test_a_job_below_min_train_spp_is_vr_paths_bsdf_and_says_so():
     pixels = int(dr.prod(scene.sensors()[0].film().size()))
     d = {"type": "vr_guided_path", "emitter_sampling": True, "max_depth": 5}
     integ = mi.load_dict(d)
-    assert integ.min_train_spp == guiding.MIN_TRAIN_SPP == 256
-    assert integ.min_train_samples == guiding.MIN_TRAIN_SAMPLES == 2 ** 20
+    assert integ.min_train_spp == guide_passes.MIN_TRAIN_SPP == 256
+    assert integ.min_train_samples == guide_passes.MIN_TRAIN_SAMPLES == 2 ** 20
     with pytest.warns(UserWarning, match=r"32 spp is below 'min_train_spp' \(256\) and 32 "
                                          rf"spp x {pixels} pixels is below 'min_train_samples'"):
         schedule = integ.pass_schedule(32, pixels)

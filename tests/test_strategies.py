@@ -63,7 +63,7 @@ USER = {
 }
 
 
-#: Strategies the package registers beside the built-in ones (integrators/guiding.py).
+#: Strategies the package registers beside the built-in ones (integrators/guided.py).
 PACKAGED = ("guided",)
 
 

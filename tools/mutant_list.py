@@ -199,7 +199,7 @@ MUTANTS = [
            "term has few degrees of freedom (the paired costs' 2R - 2)",
            ("tests/test_stats.py",)),
     # ------------------------------------------------------------ path guiding
-    Mutant("guide-share-missing", "integrators/guiding.py",
+    Mutant("guide-share-missing", "integrators/guided.py",
            "        pdf = dr.select(s < 1.0, dr.fma(s, pdf_bsdf - p, p), pdf_bsdf)",
            "        pdf = dr.select(s < 1.0, (1.0 - s) * p, pdf_bsdf)",
            "the guided mixture's density without the BSDF's share (only the guide's part)",
@@ -211,14 +211,14 @@ MUTANTS = [
            "the bins tile the sphere (the density twice too high)",
            ("tests/test_guiding.py::test_guide_density_integrates_to_one",
             "tests/test_guiding.py")),
-    Mutant("guide-record-wrong-vertex", "integrators/guiding.py",
+    Mutant("guide-record-wrong-vertex", "integrators/guide_record.py",
            "            after = L - dr.gather(mi.Color3f, self.radiance, slot, valid)\n",
            "            after = L\n",
            "every vertex files the path's whole radiance, its own NEE and what earlier "
            "vertices found included, instead of what arrived along its direction",
            ("tests/test_guiding.py::test_with_nee_the_guide_leaves_out_the_light_nee_samples",
             "tests/test_guiding.py::test_training_learns_the_sky_from_the_floor")),
-    Mutant("guide-direct-wrong-vertex", "integrators/guiding.py",
+    Mutant("guide-direct-wrong-vertex", "integrators/guide_record.py",
            "        slot = (depth - 1) * self.lanes + self.lane\n",
            "        slot = depth * self.lanes + self.lane\n",
            "the emission a direction found (which NEE samples too) filed under the vertex "
@@ -226,20 +226,35 @@ MUTANTS = [
            "light, which its records rate with the drawn MIS weight (textured_phong trained "
            "to the end at 0.39 of bsdf+nee's efficiency)",
            ("tests/test_guiding.py::test_with_nee_the_guide_leaves_out_the_light_nee_samples",)),
-    Mutant("guide-mean-bakes-lanes", "integrators/guiding.py",
+    Mutant("guide-mean-bakes-lanes", "integrators/guide_record.py",
            "        nee = channel_mean(L - ",
            "        nee = dr.mean(L - ",
            "a record's NEE share averaged with dr.mean, which writes the lane count into "
            "the render kernel: every training pass (each twice the last) compiles it again "
            "(0.4-1 s a pass on a cold kernel cache, hidden from the timed renders)",
            ("tests/test_guiding.py::test_no_recompile_between_passes",)),
-    Mutant("guide-record-no-pdf", "integrators/guiding.py",
+    Mutant("guide-record-no-pdf", "integrators/guide_record.py",
            "        scale = beta * mi.Color3f(mi.unpolarized_spectrum(direction.weight)) "
            "* direction.pdf",
            "        scale = beta * mi.Color3f(mi.unpolarized_spectrum(direction.weight))",
            "records' radiance not divided by the sampling pdf (the guide learns the "
            "radiance times the density that sampled it)",
            ("tests/test_guiding.py::test_training_learns_the_sky_from_the_floor",)),
+    Mutant("guide-record-densities-swapped", "integrators/guide_record.py",
+           "mi.Vector2f(drawn.p_bsdf * rcp, drawn.p_guide * rcp)",
+           "mi.Vector2f(drawn.p_bsdf * rcp, drawn.p_bsdf * rcp)",
+           "the recorder takes the BSDF's density from the draw's record as the guide's too: "
+           "every candidate share rates the same, and no unit learns to guide",
+           ("tests/test_guiding.py::test_the_recorder_files_the_draws_densities",
+            "tests/test_guiding.py::test_shares_go_down_where_guiding_helps")),
+    Mutant("guide-draw-delta-densities", "integrators/guided.py",
+           "        guide = GuideDraw(unit, ~use_bsdf, dr.select(delta, 0.0, pdf_bsdf),\n"
+           "                          dr.select(delta, 0.0, p), delta)\n",
+           "        guide = GuideDraw(unit, ~use_bsdf, pdf_bsdf, p, delta)\n",
+           "the draw's record keeps the densities on a BSDF with a Dirac lobe, whose share is "
+           "always 1: its smooth lobe's records rate the unit's candidate shares as if they "
+           "could be guided",
+           ("tests/test_guiding.py::test_a_draw_carries_what_it_drew",)),
     Mutant("guide-share-no-reweighting", "integrators/sdtree.py",
            "            dr.scatter_add(self.moments, x2 / dr.maximum(mix, 1e-20), row + k,",
            "            dr.scatter_add(self.moments, x2 / dr.maximum(dr.square(mix), 1e-20), "
@@ -248,7 +263,7 @@ MUTANTS = [
            "from each candidate mixture ((F / p_s)^2), not reweighted by the density q they "
            "were drawn with (F^2 / (q p_s))",
            ("tests/test_guiding.py::test_share_moments_from_bsdf_drawn_records",)),
-    Mutant("guide-roulette-unclamped", "integrators/guiding.py",
+    Mutant("guide-roulette-unclamped", "integrators/guide_roulette.py",
            "        q = dr.clip(WINDOW * b * after / dr.maximum(reference, 1e-30), MIN_SURVIVAL,\n"
            "                    RR_MAX_PROBABILITY)",
            "        q = dr.maximum(WINDOW * b * after / dr.maximum(reference, 1e-30), MIN_SURVIVAL)",

@@ -1,0 +1,143 @@
+"""The passes of a guided job and their weights: pure functions of counts and images.
+
+``vr_guided_path`` (:mod:`.guided_path`) renders a job in training iterations of doubling
+samples (:func:`iterations`), each split into renders of bounded size (:func:`renders`);
+a job too small to pay for training is not trained (:func:`training_refusals`); training
+stops where the records predict no gain (:func:`predicted_gain`, :func:`stops`); the
+iterations' images are pooled per estimator and combined with inverse-variance weights
+(:func:`combine`, :func:`pass_weights`). Here only numpy: no Dr.Jit, no Mitsuba, so that
+every rule is testable and readable on its own. Why the constants have their values:
+docs/guiding.md, "Why these defaults".
+"""
+from __future__ import annotations
+
+import numpy as np
+
+#: Training stops below this predicted gain over BSDF sampling (docs/guiding.md).
+STOP_GAIN = 1.03
+#: ... after this many iterations in a row below it (docs/guiding.md).
+STOP_PATIENCE = 2
+#: ... and not before this iteration (docs/guiding.md).
+STOP_FIRST = 2
+#: Default ``min_train_spp``: fewer samples per pixel do not train (docs/guiding.md).
+MIN_TRAIN_SPP = 256
+#: Default ``min_train_samples``: fewer samples in all do not train (docs/guiding.md).
+MIN_TRAIN_SAMPLES = 2 ** 20
+
+
+def iterations(spp: int, first: int = 2) -> list[int]:
+    """Training iterations of doubling samples (``first``, 2 ``first``, ...), the last one
+    taking the rest once it would be less than twice the next (PPG's rule)."""
+    out, n, left = [], first, spp
+    while left > 0:
+        if left < 3 * n:
+            out.append(left)
+            break
+        out.append(n)
+        left, n = left - n, 2 * n
+    return out
+
+
+def split(spp: int, most: int) -> list[int]:
+    """``spp`` in near-equal renders of at most ``most`` samples each."""
+    k = -(-spp // most)
+    return [spp // k + (i < spp % k) for i in range(k)]
+
+
+def renders(counts: list[int], most: int, trains: bool) -> list[tuple[int, int]]:
+    """(iteration, samples per pixel) of every render of iterations of ``counts`` samples:
+    each split into renders of at most ``most`` (:func:`split`) where the job trains, one
+    render per iteration where it does not (the executor splits a render over its lane cap,
+    as it does vr_path's)."""
+    return [(k, n) for k, it in enumerate(counts)
+            for n in (split(it, most) if trains else [it])]
+
+
+def training_refusals(spp: int, pixels: int, min_spp: int, min_samples: int) -> list[str]:
+    """Why a job of ``spp`` samples per pixel on ``pixels`` pixels does not train (below
+    ``min_train_spp`` = ``min_spp``, below ``min_train_samples`` = ``min_samples``), one
+    sentence per rule; empty where it trains."""
+    out = [f"{spp} spp is below 'min_train_spp' ({min_spp})"] if spp < min_spp else []
+    if spp * pixels < min_samples:
+        out.append(f"{spp} spp x {pixels} pixels is below 'min_train_samples' "
+                   f"({min_samples})")
+    return out
+
+
+def stops(gains: list, iteration: int) -> bool:
+    """Does training stop after ``iteration`` (0 the first), given the predicted gains of
+    every iteration so far (:func:`predicted_gain`, None where nothing was measured)? Yes
+    from iteration :data:`STOP_FIRST` on, once the last :data:`STOP_PATIENCE` gains are
+    all below :data:`STOP_GAIN`."""
+    low = [g is not None and g < STOP_GAIN for g in gains[-STOP_PATIENCE:]]
+    return iteration >= STOP_FIRST and all(low)
+
+
+def pass_weights(variances, spps) -> np.ndarray:
+    """One scalar weight per iteration, inverse to its image's estimated variance
+    (Mueller 2019), summing to 1. A variance that is 0 or not finite (a black image, one
+    sample per pixel) falls back to weights proportional to the samples."""
+    v = np.asarray(variances, float)
+    spps = np.asarray(spps, float)
+    if len(v) == 1 or not np.all(np.isfinite(v) & (v > 0)):
+        return spps / spps.sum()
+    w = 1.0 / v
+    return w / w.sum()
+
+
+def predicted_gain(sums: dict, variance: float, samples: int) -> float | None:
+    """The image's per-sample variance with every share 1 over that with the new shares,
+    predicted from an iteration's records: ``variance`` (the pixels' per-sample variance
+    measured, at the shares the records were drawn with) shifted by the records' summed
+    second moments (:meth:`.sdtree.SDTree.refine`'s ``moment_sums``: at the drawn shares,
+    at share 1, at the chosen ones) per sample (``samples``: the iteration's camera
+    samples). None when nothing was measured."""
+    if sums is None or samples <= 0 or not variance > 0:
+        return None
+    bsdf = variance + (sums["bsdf"] - sums["drawn"]) / samples
+    chosen = variance + (sums["chosen"] - sums["drawn"]) / samples
+    return float(bsdf / chosen) if chosen > 0 and bsdf > 0 else None
+
+
+def sample_spread(mean: np.ndarray, m2: np.ndarray) -> np.ndarray:
+    """Per pixel and channel, the samples' spread from their mean and mean square:
+    m2 - mean^2 (0 where rounding makes it negative)."""
+    return np.maximum(m2 - mean ** 2, 0.0)
+
+
+def pixel_variance(mean: np.ndarray, m2: np.ndarray, spp: int) -> np.ndarray:
+    """Per pixel and channel, the variance of the mean of ``spp`` samples, from their mean
+    and mean square: (m2 - mean^2) / (spp - 1) (inf for one sample)."""
+    if spp < 2:
+        return np.full(np.shape(mean), np.inf)
+    return sample_spread(mean, m2) / (spp - 1)
+
+
+def pixel_moments(means: list, m2s: list, spps: list, idx) -> tuple[float, int]:
+    """(the per-sample variance of the pixels' values averaged over pixels and channels,
+    camera samples) of the renders ``idx`` (their per-pixel means ``means``, mean squares
+    ``m2s`` and samples per pixel ``spps``), pooled by their samples."""
+    n = sum(spps[i] for i in idx)
+    mean = sum(means[i] * spps[i] for i in idx) / n
+    m2 = sum(m2s[i] * spps[i] for i in idx) / n
+    return float(np.mean(sample_spread(mean, m2))), n * mean[..., 0].size
+
+
+def combine(images: list, m2s: list, spps: list, groups: list):
+    """(the combined image, the groups' weights, its per-pixel variance) of renders with
+    per-pixel means ``images``, mean squares ``m2s`` and ``spps`` samples per pixel:
+    the renders of each group (a list of indices: the renders of one estimator) pooled by
+    their samples, then the groups weighted by :func:`pass_weights` (from the mean over
+    pixels and channels of each group's :func:`pixel_variance`); the variance is that of
+    the combined image per pixel and channel, the weights taken as fixed."""
+    means, pixels, counts = [], [], []
+    for idx in groups:
+        n = sum(spps[i] for i in idx)
+        mean = sum(images[i] * spps[i] for i in idx) / n
+        m2 = sum(m2s[i] * spps[i] for i in idx) / n
+        means.append(mean)
+        pixels.append(pixel_variance(mean, m2, n))
+        counts.append(n)
+    weights = pass_weights([float(np.mean(p)) for p in pixels], counts)
+    variance = sum(w * w * p for w, p in zip(weights, pixels))
+    return sum(w * m for w, m in zip(weights, means)), weights, variance

@@ -1,0 +1,314 @@
+"""The ``vr_guided_path`` integrator: ``vr_path`` that trains the ``guided`` strategy.
+
+:class:`GuidedPathIntegrator` is ``vr_path`` (:mod:`.path`) with the guide's recorder
+(:mod:`.guide_record`) and roulette (:mod:`.guide_roulette`) in its loop and the
+executor's multi-pass hooks (``pass_schedule``, ``after_pass``, ``combine``): training
+iterations of doubling samples, each split into renders of at most ``max_pass_spp``, the
+guide (:mod:`.guided`) refined after each iteration but the last, every iteration's image
+combined with inverse-variance weights. The schedule, the stop rule and the weights are
+pure functions (:mod:`.guide_passes`); this class keeps a job's state between its passes.
+"""
+from __future__ import annotations
+
+import functools
+import warnings
+
+import drjit as dr
+import mitsuba as mi
+import numpy as np
+
+from . import guide_passes, strategies
+from .guide_record import Recorder
+from .guide_roulette import Roulette
+from .guided import GuidedStrategy
+from .path import VRPathIntegrator
+
+#: The values of the ``roulette`` parameter.
+ROULETTES = ("adjoint", "throughput")
+#: The AOVs of each sample's squared radiance per channel (the passes' per-pixel variances:
+#: their weights, and the variance of the combined image).
+M2_AOVS = ("guiding_m2_r", "guiding_m2_g", "guiding_m2_b")
+#: Samplers that compile the sample count into the kernel: each pass would recompile.
+BAKES_SPP = {"StratifiedSampler": "stratified", "MultijitterSampler": "multijitter",
+             "OrthogonalSampler": "orthogonal", "LowDiscrepancySampler": "ldsampler"}
+
+
+def _number(props: mi.Properties, name: str, default, low, high, kind=int):
+    """The parameter ``name`` of ``props`` (``default`` where absent), checked to be a
+    ``kind`` in [low, high]."""
+    value = props.get(name, default)
+    if not isinstance(value, (int, float)) or (kind is int and value != int(value)) \
+            or not low <= value <= high:
+        raise ValueError(f"vr_guided_path: '{name}' must be "
+                         f"{'an integer' if kind is int else 'a number'} in "
+                         f"[{low}, {high}], got {value!r}")
+    return kind(value)
+
+
+class GuidedPathIntegrator(VRPathIntegrator):
+    r"""
+    .. _integrator-vr_guided_path:
+
+    Guided path tracer (:monosp:`vr_guided_path`)
+    ---------------------------------------------
+
+    .. pluginparameters::
+
+     * - strategy
+       - |string|
+       - A strategy that learns (``guided``); ``Method.integrator_dict`` picks this
+         integrator for it. (Default: ``guided``)
+
+     * - bsdf_fraction
+       - |float|
+       - A fixed probability of drawing from the BSDF's own sampling once a unit has
+         learned a histogram, in [0.1, 1]; the guide draws otherwise. Absent, the share is
+         learned per unit: the candidate in 0.1, 0.2, ..., 1 of least estimated second
+         moment of the one-sample mixture, ``sum x^2 / (s a + (1 - s) b)`` over the
+         unit's records (``x``: what the recorded direction brought to the pixel,
+         ``a, b``: the BSDF's and the guide's density over the density it was drawn
+         with), 1 until a unit has been evaluated; training stops, every share 1, where
+         the records predict no gain. (Default: learned)
+
+     * - directional_resolution
+       - |int|
+       - Bins per side of each leaf's equal-area (cos theta, phi) histogram, 2 to 64
+         (res^2 bins). (Default: 16)
+
+     * - max_leaves
+       - |int|
+       - Most leaves of the spatial tree (its tables are this size), 1 to 65536.
+         (Default: 1024)
+
+     * - spatial_threshold
+       - |float|
+       - A leaf splits after an iteration in which it received more than
+         ``spatial_threshold * sqrt(2^k)`` records (k the iteration). (Default: 4000)
+
+     * - record_depth
+       - |int|
+       - Vertices per path that record (the first ones), 1 to 32. (Default: 4)
+
+     * - max_pass_spp
+       - |int|
+       - Most samples per pixel of one render of a training job: an iteration above it is
+         split into several renders (records cost 56 bytes x record_depth per sample, at most
+         256 MiB per render). (Default: 64)
+
+     * - first_pass_spp
+       - |int|
+       - Samples per pixel of the first iteration (then doubled), >= 2. (Default: 2)
+
+     * - min_train_spp, min_train_samples
+       - |int|
+       - A job trains only with at least ``min_train_spp`` samples per pixel (>= 2) and
+         ``min_train_samples`` samples in all (pixels x spp, >= 1); a smaller one is
+         plain BSDF sampling (``vr_path``'s ``bsdf`` strategy), with a warning: before
+         training can first stop (14 spp at the default ``first_pass_spp``) its records
+         and refinements cost the same where guiding does not help.
+         (Default: 256, 1048576)
+
+     * - roulette
+       - |string|
+       - ``adjoint``: while the guide is in use, a path past ``rr_depth`` survives a
+         vertex with probability ``3 beta L_r / I`` clamped to [0.05, 0.95] (``L_r`` the
+         radiance its unit learned to reflect after the vertex's NEE, per unit throughput;
+         ``I`` the pixel's, learned at the path's first vertex: Vorba and Krivanek's
+         adjoint-driven roulette), the throughput rule where a unit has no estimate yet;
+         ``throughput``: ``vr_path``'s rule. (Default: ``adjoint``)
+
+    and every parameter of ``vr_path`` (``max_depth``, ``rr_depth``, ``hide_emitters``,
+    ``emitter_sampling``). See docs/guiding.md for the method, its costs and when it loses.
+    Samplers that compile the sample count into the kernel (stratified, multijitter,
+    orthogonal, ldsampler) are refused: every pass would recompile.
+    """
+
+
+    def make_strategy(self, name: str, props: mi.Properties):
+        """The guide this integrator trains, of its ``directional_resolution`` and
+        ``max_leaves`` (where ``name`` is a strategy that learns; another is refused in
+        ``__init__``), made once: the registry's own would be thrown away."""
+        if strategies.integrator_type(name) != "vr_guided_path":
+            return strategies.get(name)
+        return GuidedStrategy(_number(props, "directional_resolution", 16, 2, 64),
+                              _number(props, "max_leaves", 1024, 1, 65536))
+
+    def __init__(self, props: mi.Properties):
+        if "strategy" not in props:
+            props["strategy"] = "guided"
+        VRPathIntegrator.__init__(self, props)
+        # by the attribute, not the class: the strategy registry outlives a variant switch,
+        # which defines the strategy's class anew
+        if getattr(self.sampling_strategy, "integrator_type", None) != "vr_guided_path":
+            raise ValueError(f"vr_guided_path: 'strategy' must be a strategy that learns "
+                             f"(guided), got {self.strategy!r}")
+
+        number = functools.partial(_number, props)
+        # None: learned per unit (sdtree.SDTree.choose_shares)
+        self.bsdf_fraction = (number("bsdf_fraction", 0.5, 0.1, 1.0, float)
+                              if "bsdf_fraction" in props else None)
+        self.spatial_threshold = number("spatial_threshold", 4000.0, 1.0, 1e12, float)
+        self.record_depth = number("record_depth", 4, 1, 32)
+        self.max_pass_spp = number("max_pass_spp", 64, 1, 1 << 20)
+        self.first_pass_spp = number("first_pass_spp", 2, 2, 1 << 20)
+        self.min_train_spp = number("min_train_spp", guide_passes.MIN_TRAIN_SPP, 2, 1 << 30)
+        self.min_train_samples = number("min_train_samples", guide_passes.MIN_TRAIN_SAMPLES,
+                                        1, 1 << 40)
+        self.roulette = props.get("roulette", "adjoint")
+        if self.roulette not in ROULETTES:
+            raise ValueError(f"vr_guided_path: 'roulette' must be one of "
+                             f"{', '.join(ROULETTES)}, got {self.roulette!r}")
+        #: The strategy this integrator trains (``sampling_strategy`` while it is in use).
+        self.guide = self.sampling_strategy
+        #: Whether the next renders record (:meth:`_set_recording`).
+        self.recording = False
+        self._set_recording(True)
+        # A job's state between its passes, made anew by pass_schedule:
+        self._iterations = []   # samples per pixel of each training iteration
+        self._passes = []       # (iteration, samples per pixel) of each render
+        self._estimator = []    # per iteration: -1 plain BSDF sampling, else the
+                                # iteration whose refinement rendered it
+        self._mean, self._m2, self._spp = [], [], []   # per render done: its image, its
+                                                       # mean squares, its samples
+        self._stopped = False   # training stopped (or never started): vr_path's kernel
+        #: Per refinement, the predicted gain of its shares (None: nothing measured).
+        self.gains = []
+        #: The weights of :meth:`combine`'s groups, and the combined image's variance.
+        self.weights, self.variance = None, None
+
+    # ------------------------------------------------------------------- render side
+
+    def _recorder(self, scene, sampler, ray):
+        name = str(sampler).split("[")[0].strip()
+        if name in BAKES_SPP:
+            raise ValueError(
+                f"vr_guided_path: the sampler '{BAKES_SPP[name]}' compiles the sample count "
+                f"into the kernel, so every training pass would recompile; valid choices: "
+                f"independent or a sampler that does not (halton, zsobol), not "
+                f"{', '.join(BAKES_SPP.values())}")
+        tree = self.guide.tree
+        if not tree.has_bbox:
+            tree.set_bbox(scene.bbox())
+        if not self.recording:      # a kernel without records (compiled once, cached)
+            return None
+        return Recorder(tree, dr.width(ray.o), self.record_depth, self.guide.recording)
+
+    def _roulette(self):
+        """The guided roulette while the guide is in use (``roulette`` adjoint), else None
+        (vr_path's throughput rule; after training stops the kernel is vr_path's own)."""
+        if self.roulette != "adjoint" or self._stopped:
+            return None
+        return Roulette(self.guide.tree)
+
+    def _set_recording(self, on: bool) -> None:
+        """Whether the next renders record: a host switch (the render kernel without
+        records is another kernel, compiled once) mirrored in the strategy's opaque flag
+        (it evaluates the guide's density everywhere while recording)."""
+        self.recording = bool(on)
+        self.guide.set_recording(on)
+
+    def _aovs(self, segments, shadow_rays, result=None):
+        c = mi.Color3f(0.0) if result is None else \
+            mi.Color3f(mi.unpolarized_spectrum(result))
+        return VRPathIntegrator._aovs(self, segments, shadow_rays) + \
+            [dr.square(c.x), dr.square(c.y), dr.square(c.z)]
+
+    def aov_names(self):
+        return VRPathIntegrator.aov_names(self) + list(M2_AOVS)
+
+    # ------------------------------------------------------------------ multi-pass
+
+    def pass_schedule(self, spp: int, pixels: int) -> list:
+        """Iterations of doubling samples (:func:`.guide_passes.iterations`), each split
+        into renders of at most ``max_pass_spp`` (:func:`.guide_passes.renders`): a
+        function of ``spp`` and the film's ``pixels`` alone; one iteration without
+        training below ``min_train_spp`` or ``min_train_samples``. Starts the job's state
+        anew."""
+        small = guide_passes.training_refusals(spp, pixels, self.min_train_spp,
+                                               self.min_train_samples)
+        if small:
+            warnings.warn(f"vr_guided_path: {' and '.join(small)}: no training, plain BSDF "
+                          f"sampling (vr_path's bsdf strategy)", stacklevel=2)
+        self._iterations = guide_passes.iterations(spp, self.first_pass_spp) \
+            if not small else [spp]
+        self._passes = guide_passes.renders(self._iterations, self.max_pass_spp, not small)
+        self._m2, self._mean, self._spp, self.gains = [], [], [], []
+        self.weights, self.variance = None, None
+        self._estimator = [-1] * len(self._iterations)
+        trains = len(self._iterations) > 1       # one iteration has nothing to learn for
+        self._set_recording(trains)
+        # without training: vr_path's own bsdf strategy and roulette (its kernel)
+        self._stopped = not trains
+        self.sampling_strategy = self.guide if trains else strategies.get("bsdf")
+        return [n for _, n in self._passes]
+
+    def after_pass(self, index: int, image, spp: int) -> None:
+        """Keep the pass's per-pixel mean square; after an iteration's last render (not
+        the last iteration's), refine the guide from its records (:meth:`_refine`)."""
+        image = np.array(image, dtype=np.float64)
+        self._m2.append(image[..., -len(M2_AOVS):])
+        self._mean.append(image[..., :3])
+        self._spp.append(spp)
+        k = self._passes[index][0]
+        last_of_iteration = index + 1 == len(self._passes) or self._passes[index + 1][0] != k
+        if not last_of_iteration or k + 1 == len(self._iterations):
+            return
+        if self._stopped:
+            self._estimator[k + 1] = self._estimator[k]
+            return
+        self._refine(k)
+        self._estimator[k + 1] = -1 if np.all(self.guide.tree.share == 1.0) else k
+        if k + 2 == len(self._iterations):     # the last iteration only renders
+            self._set_recording(False)
+
+    def _refine(self, k: int) -> None:
+        """Refine the guide from iteration ``k``'s records, predict the new shares' gain
+        and stop training where the rule says (:func:`.guide_passes.stops`)."""
+        tree = self.guide.tree
+        tree.refine(self.spatial_threshold * np.sqrt(2.0 ** k), self.bsdf_fraction)
+        idx = [i for i, (it, _) in enumerate(self._passes) if it == k]
+        gain = guide_passes.predicted_gain(
+            tree.moment_sums, *guide_passes.pixel_moments(self._mean, self._m2, self._spp, idx))
+        # no unit learned anything (every record dark: all its light found by NEE): the
+        # guide is the BSDF's own sampling, no gain
+        self.gains.append(1.0 if gain is None and not tree.learned.any() else gain)
+        if self.bsdf_fraction is None and guide_passes.stops(self.gains, k):
+            # guiding does not help anywhere: plain BSDF sampling, no more training; the
+            # rest renders with vr_path's own bsdf strategy (its kernel: the same estimator
+            # as every share 1, without the guide's lookups and dispatch)
+            tree.share[:] = 1.0
+            self._stopped = True
+            self._set_recording(False)
+            self.sampling_strategy = strategies.get("bsdf")
+        self.guide.set_share(tree.share)
+
+    def combine(self, images: list, spps: list):
+        """The iterations' images, weighted by :func:`.guide_passes.pass_weights`;
+        iterations rendered by the same estimator (plain BSDF sampling before a unit
+        learns and after training stops; the frozen guide after it stops) are pooled
+        first, by their samples (:func:`.guide_passes.combine`): weights estimated per
+        identical iteration would only add noise (and, with rare bright samples, favour
+        the iterations that missed them)."""
+        groups = [[i for i, (it, _) in enumerate(self._passes)
+                   if self._estimator[it] == e and i < len(images)]
+                  for e in dict.fromkeys(self._estimator)]
+        image, self.weights, self.variance = guide_passes.combine(images, self._m2, spps,
+                                                                   groups)
+        return image
+
+    def combined_variance(self) -> np.ndarray:
+        """Per pixel and channel, the variance of the image :meth:`combine` returned: the
+        sum over its groups of weight^2 x the variance of the group's mean (from its
+        samples' mean squares, the ``guiding_m2_*`` AOVs), the weights taken as fixed
+        (they are estimated from the same samples: Mueller 2019 reports the correlation
+        negligible). The experiments' per-pixel errors use it for this method
+        (:func:`experiments.lib.execute.render_passes`): the spread of its passes would
+        treat the untrained and the trained ones as one estimator."""
+        return self.variance
+
+    def to_string(self):
+        return (f"GuidedPathIntegrator[{VRPathIntegrator.to_string(self)}, "
+                f"bsdf_fraction={self.bsdf_fraction}, leaves={self.guide.tree.leaves}]")
+
+
+mi.register_integrator("vr_guided_path", GuidedPathIntegrator)
