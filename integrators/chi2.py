@@ -2,7 +2,7 @@
 
 As ``mitsuba.chi2`` belongs to the library whose plugins its tests check, these belong to
 the plugins: the tests (``tests/_chi2.py``) and the sampling lab
-(``experiments.lib.lab_warps``) import them from here, one definition for both.
+(``experiments.lib.studies.lab.warps``) import them from here, one definition for both.
 
 * :class:`EqualAreaDomain`: a ``mitsuba.chi2`` domain over a spherical cap (phi, cos alpha)
   about an axis, the whole sphere for ``cos_min = -1``. Mitsuba's ``SphericalDomain`` bins

@@ -1,6 +1,6 @@
 """Seeing the learned path guide: where its units lie in the image, what each learned.
 
-The ``guided`` strategy (:mod:`integrators.guiding`) keeps its learned state in an
+The ``guided`` strategy (:mod:`integrators.guided`) keeps its learned state in an
 :class:`integrators.sdtree.SDTree`: spatial leaves, one directional histogram per *unit*
 (leaf x normal class of the geometric normal) and a BSDF share per unit. This module
 trains one (a ``vr_guided_path`` job rendered in its own passes, as the executor renders

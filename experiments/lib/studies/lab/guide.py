@@ -4,7 +4,7 @@ Every registered strategy gets its panels on the lab's BSDFs (:mod:`.lab.warps`)
 ``guided`` is untrained (every BSDF share 1: plain BSDF sampling), since a guide is learned
 state. Here a guide is trained on a scene (``vr_guided_path`` renders a job of its own
 passes: :func:`.guide_figures.train`), frozen (its last iteration records nothing; the
-tables do not change after it), and its strategy object, :class:`integrators.guiding.
+tables do not change after it), and its strategy object, :class:`integrators.guided.
 GuidedStrategy` with the learned tree and shares, is checked as a warp at a few surface
 points of that scene: the camera rays' first hits under the pixels
 :func:`.guide_figures.pick_units` chooses (the learned units the guide is used most in), with
