@@ -14,6 +14,7 @@ same executor.)
 from __future__ import annotations
 
 import logging
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -238,3 +239,40 @@ def test_a_zsobol_job_split_into_passes_is_one_sequence():
     a = execute.run_job(split, VARIANT).image
     b = execute.run_job(whole, VARIANT).image
     assert np.allclose(a, b, rtol=1e-5, atol=1e-6), np.abs(a - b).max()
+
+
+def test_renders_take_turns_and_a_failing_cell_is_isolated(tmp_path, monkeypatch):
+    """The engine renders the budgets whose counts are known up front together, repeat by
+    repeat, every method at one count before the next (a drifting load affects them alike),
+    the declaration's ``lead`` first; negative control of the order: the methods' own order
+    without ``lead``. With ``isolate_failures``, a method whose renders fail is recorded and
+    the others are measured; without it, the error ends the run."""
+    methods = tuple(parse_method(m) for m in ("bsdf", "bsdf+nee", "path"))
+    budgets = (Budget.equal_spp(1, "one"), Budget.equal_spp(2, "two"))
+    study = make_study(tmp_path)
+    order = []
+    run = study.run
+    monkeypatch.setattr(study, "run", lambda jobs, label="": (
+        order.extend(j for j in jobs if "/chunk-" not in j.key), run(jobs, label))[1])
+    Engine(study).run(Declaration("order", methods, SCENES[:1], budgets, repeats=2,
+                                  lead=("path",)))
+    got = [(j.key.split("/")[2], j.spp, "/r1" in j.key) for j in order]
+    names = ["path", "bsdf", "bsdf_nee"]
+    assert got == [(m, n, r) for r in (False, True) for n in (1, 2) for m in names]
+    order.clear()
+    Engine(study).run(Declaration("order", methods, SCENES[:1], budgets, repeats=2))
+    assert [j.key.split("/")[2] for j in order][:3] == ["bsdf", "bsdf_nee", "path"]
+
+    real = study.run
+
+    def failing(jobs, label=""):
+        if any(j.method.name == "bsdf" for j in jobs):
+            raise RuntimeError("a broken plugin\nwith a traceback")
+        return real(jobs, label)
+    monkeypatch.setattr(study, "run", failing)
+    declared = Declaration("isolated", methods, SCENES[:1], budgets, isolate_failures=True)
+    measured = Engine(study).run(declared)
+    assert measured.failed == {("cbox", None, "bsdf"): "RuntimeError: a broken plugin"}
+    assert {c.method for c in measured.runs} == {"bsdf+nee", "path"}
+    with pytest.raises(RuntimeError, match="a broken plugin"):
+        Engine(study).run(replace(declared, name="not-isolated", isolate_failures=False))

@@ -684,15 +684,11 @@ def test_the_screen_pass_plans_exactly_the_jobs_it_needs(tmp_path):
     assert [j.spp for j in refs] == [chunk] * chunks and chunk * chunks >= 16
     assert {j.method.name for j in refs} == {"path"}
     assert {(j.width, j.height) for j in refs} == {(8, 8)}
-    jobs = ScreenSpace().jobs(plan)
-    assert sorted(j.key for j in jobs) == sorted(j.key for j in ladder_jobs)
-    # interleaved: the first repeat of every label at one count before the next count
-    assert [(j.spp, j.key.split("/")[2]) for j in jobs[:6]] == [
-        (n, s.replace(":", "-")) for n in (1, 2) for s in sc.samplers]
+    assert sorted(j.key for j in plan.renders()) == sorted(j.key for j in ladder_jobs)
     # the efficiency pass's jobs do not depend on the screen options
     st2, cfg2 = tiny_study(tmp_path, "--screen-counts", "4,16", "--screen-repeats", "5")
-    keys = [j.key for j in Efficiency().jobs(planned(st, cfg, Efficiency()))]
-    assert keys == [j.key for j in Efficiency().jobs(planned(st2, cfg2, Efficiency()))]
+    keys = [j.key for j in planned(st, cfg, Efficiency()).renders()]
+    assert keys == [j.key for j in planned(st2, cfg2, Efficiency()).renders()]
     assert all(k.startswith("samplers/depth2/") for k in keys)
     # negative controls: switched off, no pass; --max-depth replaces its depths too
     st3, cfg3 = tiny_study(tmp_path, "--screen-space", "off")
@@ -735,12 +731,10 @@ def test_the_screen_pass_resumes_from_the_store(tmp_path):
     st, cfg = tiny_study(tmp_path)
     p, engine = ScreenSpace(), Engine(st)
     plan = planned(st, cfg, p)
-    refs = engine.references(plan.declaration)
-    jobs = p.jobs(plan)
-    assert st.run(jobs) == len({j.key for j in jobs})
+    jobs = plan.renders()
+    engine.run(plan.declaration)
     assert st.run(jobs) == 0                                # a rerun renders nothing
-    result = p.analyse(p.measure(st, cfg, plan, engine.measure(plan.declaration, plan.cells,
-                                                               refs)))
+    result = p.analyse(p.measure(st, cfg, plan, engine.run(plan.declaration)))
     assert len(result.rows) == 3 * 2
     rows = {(r.sampler, r.requested): r for r in result.rows}
     assert rows[("zsobol:none", 2)].repeats == 2            # its one run stands for both

@@ -25,11 +25,10 @@ import hashlib
 import json
 import math
 import os
-import time
 
 import numpy as np
 
-from experiments.lib import files
+from experiments.lib import clock, files
 from experiments.lib.studies.lab import warps
 
 #: The scene a guide is trained on, its film and samples per pixel.
@@ -190,7 +189,7 @@ def rows_of(specs: list, panels: dict) -> list[dict]:
 
 def measure(cfg: GuideConfig, cache: str) -> Measured:
     """:func:`compute`, or its panels from ``cache`` (one file per setting, atomic)."""
-    start = time.perf_counter()
+    timer = clock.Timer()
     path = os.path.join(cache, cfg.key() + ".npz")
     data = files.read_npz(path)
     if data is not None:
@@ -203,11 +202,11 @@ def measure(cfg: GuideConfig, cache: str) -> Measured:
             panels[s.key()] = {n: (int(v) if n in warps.INTEGERS else float(v)
                                    if n in warps.SCALARS else v) for n, v in panel.items()}
         return Measured(specs, panels, rows_of(specs, panels), meta["train_seconds"],
-                        time.perf_counter() - start, True)
+                        timer.elapsed(), True)
     specs, panels, train_seconds = compute(cfg)
     arrays = {f"p{k}__{n}": np.asarray(v) for k, s in enumerate(specs)
               for n, v in panels[s.key()].items()}
     meta = {"specs": [dataclasses.asdict(s) for s in specs], "train_seconds": train_seconds}
     files.write_npz(path, meta=np.asarray(json.dumps(meta)), **arrays)
     return Measured(specs, panels, rows_of(specs, panels), train_seconds,
-                    time.perf_counter() - start, False)
+                    timer.elapsed(), False)

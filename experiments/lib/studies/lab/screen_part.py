@@ -55,11 +55,9 @@ def measure_screen(engine: Engine, cfg: Config, planned: plan.Planned) -> Screen
     st, decl = engine.study, planned.declaration
     refs, renders = [j for chunks in planned.refs.values() for j in chunks], planned.renders()
     found = sum(st.store.has(j.key) for j in refs + renders)
-    references = engine.references(decl)
-    st.run(renders, f"{NAME}: screen-space renders")
-    measured = engine.measure(decl, planned.cells, references)
+    measured = engine.run(decl)
     (scene, ref_jobs), = planned.refs.items()
-    ref = references[scene][0]
+    ref = measured.references[scene][0]
     floor = screen_floor(st, ref_jobs)
     fields, spectra, radial, shares, rendered = {}, {}, {}, {}, {}
     labels = cfg.screen_labels()

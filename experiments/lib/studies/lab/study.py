@@ -30,9 +30,8 @@ from __future__ import annotations
 
 import dataclasses
 import os
-import time
 
-from experiments.lib import cli, files, report
+from experiments.lib import cli, clock, files, report
 from experiments.lib.engine import Engine
 from experiments.lib.methods import Method
 from experiments.lib.study import Study, StudySettings
@@ -126,23 +125,23 @@ def measure(settings: Settings, common: StudySettings) -> Measured:
     one family of mass and albedo checks), the point sets, the screen-space error."""
     cfg = settings.config
     cache = os.path.join(settings.out, NAME, "cache")
-    start = time.perf_counter()
-    warp_panels = warp_part.measure_warps(warp_part.plan_warps(cfg),
-                                          os.path.join(cache, "warps"))
-    gcfg = warp_part.guide_config(cfg)
-    frozen = guide.measure(gcfg, os.path.join(cache, "warps")) if gcfg else None
-    rows = warp_panels.rows + (frozen.rows if frozen else [])
-    warp_found, checks = warps.analyse(rows), mass.analyse(rows)
-    warps_done = time.perf_counter()
-    point_sets = point_part.measure_points(point_part.plan_points(cfg),
-                                           os.path.join(cache, "points"))
-    point_found = point_part.analyse_points(point_sets, cfg.counts[0])
-    points_done = time.perf_counter()
-    engine = Engine(Study(common))
-    screen = screen_part.measure_screen(
-        engine, cfg, screen_part.plan_screen(engine, cfg, settings.reference))
-    seconds = {"warps": warps_done - start, "points": points_done - warps_done,
-               "screen": time.perf_counter() - points_done}
+    timer = clock.Timer()
+    with timer.part("warps"):
+        warp_panels = warp_part.measure_warps(warp_part.plan_warps(cfg),
+                                              os.path.join(cache, "warps"))
+        gcfg = warp_part.guide_config(cfg)
+        frozen = guide.measure(gcfg, os.path.join(cache, "warps")) if gcfg else None
+        rows = warp_panels.rows + (frozen.rows if frozen else [])
+        warp_found, checks = warps.analyse(rows), mass.analyse(rows)
+    with timer.part("points"):
+        point_sets = point_part.measure_points(point_part.plan_points(cfg),
+                                               os.path.join(cache, "points"))
+        point_found = point_part.analyse_points(point_sets, cfg.counts[0])
+    with timer.part("screen"):
+        engine = Engine(Study(common))
+        screen = screen_part.measure_screen(
+            engine, cfg, screen_part.plan_screen(engine, cfg, settings.reference))
+    seconds = {part: timer.seconds(part) for part in ("warps", "points", "screen")}
     return Measured(warp_panels, gcfg, frozen, rows, warp_found, checks, point_sets,
                     point_found, screen, seconds)
 
@@ -212,12 +211,12 @@ def summary_of(m: Measured) -> dict:
 
 
 def run(args) -> None:
-    start = time.perf_counter()
+    timer = clock.Timer()
     settings = settings_of(args)
     m = measure(settings, StudySettings(**cli.common_fields(args)))
     blocks = blocks_of(settings, m)
     report.write_section(settings.out, NAME, TITLE, ORDER, described(settings, m), blocks,
-                         settings.variant, time.perf_counter() - start)
+                         settings.variant, timer.elapsed())
     files.write_json(os.path.join(settings.out, NAME, "summary.json"), summary_of(m))
 
 

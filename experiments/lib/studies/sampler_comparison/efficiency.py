@@ -1,6 +1,6 @@
 """The sampler study's efficiency pass: every label over the ladder, at every depth.
 
-Declared on the engine (:func:`.sampler_comparison.plan.declare`; renders interleaved so
+Declared on the engine (:func:`.sampler_comparison.plan.declare`; the engine interleaves the renders so
 that drifting machine load affects every sampler alike), measured (the engine's per-repeat
 costs and errors against each depth's reference, as :class:`Point` values), the pure
 analysis (:mod:`.sampler_comparison.analysis`) and the report: the error and efficiency
@@ -15,14 +15,13 @@ from dataclasses import dataclass
 
 from experiments.lib import figures, files, report, stats
 from experiments.lib.engine import Cell, Declaration, Measurements
-from experiments.lib.jobs import Job
 from experiments.lib.study import Study
 from experiments.lib.studies.sampler_comparison.analysis import (
     BASELINE, COMPARISON_HEADER, METRIC, METRIC_NAMES, Analysis, Point, Row, analyse,
     families)
 from experiments.lib.studies.sampler_comparison import words
 from experiments.lib.studies.sampler_comparison.plan import (
-    NAME, PassReport, Planned, Settings, declare, interleaved)
+    NAME, PassReport, Planned, Settings, declare)
 
 
 @dataclass(frozen=True)
@@ -70,11 +69,6 @@ class Efficiency:
     def declare(self, st: Study, cfg: Settings) -> Declaration:
         return declare(cfg, st.info, st.repeats)
 
-    def jobs(self, planned: Planned) -> list[Job]:
-        """Per depth and repeat every label at one spp before the next spp (so that
-        drifting machine load affects every sampler alike)."""
-        return interleaved(planned)
-
     def measure(self, st: Study, cfg: Settings, planned: Planned,
                 measured: Measurements) -> Measured:
         """Per-repeat costs and errors against each depth's reference (the engine's runs; a
@@ -106,7 +100,7 @@ class Efficiency:
         blocks += label_tables(st, cfg, result)
         for d in measured.points:
             blocks += depth_conclusion(st.out, result, conclusions[d], d)
-        return PassReport(blocks, summary_of(result, conclusions), self.jobs(planned))
+        return PassReport(blocks, summary_of(result, conclusions), planned.renders())
 
 
 def depth_charts(st: Study, cfg: Settings, measured: Measured, result: Analysis,

@@ -8,10 +8,11 @@ render) and :func:`declare_screen` (the screen-space pass, which the lab declare
 that it finds the same jobs in the store). Their ``key`` functions give the jobs the names
 (hence the seeds) they always had: ``samplers/depthD/LABEL/sppNNNNN[/rR]`` and
 ``samplers/screen-WxH-depthD/LABEL/sppNNNNN[/rR]``. :class:`Planned` is a declaration's jobs
-(:meth:`.engine.Engine.jobs` per budget) and reference chunks; :func:`interleaved` orders
-the renders so that drifting machine load affects every sampler alike; the
-:class:`Pass` protocol every measurement pass follows: declare -> measure (the engine) ->
-pure analysis -> report.
+(:meth:`.engine.Engine.jobs` per budget) and reference chunks, which the reports name; the
+engine renders them (:meth:`.engine.Engine.run`: every label at one count before the next,
+repeat by repeat, so that drifting machine load affects every sampler alike); the
+:class:`Pass` protocol every measurement pass follows: declare -> render and measure (the
+engine) -> pure analysis -> report.
 """
 from __future__ import annotations
 
@@ -144,24 +145,6 @@ def plan(engine: Engine, declaration: Declaration) -> Planned:
                    engine.reference_jobs(declaration))
 
 
-def interleaved(planned: Planned, group: int = 0) -> list[Job]:
-    """The renders per scene, in groups of ``group`` labels (0: all; a process keeps that
-    many methods warm), per repeat every label of the group at one count before the next
-    count (so that drifting machine load affects every sampler alike)."""
-    decl, jobs = planned.declaration, []
-    names = [m.name for m in decl.methods]
-    size = group or len(names)
-    for scene in decl.scenes:
-        for g in range(0, len(names), size):
-            mine = names[g:g + size]
-            for r in range(decl.repeats):
-                for budget in decl.budgets:
-                    for m in mine:
-                        reps = planned.cells[budget.name][Cell(scene.name, m, budget.name)]
-                        jobs += reps[r] if r < len(reps) else []
-    return jobs
-
-
 @dataclass
 class PassReport:
     blocks: list                  # report blocks, in order
@@ -175,8 +158,6 @@ class Pass(Protocol):
     name: str
 
     def declare(self, st: Study, cfg: Settings) -> Declaration | None: ...
-
-    def jobs(self, planned: Planned) -> list[Job]: ...
 
     def measure(self, st: Study, cfg: Settings, planned: Planned,
                 measurements: Measurements): ...

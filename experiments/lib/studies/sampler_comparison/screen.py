@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from experiments.lib import execute, figures, metrics, report, screen_space, stats
+from experiments.lib import figures, metrics, report, screen_space, stats
 from experiments.lib.engine import Cell, Declaration, Measurements
 from experiments.lib.jobs import Job
 from experiments.lib.study import Study
@@ -23,7 +23,7 @@ from experiments.lib.studies.sampler_comparison.analysis import families
 from experiments.lib.studies.sampler_comparison.efficiency import interval_header, point
 from experiments.lib.studies.sampler_comparison import words
 from experiments.lib.studies.sampler_comparison.plan import (
-    NAME, PassReport, Planned, Settings, declare_screen, default_screen_labels, interleaved)
+    NAME, PassReport, Planned, Settings, declare_screen, default_screen_labels)
 from experiments.lib.studies.sampler_comparison.screen_analysis import (
     SCREEN_HEADER, ScreenAnalysis, ScreenPoint, ScreenRow, analyse_screen)
 
@@ -57,12 +57,6 @@ class ScreenSpace:
 
     def declare(self, st: Study, cfg: Settings) -> Declaration | None:
         return None if cfg.screen is None else declare_screen(cfg, cfg.screen, st.info)
-
-    def jobs(self, planned: Planned) -> list[Job]:
-        """Per depth, in groups of labels no larger than the methods a process keeps warm
-        (:data:`.execute.VIEW_CACHE`), per repeat every label of the group at one count
-        before the next count."""
-        return interleaved(planned, execute.VIEW_CACHE)
 
     def measure(self, st: Study, cfg: Settings, planned: Planned,
                 measurements: Measurements) -> ScreenMeasured:
@@ -102,7 +96,7 @@ class ScreenSpace:
             blocks += depth_blocks(st, cfg, measured, result, conclusions[d], d)
         blocks += screen_tables(st.out, cfg, measured, result)
         return PassReport(blocks, screen_summary(cfg, measured, result, conclusions),
-                          self.jobs(planned))
+                          planned.renders())
 
 
 def depth_blocks(st: Study, cfg: Settings, measured: ScreenMeasured, result: ScreenAnalysis,

@@ -39,7 +39,6 @@ and settings, and the registration of the study as ``samplers``.
 from __future__ import annotations
 
 import os
-import time
 
 from experiments.lib import cli, clock, files, report, samplers, stats
 from experiments.lib.engine import Engine
@@ -214,17 +213,17 @@ def screen_settings_text(sc: ScreenSettings | None) -> str:
 
 
 def run(args) -> None:
-    start = time.perf_counter()
+    timer = clock.Timer()
     st, cfg = Study(StudySettings(**cli.common_fields(args))), settings_of(args)
     engine = Engine(st)
-    planned = [(p, plan(engine, declared)) for p in PASSES
-               if (declared := p.declare(st, cfg)) is not None]       # passes switched off
-    references = [engine.references(pl.declaration) for _, pl in planned]
-    st.run([j for p, pl in planned for j in p.jobs(pl)], f"{NAME}: renders")
     blocks, summary, timed = [report.text(introduction(st, cfg))], {}, []
-    for (p, pl), refs in zip(planned, references):
-        measured = p.measure(st, cfg, pl, engine.measure(pl.declaration, pl.cells, refs))
-        reported = p.report(st, cfg, pl, measured, p.analyse(measured))
+    for p in PASSES:
+        declared = p.declare(st, cfg)
+        if declared is None:                # the pass is switched off
+            continue
+        planned = plan(engine, declared)
+        measured = p.measure(st, cfg, planned, engine.run(declared))
+        reported = p.report(st, cfg, planned, measured, p.analyse(measured))
         blocks += reported.blocks
         summary.update(reported.summary)
         timed += reported.jobs
@@ -238,7 +237,7 @@ def run(args) -> None:
                 "screen-space pass": screen_settings_text(cfg.screen),
                 "render times measured on": st.timed_on(timed)}
     report.write_section(args.out, NAME, TITLE, ORDER, settings, blocks, args.variant,
-                         time.perf_counter() - start)
+                         timer.elapsed())
     files.write_json(os.path.join(args.out, NAME, "summary.json"), summary)
 
 
