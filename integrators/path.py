@@ -288,7 +288,7 @@ class VRPathIntegrator(mi.SamplingIntegrator):
     def sample(self, scene, sampler, ray, medium=None, active=True):
         """One path per lane: the symbolic loop body, traced once into one megakernel.
 
-        One function, as Mitsuba's ``prb.py`` writes it: the loop state is declared up
+        long: one function, as Mitsuba's ``prb.py`` writes it: the loop state is declared up
         front and every vertex's steps (emission found, NEE, the next direction, roulette)
         read and update it in order; split into methods, each would take and return most
         of that state. A learning subclass's hooks run inside: its recorder

@@ -11,11 +11,6 @@ experiments/, tools/, benchmarks/, scenes/; not tests/) is read with :mod:`ast`.
 
 Each check has a negative control on synthetic input: a long function without the marker
 is reported and with it is not; a file one line over the limit is reported.
-
-The folders whose code is still being split (:data:`SPLITTING`: integrators/, experiments/)
-carry the mark :data:`BEING_SPLIT` (xfail, not strict) on the tree-wide checks only, never
-on the checkers' own tests; empty SPLITTING once the tree is clean, so that the checks
-guard every folder.
 """
 from __future__ import annotations
 
@@ -33,9 +28,6 @@ MAX_FUNCTION_LINES = 60
 FOLDERS = ("integrators", "experiments", "tools", "benchmarks", "scenes")
 #: A long function's docstring says why: ``long:`` followed by the reason on its line.
 LONG_MARKER = re.compile(r"\blong:[ \t]*\S")
-
-BEING_SPLIT = pytest.mark.xfail(strict=False, reason="files and functions over the limits "
-                                "are being split (remove this mark once the tree is clean)")
 
 
 def source_files(folder: str, root: str = ROOT) -> list[str]:
@@ -129,9 +121,6 @@ def test_a_file_over_the_limit_is_reported(tmp_path):
 
 # ------------------------------------------------------------------ the tree
 
-#: The folders whose code is still being split: their tree-wide checks are xfail for now.
-SPLITTING = ("integrators", "experiments")
-TREE = [pytest.param(f, marks=BEING_SPLIT) if f in SPLITTING else f for f in FOLDERS]
 
 
 def test_the_walk_finds_the_project_code():
@@ -143,14 +132,14 @@ def test_the_walk_finds_the_project_code():
     assert not any(p.startswith("tests") for paths in found.values() for p in paths)
 
 
-@pytest.mark.parametrize("folder", TREE)
+@pytest.mark.parametrize("folder", FOLDERS)
 def test_no_source_file_is_too_long(folder):
     files, _, read = oversized(folder)
     assert read > 0
     assert not files, f"files over {MAX_FILE_LINES} lines: {files}"
 
 
-@pytest.mark.parametrize("folder", TREE)
+@pytest.mark.parametrize("folder", FOLDERS)
 def test_no_function_is_too_long_without_its_reason(folder):
     _, functions, read = oversized(folder)
     assert read > 0
