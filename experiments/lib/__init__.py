@@ -8,7 +8,9 @@ that the import graph has no cycle):
 * :mod:`.figure_pool`    figures written by worker processes, never while a render runs
                          (files)
 * :mod:`.clock`          the one clock: what an image costs (kernel time of every pass plus
-                         the method's host work between passes; no lib imports)
+                         the method's host work between passes), and the one ``Timer`` of
+                         how long a study's parts took (no lib imports)
+* :mod:`.names`          an error named in one line (no lib imports)
 * :mod:`.jobs`           jobs and results as plain data (``Job``, ``JobResult``, ``derive_seed``,
                          ``MAX_LANES``), ``Accumulator``/``accumulate`` over results,
                          ``cpu_model`` (the clock)
@@ -26,8 +28,14 @@ that the import graph has no cycle):
 * :mod:`.extensions`     ``--plugin FILE``: a researcher's strategy, sampler or study
 * :mod:`.cluster`        the Dask executor (execute, extensions)
 * :mod:`.study`          what a study shares: store, executor, reference image, accumulation
-* :mod:`.engine`         the experiment engine: a study's ``Declaration`` (methods, scenes,
-                         budgets, a sweep, repeats) planned, rendered, costed and measured
+* :mod:`.declaration`    what a study declares: scenes, budgets, a sweep, policies (the
+                         equal-time factor, the reference floor), repeats
+* :mod:`.counts`         the counting rules: equal-time counts, a reference's samples
+* :mod:`.measurements`   the runs of every cell against its reference, their intervals
+* :mod:`.engine_references`  the engine's references: planned, rendered, extended
+* :mod:`.engine`         the experiment engine, the only budget loop: every count decided
+                         (a learning method's pilot and ladder included), rendered in turns,
+                         costed and measured
 * :mod:`.prose`          the report layer's sentences from templates (jinja2)
 * :mod:`.figures`        every chart (matplotlib, Agg)
 * :mod:`.viewer`         the report's interactive image comparisons (files, metrics)
@@ -38,7 +46,7 @@ that the import graph has no cycle):
 * :mod:`.studies`        the study registry (``StudySpec``, ``register_study``, the one
                          ``main``) and the built-in studies, a module or a package each
                          (``studies/sampler_comparison/``; ``studies/lab/``, the sampling
-                         lab); the scripts ``experiments/NAME.py`` are their commands
+                         lab; ``studies/suite/``, the scene suite); the scripts ``experiments/NAME.py`` are their commands
 
 Package data: ``viewer_assets/`` (viewer.js, viewer.css), read with
 :mod:`importlib.resources`; the bundled scenes are the :mod:`scenes` package.
