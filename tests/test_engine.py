@@ -276,3 +276,37 @@ def test_renders_take_turns_and_a_failing_cell_is_isolated(tmp_path, monkeypatch
     assert {c.method for c in measured.runs} == {"bsdf+nee", "path"}
     with pytest.raises(RuntimeError, match="a broken plugin"):
         Engine(study).run(replace(declared, name="not-isolated", isolate_failures=False))
+
+
+def test_a_time_scale_policy_is_asked_once_per_scene_with_the_reference_at_its_smallest(
+        tmp_path):
+    """A TimeScale policy decides an equal-time budget's factor on each scene once, after
+    the budgets before it, from the reference's first MIN_CHUNKS chunks (the same in every
+    run, whatever the reference's length: here 64 spp of chunks of 2 asked for, 32 chunks,
+    and the policy sees the image of the first 8); the factor scales the budget's count.
+    ``lead`` names a method twice: it renders once (negative control of the count: the
+    policy's factor 1 gives the unscaled count)."""
+    from experiments.lib import references
+    seen = []
+
+    def policy(engine, declaration, scene, planned, reference):
+        seen.append((scene.name, reference))
+        return 4.0, ""
+    budgets = (Budget.equal_spp(4), Budget.equal_time(2e-3, scale=policy))
+    declared = Declaration("policy", METHODS, SCENES[:1], budgets, lead=("path", "path"),
+                           reference_spp=64, reference_typical_spp=16)
+    assert [m.name for m in declared.methods_on(SCENES[0])] == ["path", "bsdf+nee"]
+    engine = Engine(make_study(tmp_path))
+    measured = engine.run(declared)
+    chunks = engine.reference_jobs(declared)[("cbox", None)]
+    assert len(chunks) > references.MIN_CHUNKS
+    first = engine.study.reference(chunks[:references.MIN_CHUNKS])[0]
+    assert [name for name, _ in seen] == ["cbox"]
+    np.testing.assert_array_equal(seen[0][1], first)
+    assert not np.array_equal(first, measured.references[("cbox", None)][0])
+    assert measured.scales == {("cbox", None, "equal-time"): (4.0, "")}
+    for m in METHODS:
+        runs = measured.runs[Cell("cbox", m.name, "equal-spp")]
+        per_sample = np.mean([r[0].cost / r[0].spp for r in runs])
+        got = {r[0].spp for r in measured.runs[Cell("cbox", m.name, "equal-time")]}
+        assert got == {max(1, int(4 * 2e-3 / per_sample))} != {max(1, int(2e-3 / per_sample))}

@@ -39,7 +39,9 @@ class TimeScale(Protocol):
     """A policy that sets the factor of an equal-time budget's seconds on one scene, once,
     after the budgets before it rendered there: ``policy(engine, declaration, scene,
     planned, reference)`` -> (factor, note), ``reference`` the image of the scene's
-    reference's first chunk (the same in every run, whatever the reference's length) and
+    reference at its smallest size (its first :data:`.references.MIN_CHUNKS` chunks: the
+    same in every run, whatever the reference's length; the study's own image where it
+    brings one) and
     ``planned`` the engine's :class:`~.engine.Planned` so far. The factor replaces the
     scene's own ``time_scale`` (a policy that keeps it returns it, or more); the note says
     why there is no factor of the policy's own ('' when there is)."""
@@ -174,7 +176,7 @@ class Declaration:
     def methods_on(self, scene: SceneSetup) -> tuple:
         """The methods ``scene`` renders, those of :attr:`lead` first."""
         mine = [m for m in self.methods if m.name not in scene.left_out]
-        lead = [m for name in self.lead for m in mine if m.name == name]
+        lead = [m for name in dict.fromkeys(self.lead) for m in mine if m.name == name]
         return tuple(lead + [m for m in mine if m not in lead])
 
     def cells(self, budget: Budget) -> list[tuple[Cell, SceneSetup, Method]]:

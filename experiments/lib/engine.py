@@ -41,6 +41,7 @@ from .execute import VIEW_CACHE
 from .measurements import Measurements, Run, rungs  # noqa: F401  (the engine's results)
 from .names import one_line
 from .plan import job_name
+from .references import MIN_CHUNKS
 from .store import STORE_DIR, JobStore, ReplayError
 from .study import Study, repeat_prefix
 
@@ -278,8 +279,8 @@ class Engine:
                 planned.scales[key] = (slot.scene.time_scale, "")
                 continue
             ref_key = declaration.reference_key(slot.scene.name, slot.point)
-            first = (self.study.reference(chunks[ref_key][:1])[0] if ref_key in chunks
-                     else refs[ref_key][0])
+            first = (self.study.reference(chunks[ref_key][:MIN_CHUNKS])[0]
+                     if ref_key in chunks else refs[ref_key][0])
             planned.scales[key] = budget.scale(self, declaration, slot.scene, planned, first)
 
     # ---------------------------------------------------------------- measure

@@ -4,10 +4,10 @@
 factor of ``--time-budget`` that its equal-time renders need for the expected relMSE of the
 baseline and of the timed pair (:data:`.analysis.TIMED_PAIR`, those of them in the run) to
 be known to :data:`PRECISION` (relative standard error, pooled over the repeats), predicted
-from their equal-spp renders: their pixels' variances over the reference's first chunk's
-squares (:mod:`.errors`; the first chunk is the same in every run, so that a rerun or a
-longer reference plans the same counts; not the renders' own mean, whose fireflies would
-shrink their own weights). The standard error falls as 1/sqrt(samples), so the factor is
+from their equal-spp renders: their pixels' variances over the squares of the reference at
+its smallest size (:mod:`.errors`; its first chunks, the same in every run, so that a rerun
+or a longer reference plans the same counts; not the renders' own mean, whose fireflies
+would shrink their own weights). The standard error falls as 1/sqrt(samples), so the factor is
 :func:`scale_for` of the largest one predicted at the unscaled equal-time count. The scene's
 own header budget is kept where it is larger. The engine asks it once per scene, after the
 scene's equal-spp renders (:meth:`experiments.lib.engine.Engine.run`).
