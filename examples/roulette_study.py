@@ -6,10 +6,9 @@ One method (default ``bsdf+nee``) at several ``rr_depth`` values, R renders each
 measures; this file declares and tabulates. See docs/extending.md.
 """
 import os
-import time
 from dataclasses import replace
 
-from experiments.lib import cli, report, stats
+from experiments.lib import cli, clock, report, stats
 from experiments.lib.engine import Budget, Cell, Declaration, Engine, SceneSetup, Sweep
 from experiments.lib.studies import StudySpec, register_study
 from experiments.lib.study import Study, StudySettings
@@ -51,14 +50,14 @@ def table(measured, method: str) -> list[list]:
 
 
 def run(args) -> None:
-    start, method = time.perf_counter(), args.method_objs[0].name
+    timer, method = clock.Timer(), args.method_objs[0].name
     rows = table(Engine(Study(StudySettings(**cli.common_fields(args)))).run(declare(args)), method)
     caption = f"{method}, efficiency relative to rr_depth {BASELINE}"
     report.write_section(args.out, NAME, TITLE, 60, {
         "method": method, "spp": args.spp, "repeats": args.repeats,
         "scene": os.path.basename(args.scene)},
         [report.write_table(args.out, f"{NAME}/efficiency", HEADER, rows, caption)],
-        args.variant, time.perf_counter() - start)
+        args.variant, timer.elapsed())
 
 
 STUDY = register_study(StudySpec(NAME, TITLE, 60, build_parser, run, quick=(
