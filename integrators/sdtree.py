@@ -86,6 +86,15 @@ class SDTree:
         self.scale = mi.Vector3f(dr.opaque(mi.Float, 1.0, 1),
                                  dr.opaque(mi.Float, 1.0, 1), dr.opaque(mi.Float, 1.0, 1))
         self.has_bbox = False
+        # the device tables (:meth:`upload`) and their float32 host copies
+        self._prob32 = np.empty((self.max_units, self.bins), np.float32)
+        self._cdf32 = np.empty((self.max_units, self.bins), np.float32)
+        self._grid_nodes = 0                                 # nodes of grid_table (0: none)
+        self.grid_table = self.prob_table = self.cdf_table = self.reflected_table = None
+        # the record accumulators (:meth:`reset_records`)
+        self.energy = self.counts = self.moments = self.reflected_sums = None
+        #: The last refinement's summed second moments (None: nothing evaluated).
+        self.moment_sums = None
         self.upload()
         self.reset_records()
 
@@ -124,16 +133,12 @@ class SDTree:
         """The host tree as evaluated Dr.Jit arrays (fixed sizes: no recompilation);
         ``rows``: only the first units changed (the host work then scales with the
         units in use, not with ``max_leaves``)."""
-        rows = self.max_units if rows is None else rows
-        if not hasattr(self, "_prob32"):
-            self._prob32 = np.empty((self.max_units, self.bins), np.float32)
-            self._cdf32 = np.empty((self.max_units, self.bins), np.float32)
-            rows = self.max_units
+        rows = self.max_units if rows is None or self.prob_table is None else rows
         self._prob32[:rows] = self.prob[:rows]
         cdf = np.cumsum(self.prob[:rows], axis=1)
         cdf /= np.maximum(cdf[:, -1:], 1e-30)
         self._cdf32[:rows] = cdf
-        if getattr(self, "_grid_nodes", None) != self.nodes:     # the tree changed
+        if self._grid_nodes != self.nodes:                   # the tree changed
             self.grid_table = mi.UInt32(self.grid())
             self._grid_nodes = self.nodes
         self.reflected_table = mi.Float(self.reflected.ravel().astype(np.float32))
@@ -150,7 +155,7 @@ class SDTree:
         """Empty record accumulators (energy per unit bin, records per unit, the share
         candidates' second moments per unit: ``unit * (len(SHARES) + 1) + candidate``);
         ``rows``: only the first units can hold records (zeroed in place)."""
-        if rows is None or not hasattr(self, "energy"):
+        if rows is None or self.energy is None:
             self.energy = dr.zeros(mi.Float, self.max_units * self.bins)
             self.counts = dr.zeros(mi.UInt32, self.max_units)
             self.moments = dr.zeros(mi.Float, self.max_units * (len(SHARES) + 1))
