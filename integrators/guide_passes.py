@@ -46,11 +46,23 @@ def split(spp: int, most: int) -> list[int]:
 
 def renders(counts: list[int], most: int, trains: bool) -> list[tuple[int, int]]:
     """(iteration, samples per pixel) of every render of iterations of ``counts`` samples:
-    each split into renders of at most ``most`` (:func:`split`) where the job trains, one
-    render per iteration where it does not (the executor splits a render over its lane cap,
-    as it does vr_path's)."""
+    each iteration that records (every one but the last, where the job trains) split into
+    renders of at most ``most`` (:func:`split`: the records' memory), the others one render
+    each (the executor splits a render over its lane cap, as it does vr_path's): many small
+    renders cost more kernel time per sample than one large one."""
     return [(k, n) for k, it in enumerate(counts)
-            for n in (split(it, most) if trains else [it])]
+            for n in (split(it, most) if trains and k + 1 < len(counts) else [it])]
+
+
+def merged_rest(passes: list[tuple[int, int]], index: int) -> list[tuple[int, int]]:
+    """``passes`` (as :func:`renders`) with every render after ``index`` merged into one
+    render of the next iteration: where training stopped, the rest is one estimator (plain
+    BSDF sampling) and records nothing, so one render of all its samples does. Unchanged
+    where at most one render follows."""
+    rest = passes[index + 1:]
+    if len(rest) <= 1:
+        return list(passes)
+    return passes[:index + 1] + [(rest[0][0], sum(n for _, n in rest))]
 
 
 def training_refusals(spp: int, pixels: int, min_spp: int, min_samples: int) -> list[str]:

@@ -91,9 +91,10 @@ class GuidedPathIntegrator(VRPathIntegrator):
 
      * - max_pass_spp
        - |int|
-       - Most samples per pixel of one render of a training job: an iteration above it is
-         split into several renders (records cost 56 bytes x record_depth per sample, at most
-         256 MiB per render). (Default: 64)
+       - Most samples per pixel of one render of an iteration that records: one above it
+         is split into several renders (records cost 56 bytes x record_depth per sample, at
+         most 256 MiB per render). The last iteration, and the rest of a job whose training
+         stopped, are one render each. (Default: 64)
 
      * - first_pass_spp
        - |int|
@@ -242,9 +243,12 @@ class GuidedPathIntegrator(VRPathIntegrator):
         self.sampling_strategy = self.guide if trains else strategies.get("bsdf")
         return [n for _, n in self._passes]
 
-    def after_pass(self, index: int, image, spp: int) -> None:
+    def after_pass(self, index: int, image, spp: int) -> list | None:
         """Keep the pass's per-pixel mean square; after an iteration's last render (not
-        the last iteration's), refine the guide from its records (:meth:`_refine`)."""
+        the last iteration's), refine the guide from its records (:meth:`_refine`). Where
+        training stops there, the renders left are one render of all their samples
+        (:func:`.guide_passes.merged_rest`), returned as the new rest of the schedule
+        (None: the schedule stands)."""
         image = np.array(image, dtype=np.float64)
         self._m2.append(image[..., -len(M2_AOVS):])
         self._mean.append(image[..., :3])
@@ -252,14 +256,20 @@ class GuidedPathIntegrator(VRPathIntegrator):
         k = self._passes[index][0]
         last_of_iteration = index + 1 == len(self._passes) or self._passes[index + 1][0] != k
         if not last_of_iteration or k + 1 == len(self._iterations):
-            return
+            return None
         if self._stopped:
             self._estimator[k + 1] = self._estimator[k]
-            return
+            return None
         self._refine(k)
         self._estimator[k + 1] = -1 if np.all(self.guide.tree.share == 1.0) else k
         if k + 2 == len(self._iterations):     # the last iteration only renders
             self._set_recording(False)
+        if not self._stopped:
+            return None
+        self._passes = guide_passes.merged_rest(self._passes, index)
+        self._iterations = self._iterations[:k + 1] + [sum(self._iterations[k + 1:])]
+        self._estimator = self._estimator[:k + 2]
+        return [n for _, n in self._passes[index + 1:]]
 
     def _refine(self, k: int) -> None:
         """Refine the guide from iteration ``k``'s records, predict the new shares' gain

@@ -87,6 +87,7 @@ def two_pass():
         def __init__(self, props):
             mi.SamplingIntegrator.__init__(self, props)
             self.work = props.get("work", HOST_WORK)
+            self.merge = props.get("merge", False)
             self.inner = mi.load_dict({"type": "path", "max_depth": 3})
             self.seen = 0
 
@@ -94,13 +95,14 @@ def two_pass():
             return self.inner.sample(scene, sampler, ray, medium, active)
 
         def pass_schedule(self, spp, pixels):
-            return [spp - spp // 8, spp // 8]
+            return [spp // 8] * 8 if self.merge else [spp - spp // 8, spp // 8]
 
         def after_pass(self, index, image, spp):
             self.seen += 1
             start = time.thread_time()
             while time.thread_time() - start < self.work:
                 np.linalg.svd(np.ones((40, 40)))
+            return [7 * spp] if self.merge and index == 0 else None
 
         def combine(self, images, spps):
             return np.full_like(images[0], float(self.seen))
@@ -109,11 +111,12 @@ def two_pass():
 
     class TwoPassMethod(methods.Method):
         def integrator_dict(self, depth=methods.Depth()):
-            return {"type": "clock_two_pass", "work": self.work}
+            return {"type": "clock_two_pass", "work": self.work, "merge": self.merge}
 
-    def method(work=HOST_WORK):
+    def method(work=HOST_WORK, merge=False):
         m = TwoPassMethod("two-pass", None)
         object.__setattr__(m, "work", work)
+        object.__setattr__(m, "merge", merge)
         return m
     return method
 
@@ -145,6 +148,16 @@ def test_two_pass_method_is_costed_for_both_passes_and_its_host_work(two_pass):
     assert last < 0.5 * full, (last, full)
     assert min(result.kernel_seconds, idle.kernel_seconds) > 0.6 * full, \
         (result.kernel_seconds, idle.kernel_seconds, full)
+
+
+def test_a_method_may_render_its_rest_in_other_passes(two_pass):
+    """after_pass may return the passes after it anew (a guide that stopped learning
+    renders its rest in one pass): eight passes of 8 spp become one of 8 and one of 56,
+    the job's samples unchanged."""
+    execute.clear_cache()
+    result = execute.run_job(_job(two_pass(0.0, merge=True), 64, "clock/merged"),
+                             "llvm_ad_rgb")
+    assert len(result.pass_seconds) == 2 and result.spp == 64, result.pass_seconds
 
 
 def test_every_job_starts_with_an_untrained_integrator(two_pass, monkeypatch):

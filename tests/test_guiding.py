@@ -17,7 +17,7 @@ import _blocks
 import integrators.path as vr_path
 from _chi2 import CapDomain, incident, interaction, run_chi2
 from experiments.lib import methods
-from experiments.lib.execute import kernels_compiled
+from experiments.lib.execute import kernels_compiled, replaced_rest
 from integrators import guide_passes, guide_warps, sdtree
 from integrators.guide_record import Recorder
 from integrators.guide_roulette import Roulette
@@ -189,8 +189,9 @@ def render_job(scene, integrator_dict, spp, seed, kinds=None):
     index by the count, by a shift where it can)."""
     integ = mi.load_dict({"min_train_spp": 2, "min_train_samples": 1, **integrator_dict})
     schedule = integ.pass_schedule(spp, dr.prod(scene.sensors()[0].film().size()))
-    images, compiled = [], []
-    for i, k in enumerate(schedule):
+    images, compiled, i = [], [], 0
+    while i < len(schedule):
+        k = schedule[i]
         dr.set_flag(dr.JitFlag.KernelHistory, True)
         dr.kernel_history_clear()
         if kinds is not None:
@@ -198,8 +199,10 @@ def render_job(scene, integrator_dict, spp, seed, kinds=None):
         image = mi.render(scene, integrator=integ, spp=k, seed=seed * 1000 + i)
         dr.eval(image)
         compiled.append(kernels_compiled(dr.kernel_history()))
-        integ.after_pass(i, image, k)
+        rest = integ.after_pass(i, image, k)
+        schedule = schedule if rest is None else replaced_rest(schedule, i, rest)
         images.append(np.array(image, dtype=np.float64)[..., :3])
+        i += 1
     return integ.combine(images, schedule), compiled, integ
 
 
@@ -348,6 +351,44 @@ def test_pass_weights_by_hand():
     assert np.all(np.isinf(guide_passes.pixel_variance(mean, m2, 1)))
     assert guide_passes.iterations(64) == [2, 4, 8, 16, 34]
     assert guide_passes.split(100, 64) == [50, 50]
+
+
+def test_only_recording_iterations_are_split_and_a_stop_merges_the_rest():
+    """The records bound a render's size, so only the iterations that record (all but the
+    last) are split into renders of at most max_pass_spp; where training stops after a
+    render, every render left becomes one of all their samples (same iteration label as
+    the first of them, the same total)."""
+    passes = guide_passes.renders([2, 4, 8, 16, 130], 4, True)
+    assert passes == [(0, 2), (1, 4), (2, 4), (2, 4), (3, 4), (3, 4), (3, 4), (3, 4),
+                      (4, 130)]
+    assert guide_passes.renders([2, 4, 200], 4, False) == [(0, 2), (1, 4), (2, 200)]
+    merged = guide_passes.merged_rest(passes, 3)
+    assert merged == passes[:4] + [(3, 4 + 4 + 4 + 4 + 130)]
+    assert sum(n for _, n in merged) == sum(n for _, n in passes)
+    assert guide_passes.merged_rest(passes, 7) == passes      # one render left: unchanged
+
+
+def test_a_guide_that_learns_nothing_stops_and_renders_the_rest_in_one_pass():
+    """veach_mis at depth 2 with NEE: every record is dark (the light NEE finds all light),
+    so training stops after iteration STOP_FIRST and the job's remaining samples render as
+    one pass of vr_path's kernel: as many renders as plain BSDF sampling needs, not one
+    per max_pass_spp samples (many small renders cost more kernel time per sample)."""
+    scene = mi.load_file(str(Path(__file__).parents[1] / "scenes/suite/veach_mis.xml"),
+                         width=32, height=24)
+    image, _, integ = render_job(scene, {"type": "vr_guided_path", "emitter_sampling": True},
+                                 1024, 3)
+    kept = [n for _, n in integ._passes]
+    assert integ._stopped and sum(kept) == 1024, kept
+    assert kept == [2, 4, 8, 1024 - 14], kept
+    assert np.all(np.isfinite(image)) and image.mean() > 0
+
+
+def test_the_executor_refuses_a_rest_that_changes_the_samples():
+    """after_pass may replace the passes after it, never their total (negative control of
+    the executor's check)."""
+    assert replaced_rest([2, 4, 4, 4], 1, [8]) == [2, 4, 8]
+    with pytest.raises(ValueError, match="must keep its samples"):
+        replaced_rest([2, 4, 4, 4], 1, [4])
 
 
 def test_combined_image_and_its_variance_by_hand():

@@ -282,6 +282,28 @@ MUTANTS = [
            "the guided roulette decides with its own survival probability but the survivors "
            "are divided by the throughput rule's",
            ("tests/test_guiding.py::test_blocks_agree_with_path",)),
+    Mutant("guide-stopped-rest-split", "integrators/guided_path.py",
+           "        self._passes = guide_passes.merged_rest(self._passes, index)\n",
+           "",
+           "a guide whose training stopped renders the rest of its job in renders of "
+           "max_pass_spp samples (many small renders: on veach_mis 26% more kernel time per "
+           "sample than bsdf+nee for the same estimator)",
+           ("tests/test_guiding.py::test_a_guide_that_learns_nothing_stops_and_renders_the_"
+            "rest_in_one_pass",)),
+    Mutant("guide-last-iteration-split", "integrators/guide_passes.py",
+           "            for n in (split(it, most) if trains and k + 1 < len(counts) else [it])]\n",
+           "            for n in (split(it, most) if trains else [it])]\n",
+           "the last iteration of a training job, which records nothing, split into renders "
+           "of max_pass_spp samples as if its records bounded its size",
+           ("tests/test_guiding.py::test_only_recording_iterations_are_split_and_a_stop_"
+            "merges_the_rest",)),
+    Mutant("executor-rest-unchecked", "experiments/lib/execute.py",
+           "    if sum(rest) != sum(schedule[index + 1:]) or any(n < 1 for n in rest):\n",
+           "    if False:\n",
+           "a method's replacement of its remaining passes accepted whatever samples it "
+           "renders (a job's count silently changed)",
+           ("tests/test_guiding.py::test_the_executor_refuses_a_rest_that_changes_the_"
+            "samples",)),
     Mutant("guide-variance-from-passes", "experiments/lib/execute.py",
            "    sq, passes = done * mean * mean, 1\n",
            "    sq, passes = done * mean * mean, len(spps)\n",

@@ -211,7 +211,9 @@ class MultiPass(Protocol):
       summing to ``spp``; a pass over the job's lane cap (:data:`.jobs.MAX_LANES`) is
       rendered in several renders and averaged (:meth:`.jobs.Job.split_lanes`);
     * ``after_pass(index, image, spp)``: host work after pass ``index`` (learning from it;
-      ``image`` the pass's mean as a Dr.Jit tensor);
+      ``image`` the pass's mean as a Dr.Jit tensor); it may return the passes that follow
+      anew (a list of samples per pixel with the same sum as the ones it replaces: e.g. a
+      method whose learning stopped renders its rest in one pass), None to keep them;
     * ``combine(images, spps)``: the job's image from every pass's (a numpy (H, W, 3)
       array; e.g. a weighted mean);
     * optionally ``combined_variance()``: the per-pixel variance (H, W, 3) of what
@@ -223,7 +225,7 @@ class MultiPass(Protocol):
 
     def pass_schedule(self, spp: int, pixels: int) -> list: ...
 
-    def after_pass(self, index: int, image, spp: int) -> None: ...
+    def after_pass(self, index: int, image, spp: int) -> list | None: ...
 
     def combine(self, images: list, spps: list): ...
 
@@ -350,16 +352,18 @@ def render_passes(view: View, integrator, job: Job) -> Timed:
     sq = np.zeros_like(mean)
     images, spps = [], []
     done, times, cpu, kernels, host, compiled = 0, [], 0.0, 0.0, 0.0, 0
-    for i, spp in enumerate(schedule):
+    i = 0
+    while i < len(schedule):
         image, k, seconds, cpu_seconds, kernel, c = render_pass(
-            view, integrator, job, i, spp, done, multi, multi or per_sample)
+            view, integrator, job, i, schedule[i], done, multi, multi or per_sample)
         compiled += c
         if multi:
             dr.sync_thread()
             start = time.thread_time()
-            integrator.after_pass(i, image, k)
+            rest = integrator.after_pass(i, image, k)
             dr.sync_thread()
             host += time.thread_time() - start
+            schedule = schedule if rest is None else replaced_rest(schedule, i, rest)
             image = np.array(image, dtype=np.float64)[..., :3]
             images.append(image)
             spps.append(k)
@@ -372,6 +376,7 @@ def render_passes(view: View, integrator, job: Job) -> Timed:
         times.append(seconds)
         cpu += cpu_seconds
         kernels += kernel
+        i += 1
     mean /= done
     if multi:
         start = time.thread_time()
@@ -380,6 +385,17 @@ def render_passes(view: View, integrator, job: Job) -> Timed:
     else:
         passes = done if per_sample else len(times)
     return Timed(mean, sq, done, passes, times, cpu, kernels, host, compiled)
+
+
+def replaced_rest(schedule: list, index: int, rest: list) -> list:
+    """``schedule`` with the passes after ``index`` replaced by ``rest``, which a
+    :class:`MultiPass` method's ``after_pass`` returned: refused unless it renders the
+    same samples (a method must not change its job's count)."""
+    if sum(rest) != sum(schedule[index + 1:]) or any(n < 1 for n in rest):
+        raise ValueError(f"after_pass({index}) returned the passes {list(rest)} "
+                         f"({sum(rest)} spp) for {list(schedule[index + 1:])} "
+                         f"({sum(schedule[index + 1:])} spp): the rest must keep its samples")
+    return list(schedule[:index + 1]) + list(rest)
 
 
 def combined(integrator, images: list, spps: list, done: int) -> tuple:
