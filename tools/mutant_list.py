@@ -297,6 +297,13 @@ MUTANTS = [
            "of max_pass_spp samples as if its records bounded its size",
            ("tests/test_guiding.py::test_only_recording_iterations_are_split_and_a_stop_"
             "merges_the_rest",)),
+    Mutant("pass-parts-rounded", "experiments/lib/jobs.py",
+           "                for p in ([n] if spec.rendered_count(n) == n else powers_of_two(n))]\n",
+           "                for p in [n]]\n",
+           "a multi-pass method's pass rendered whole with zsobol, which rounds its count up to "
+           "a power of two: the job takes more of the sequence than it has (or than planned)",
+           ("tests/test_guiding.py::test_a_pass_renders_in_counts_the_sampler_takes_exactly",
+            "tests/test_guiding.py::test_guide_with_a_qmc_sampler_agrees_with_path")),
     Mutant("executor-rest-unchecked", "experiments/lib/execute.py",
            "    if sum(rest) != sum(schedule[index + 1:]) or any(n < 1 for n in rest):\n",
            "    if False:\n",

@@ -314,10 +314,11 @@ def render_pass(view: View, integrator, job: Job, index: int, spp: int, done: in
                 multi: bool, raw: bool) -> tuple:
     """Pass ``index`` of ``job`` (``spp`` samples after ``done``): (its image, the samples the
     sampler ran, wall seconds, CPU seconds, kernel seconds, renders that compiled). A
-    :class:`MultiPass` method's pass over the job's lane cap renders in several renders,
-    averaged (every channel: the image and its AOVs are per-pixel means)."""
+    :class:`MultiPass` method's pass renders in the renders of :meth:`.jobs.Job.render_parts`
+    (over the lane cap; a count a sequence sampler would round), averaged (every channel:
+    the image and its AOVs are per-pixel means)."""
     continues = job.method.continues_sequence
-    parts, image, k = job.split_lanes(spp) if multi else [spp], 0.0, 0
+    parts, image, k = job.render_parts(spp) if multi else [spp], 0.0, 0
     seconds = cpu = kernel = 0.0
     compiled = 0
     for j, n in enumerate(parts):

@@ -67,6 +67,19 @@ class Job:
         each (a multi-pass method's pass: :func:`.execute.render_passes`)."""
         return [min(self.lane_cap, spp - s) for s in range(0, spp, self.lane_cap)]
 
+    def render_parts(self, spp: int) -> list[int]:
+        """A multi-pass method's pass of ``spp`` samples per pixel in renders: of at most
+        :attr:`lane_cap` each (:meth:`split_lanes`), and where the sampler continues one
+        sequence and would round a render's count up (zsobol: a Sobol' net, a power of two),
+        each in powers of two, largest first, so that the pass takes exactly its samples
+        of the sequence (needs a Mitsuba variant)."""
+        parts = self.split_lanes(spp)
+        spec = self.method.sampler_spec
+        if not spec.continues_sequence:
+            return parts
+        return [p for n in parts
+                for p in ([n] if spec.rendered_count(n) == n else powers_of_two(n))]
+
     def passes(self) -> list[int]:
         """The spp of each pass of this job. A sampler that continues one sequence over the
         passes gets passes of a power of two (but the last): zsobol rounds a render's count
@@ -76,6 +89,11 @@ class Job:
         if getattr(self.method, "continues_sequence", False):
             cap = 1 << (cap.bit_length() - 1)
         return [min(cap, self.spp - s) for s in range(0, self.spp, cap)]
+
+
+def powers_of_two(n: int) -> list[int]:
+    """``n`` as a sum of distinct powers of two, largest first (its binary digits)."""
+    return [1 << b for b in range(n.bit_length() - 1, -1, -1) if n >> b & 1]
 
 
 def derive_seed(*parts) -> int:
