@@ -76,6 +76,13 @@ def training_refusals(spp: int, pixels: int, min_spp: int, min_samples: int) -> 
     return out
 
 
+def trains(spp: int, pixels: int, min_spp: int = MIN_TRAIN_SPP,
+           min_samples: int = MIN_TRAIN_SAMPLES) -> bool:
+    """Whether a job of ``spp`` samples per pixel on ``pixels`` pixels trains (at the
+    default thresholds unless given): none of :func:`training_refusals`."""
+    return not training_refusals(spp, pixels, min_spp, min_samples)
+
+
 def stops(gains: list, iteration: int) -> bool:
     """Does training stop after ``iteration`` (0 the first), given the predicted gains of
     every iteration so far (:func:`predicted_gain`, None where nothing was measured)? Yes

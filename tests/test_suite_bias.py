@@ -32,6 +32,9 @@ class FakeMethod:
     deterministic: bool = False
     learns: bool = False
 
+    def trains(self, spp, pixels):
+        return self.learns
+
 
 def renders(rng, mu, k, spp, factor=1.0):
     """k renders of spp samples per pixel: normal means, per-sample sd = mu."""
@@ -178,6 +181,24 @@ def test_a_method_that_learns_is_tested_on_its_renders_spread_not_its_pixels():
     from experiments.lib.methods import parse_method
     assert parse_method("guided+nee").learns and not parse_method("bsdf+nee").learns
     assert not parse_method("path").learns
+
+
+def test_a_learning_method_under_its_training_thresholds_is_tested_on_its_pixels():
+    """A guided job under vr_guided_path's training thresholds (256 spp and 2^20 samples)
+    learns nothing: it is bsdf+nee's estimator, its pixels independent, so its cell takes
+    the pixels' variances (many degrees of freedom) unless one of its renders trained.
+    Negative control: a cell with one render that trained takes the renders' spread."""
+    from experiments.lib.methods import parse_method
+    guided, pixels = parse_method("guided+nee"), 64 * 48
+    assert not guided.trains(269, pixels) and not guided.trains(16, pixels)
+    assert guided.trains(512, pixels) and not parse_method("bsdf+nee").trains(512, pixels)
+    image = np.zeros((48, 64, 3))
+    untrained = [[(image, 16)] * 3, [(image, 269)] * 3]
+    assert not suite_bias.trained(guided, untrained, pixels)
+    assert suite_bias.variance_kind(guided, True, False) == "pixels"
+    assert suite_bias.trained(guided, [[(image, 16)] * 3, [(image, 512)] * 3], pixels)
+    assert suite_bias.variance_kind(guided, True, True) == "renders"
+    assert suite_bias.variance_kind(guided, False, False) == "renders"    # a wider filter
 
 
 def test_a_failed_calibration_makes_the_scenes_biased_verdicts_untestable():

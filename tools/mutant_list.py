@@ -304,6 +304,14 @@ MUTANTS = [
            "a power of two: the job takes more of the sequence than it has (or than planned)",
            ("tests/test_guiding.py::test_a_pass_renders_in_counts_the_sampler_takes_exactly",
             "tests/test_guiding.py::test_guide_with_a_qmc_sampler_agrees_with_path")),
+    Mutant("bias-untrained-learner-renders", "experiments/lib/studies/suite/bias_test.py",
+           "        not (method.learns and trained) else \"renders\"\n",
+           "        not method.learns else \"renders\"\n",
+           "a learning method's cell tested on its renders' spread (few degrees of freedom) "
+           "even where no render trained and its pixels are independent (a guided cell at "
+           "269 spp flagged by one block at p = 1.9e-7 that reruns did not repeat)",
+           ("tests/test_suite_bias.py::test_a_learning_method_under_its_training_thresholds_"
+            "is_tested_on_its_pixels",)),
     Mutant("executor-rest-unchecked", "experiments/lib/execute.py",
            "    if sum(rest) != sum(schedule[index + 1:]) or any(n < 1 for n in rest):\n",
            "    if False:\n",

@@ -88,6 +88,19 @@ class Method:
         not independent estimates."""
         return self.strategy is not None and self.integrator != "vr_path"
 
+    def trains(self, spp: int, pixels: int) -> bool:
+        """Whether a job of ``spp`` samples per pixel on ``pixels`` pixels learns from its
+        own samples: never for a method that does not learn; for ``vr_guided_path`` only at
+        its default training thresholds or above (below them it is its plain counterpart's
+        estimator, :func:`integrators.guide_passes.trains`); always for another learning
+        integrator, which states no thresholds."""
+        if not self.learns:
+            return False
+        if self.integrator == "vr_guided_path":
+            from integrators import guide_passes
+            return guide_passes.trains(spp, pixels)
+        return True
+
     @property
     def plain(self) -> str | None:
         """A learning method's counterpart without the learning: the same name with the

@@ -89,12 +89,19 @@ def box_filter(path: str) -> bool:
     return bool(kinds) and all(k == "box" for k in kinds)
 
 
-def variance_kind(method, box: bool) -> str:
+def variance_kind(method, box: bool, trained: bool = True) -> str:
     """``pixels`` for the independent sampler under a box filter (each pixel an independent
     estimate), else ``renders``: a QMC sampler, a wider filter, or a method that learns
-    from the render's own samples (its pixels share the learned guide)."""
-    return "pixels" if box and method.sampler == samplers.DEFAULT and not method.learns \
-        else "renders"
+    from the render's own samples where its renders ``trained`` (its pixels share the
+    learned guide; a job under the training thresholds is its plain counterpart's
+    estimator, :meth:`.methods.Method.trains`)."""
+    return "pixels" if box and method.sampler == samplers.DEFAULT and \
+        not (method.learns and trained) else "renders"
+
+
+def trained(method, budgets: list, pixels: int) -> bool:
+    """Whether any render of ``budgets`` (lists of (image, spp)) learned from its samples."""
+    return any(method.trains(spp, pixels) for b in budgets for _, spp in b)
 
 
 def reference_chunks(refs, spec) -> np.ndarray | None:
@@ -116,7 +123,8 @@ def check_cell(method, budgets: list, chunks: np.ndarray | None, box: bool, ref_
     """The bias test of a cell: ``budgets`` its renders per budget (lists of (image, spp)),
     ``chunks`` the reference's chunk images (None: a user's EXR), ``alpha`` the cell's
     level (:func:`cell_level`)."""
-    kind = variance_kind(method, box)
+    pixels = int(np.prod(budgets[0][0][0].shape[:2])) if budgets and budgets[0] else 0
+    kind = variance_kind(method, box, trained(method, budgets, pixels))
     if method.deterministic:
         return untestable("deterministic", kind)
     if chunks is None:
