@@ -347,10 +347,11 @@ MUTANTS = [
            "applied (about one false 'biased' per 100 cells)",
            ("tests/test_suite_bias.py",)),
     Mutant("bias-learned-pixels", "experiments/lib/studies/suite/bias_test.py",
-           "    return \"pixels\" if box and method.sampler == samplers.DEFAULT and not method.learns \\",
-           "    return \"pixels\" if box and method.sampler == samplers.DEFAULT \\",
-           "a method that learns from its own samples tested on its pixels' spread (they share "
-           "the learned guide: its blocks' variances too small, false 'biased')",
+           "    return any(method.trains(spp, pixels) for b in budgets for _, spp in b)\n",
+           "    return False\n",
+           "a method that learns from its own samples tested on its pixels' spread where its "
+           "renders trained (they share the learned guide: its blocks' variances too small, "
+           "false 'biased')",
            ("tests/test_suite_bias.py",)),
     # ------------------------------------------------------------ the suite's errors
     Mutant("moments-count-missing", "experiments/lib/execute.py",
