@@ -22,6 +22,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
+from integrators import guide_passes
 from integrators import strategies as _strategies
 
 from . import samplers
@@ -97,7 +98,6 @@ class Method:
         if not self.learns:
             return False
         if self.integrator == "vr_guided_path":
-            from integrators import guide_passes
             return guide_passes.trains(spp, pixels)
         return True
 
