@@ -22,8 +22,7 @@ pass, the guide's training passes included, plus the host work between passes).
    over path's, and the training's share of guided's cost: a job's cost is split over its
    passes in proportion to their wall-clock seconds (``JobResult.pass_seconds``; the
    clock keeps kernel time per job, not per pass), the host work counted as training.
-   The passes of the last iteration are the last ``len(split(iterations(spp)[-1]))``
-   (:func:`integrators.guide_passes.iterations`, :func:`~integrators.guide_passes.split`).
+   The last iteration is the job's last render (:func:`integrators.guide_passes.renders`).
 
 ``--methods`` adds other methods at path's time the same way (e.g. ``bsdf+nee``), and
 ``--scene``/``--path-spp`` measure another scene or budget (how the suite's guiding
@@ -76,12 +75,12 @@ def reference(info, width, height, depth, spp: int, chunk: int) -> tuple[np.ndar
     return mean, floor
 
 
-def _final_share(result, spp: int) -> float:
-    """The share of a guided job's pass seconds spent in its last iteration (the
-    integrator's default ``max_pass_spp``, 64)."""
-    last = len(guide_passes.split(guide_passes.iterations(spp)[-1], 64))
+def _final_share(result) -> float:
+    """The share of a guided job's pass seconds spent in its last iteration: its last
+    render (the last iteration, and the rest of a job whose training stopped, are one
+    render each: :func:`integrators.guide_passes.renders`, ``merged_rest``)."""
     seconds = np.asarray(result.pass_seconds, float)
-    return float(seconds[-last:].sum() / seconds.sum())
+    return float(seconds[-1] / seconds.sum())
 
 
 def measure(scene: str = SCENE, width: int = WIDTH, height: int = HEIGHT,
@@ -118,7 +117,7 @@ def measure(scene: str = SCENE, width: int = WIDTH, height: int = HEIGHT,
             out[m]["relmse"].append(rel)
             out[m]["cost"].append(clock.cost(r))
             if parse_method(m).integrator == "vr_guided_path":
-                out[m]["final_share"].append(_final_share(r, counts[m]))
+                out[m]["final_share"].append(_final_share(r))
         log(f"[guiding] repeat {rep + 1}/{repeats}: " + ", ".join(
             f"{m} {counts[m]} spp relMSE {out[m]['relmse'][-1]:.3g} cost "
             f"{out[m]['cost'][-1]:.2f} s" for m in out))
