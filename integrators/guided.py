@@ -52,8 +52,8 @@ class GuidedStrategy(Strategy):
     dispatch = False
     integrator_type = "vr_guided_path"
 
-    def __init__(self, res: int = 16, max_leaves: int = 1024):
-        self.tree = SDTree(res, max_leaves)
+    def __init__(self, res: int = 16, max_leaves: int = 1024, split_share: float = 0.0):
+        self.tree = SDTree(res, max_leaves, split_share)
         #: The BSDF share per unit (an evaluated array, :meth:`set_share`).
         self.share = None
         #: Nonzero while a recorder needs p_guide at every drawn direction (share 1 too).
@@ -157,7 +157,8 @@ class GuidedStrategy(Strategy):
                           active, wo_em)
 
     def __repr__(self):
-        return f"GuidedStrategy(res={self.tree.res}, max_leaves={self.tree.max_leaves})"
+        return (f"GuidedStrategy(res={self.tree.res}, max_leaves={self.tree.max_leaves}, "
+                f"split_share={self.tree.split_share})")
 
 
 strategies.register("guided", GuidedStrategy, replace=True)

@@ -17,7 +17,7 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from . import guide_passes, strategies
+from . import guide_passes, guide_quadtree, strategies
 from .guide_record import Recorder
 from .guide_roulette import Roulette
 from .guided import GuidedStrategy
@@ -75,6 +75,14 @@ class GuidedPathIntegrator(VRPathIntegrator):
        - Bins per side of each leaf's equal-area (cos theta, phi) histogram, 2 to 64
          (res^2 bins). (Default: 16)
 
+     * - directional_split
+       - |float|
+       - Fit PPG's adaptive quadtree to each histogram (:mod:`.guide_quadtree`): a node
+         of the (cos theta, phi) square splits where it holds more than this share of
+         the unit's energy, a leaf's bins share its energy; 0 keeps every bin. Needs a
+         power-of-two ``directional_resolution``. At the records a suite job has, the
+         finer models lose to 16 x 16 raw bins (docs/guiding.md). (Default: 0)
+
      * - max_leaves
        - |int|
        - Most leaves of the spatial tree (its tables are this size), 1 to 65536.
@@ -83,7 +91,7 @@ class GuidedPathIntegrator(VRPathIntegrator):
      * - spatial_threshold
        - |float|
        - A leaf splits after an iteration in which it received more than
-         ``spatial_threshold * sqrt(2^k)`` records (k the iteration). (Default: 4000)
+         ``spatial_threshold * sqrt(2^k)`` records (k the iteration). (Default: 1000)
 
      * - record_depth
        - |int|
@@ -131,8 +139,16 @@ class GuidedPathIntegrator(VRPathIntegrator):
         ``__init__``), made once: the registry's own would be thrown away."""
         if strategies.integrator_type(name) != "vr_guided_path":
             return strategies.get(name)
-        return GuidedStrategy(_number(props, "directional_resolution", 16, 2, 64),
-                              _number(props, "max_leaves", 1024, 1, 65536))
+        res = _number(props, "directional_resolution", 16, 2, 64)
+        split = _number(props, "directional_split", 0.0, 0.0, 1.0, float)
+        if split > 0:
+            try:
+                guide_quadtree.levels(res)
+            except ValueError:
+                raise ValueError(f"vr_guided_path: 'directional_split' {split} needs a "
+                                 f"power-of-two 'directional_resolution' (2, 4, 8, 16, 32 "
+                                 f"or 64), got {res}") from None
+        return GuidedStrategy(res, _number(props, "max_leaves", 1024, 1, 65536), split)
 
     def __init__(self, props: mi.Properties):
         if "strategy" not in props:
@@ -148,7 +164,7 @@ class GuidedPathIntegrator(VRPathIntegrator):
         # None: learned per unit (sdtree.SDTree.choose_shares)
         self.bsdf_fraction = (number("bsdf_fraction", 0.5, 0.1, 1.0, float)
                               if "bsdf_fraction" in props else None)
-        self.spatial_threshold = number("spatial_threshold", 4000.0, 1.0, 1e12, float)
+        self.spatial_threshold = number("spatial_threshold", 1000.0, 1.0, 1e12, float)
         self.record_depth = number("record_depth", 4, 1, 32)
         self.max_pass_spp = number("max_pass_spp", 64, 1, 1 << 20)
         self.first_pass_spp = number("first_pass_spp", 2, 2, 1 << 20)

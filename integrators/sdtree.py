@@ -5,9 +5,11 @@ bounding box, each level halving its node along x, y, z in turn (PPG's rule), a 
 between training passes when it received more than ``threshold`` records (and again, as
 if its records halved with each split, up to :data:`MAX_DEPTH` levels). Directions: per
 leaf and normal class (a *unit*, :data:`CLASSES`) an equal-area histogram of
-``res x res`` bins (:mod:`.guide_warps`), rebuilt from the pass's records (a unit with
-fewer than :data:`MIN_RECORDS` keeps its previous histogram; children start with their
-parent's; :func:`blur` smooths the energies when :data:`SMOOTH` is on).
+``res x res`` bins (:mod:`.guide_warps`), fitted after each iteration to every record the
+unit has received (:data:`POOLED`; a unit with fewer than :data:`MIN_RECORDS` keeps its
+previous histogram; children start with their parent's) by :mod:`.guide_quadtree`
+(PPG's adaptive quadtree, flattened onto the bins; ``split_share`` 0: the raw bins;
+:func:`blur` smooths the energies when :data:`SMOOTH` is on).
 
 The tree lives on the host as numpy arrays of **fixed maximum sizes** (``max_leaves``
 leaves, ``2 max_leaves`` nodes), refined there, and uploaded as evaluated Dr.Jit arrays:
@@ -21,7 +23,7 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from . import guide_warps
+from . import guide_quadtree, guide_warps
 
 #: Levels of the spatial tree (6 splits per axis at most): the kernel finds a point's leaf
 #: in a grid of ``2^(MAX_DEPTH / 3)`` cells per axis that the host fills from the tree.
@@ -46,6 +48,11 @@ PRIOR_SHARE = 1.0
 #: Smooth each new histogram's energy with :func:`blur` (off: the raw records' shares, as
 #: the tests of what the records hold need).
 SMOOTH = False
+#: Pool every iteration's records (a unit's histogram is fitted to all the records it has
+#: received, a split leaf's children each starting with half of its sums), instead of the
+#: last iteration's alone (PPG): the earlier records are fewer and from worse guides, but
+#: weighted by their own densities they estimate the same radiance (docs/guiding.md).
+POOLED = True
 
 
 def blur(energy: np.ndarray, res: int) -> np.ndarray:
@@ -64,11 +71,13 @@ def blur(energy: np.ndarray, res: int) -> np.ndarray:
 
 class SDTree:
     """Host tree + device tables. ``res``: bins per side of a leaf's histogram;
-    ``max_leaves``: the spatial budget (splits stop when it is spent). The directional
+    ``max_leaves``: the spatial budget (splits stop when it is spent); ``split_share``:
+    :func:`.guide_quadtree.density`'s (0: the raw bins). The directional
     tables have a row per *unit*: ``leaf * CLASSES + normal class``."""
 
-    def __init__(self, res: int = 16, max_leaves: int = 1024):
+    def __init__(self, res: int = 16, max_leaves: int = 1024, split_share: float = 0.0):
         self.res, self.bins, self.max_leaves = res, res * res, max_leaves
+        self.split_share = split_share
         self.max_units = max_leaves * CLASSES
         self.max_nodes = 2 * max_leaves
         self.child = np.zeros(self.max_nodes, np.uint32)     # first child (0: a leaf)
@@ -78,6 +87,9 @@ class SDTree:
         self.prob = np.full((self.max_units, self.bins), 1.0 / self.bins)
         self.learned = np.zeros(self.max_units, bool)        # has a histogram from records
         self.share = np.ones(self.max_units)                 # BSDF share per unit
+        # per unit: the energy and records of every iteration so far (:data:`POOLED`)
+        self.kept_energy = np.zeros((self.max_units, self.bins))
+        self.kept_counts = np.zeros(self.max_units)
         # per unit: the radiance reflected after the vertex's NEE and by its NEE, per unit
         # throughput (the roulette's estimate; -1: none yet)
         self.reflected = np.full((self.max_units, 2), -1.0)
@@ -271,11 +283,18 @@ class SDTree:
         moments = self._prefix(self.moments, mi.Float, rows * (len(SHARES) + 1))
         moments = moments.astype(np.float64).reshape(rows, -1)
         energy = np.where(np.isfinite(energy) & (energy > 0), energy, 0.0)
+        if POOLED:
+            energy = energy + self.kept_energy[:rows]
+            pooled = counts + self.kept_counts[:rows]
+            self.kept_energy[:rows], self.kept_counts[:rows] = energy, pooled
+        else:
+            pooled = counts
         total = energy.sum(axis=1)
         fresh = np.zeros(self.max_units, bool)
-        fresh[:rows] = (counts >= MIN_RECORDS) & (total > 0)
+        fresh[:rows] = (pooled >= MIN_RECORDS) & (total > 0)
         learned = energy[fresh[:rows]]
         learned = blur(learned, self.res) if SMOOTH else learned
+        learned = guide_quadtree.density(learned, self.res, self.split_share)
         self.prob[fresh] = learned / learned.sum(axis=1, keepdims=True)
         was_learned = self.learned.copy()
         self.learned |= fresh
@@ -313,12 +332,14 @@ class SDTree:
             first, old = self.nodes, int(self.leaf[node])
             self.child[node] = first
             parent = slice(old * CLASSES, (old + 1) * CLASSES)
+            kept = 0.5 * self.kept_energy[parent], 0.5 * self.kept_counts[parent]
             for k, leaf in enumerate((old, self.leaves)):
                 self.child[first + k] = 0
                 self.leaf[first + k] = leaf
                 self.depth[first + k] = self.depth[node] + 1
                 units = slice(leaf * CLASSES, (leaf + 1) * CLASSES)
                 self.prob[units] = self.prob[parent]
+                self.kept_energy[units], self.kept_counts[units] = kept
                 self.learned[units] = self.learned[parent]
                 self.share[units] = self.share[parent]
                 self.reflected[units] = self.reflected[parent]

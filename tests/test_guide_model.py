@@ -1,0 +1,133 @@
+"""The guide's directional model (integrators/guide_quadtree.py, the pooling of
+integrators/sdtree.py): the adaptive quadtree against a recursive oracle and on known
+fields, and the records of every iteration pooled into a unit's histogram."""
+import drjit as dr
+import mitsuba as mi
+import numpy as np
+import pytest
+
+from integrators import guide_quadtree, guide_warps, sdtree
+
+
+def oracle(energy: np.ndarray, res: int, share: float) -> tuple[np.ndarray, int]:
+    """PPG's quadtree written as a recursion over nodes: (the density per bin, leaves)."""
+    grid = energy.reshape(res, res)
+    total, out, leaves = grid.sum(), np.zeros((res, res)), 0
+
+    def visit(i, j, side):
+        nonlocal leaves
+        block = grid[i:i + side, j:j + side]
+        if side == 1 or block.sum() <= share * total:
+            out[i:i + side, j:j + side] = block.sum() / (side * side)
+            leaves += 1
+            return
+        half = side // 2
+        for di in (0, half):
+            for dj in (0, half):
+                visit(i + di, j + dj, half)
+    visit(0, 0, res)
+    return out.ravel(), leaves
+
+
+def lumpy(rng, rows, res):
+    """Rows of energies with a few bright lumps over a dim, partly empty background."""
+    e = rng.exponential(0.01, (rows, res * res)) * (rng.random((rows, res * res)) < 0.7)
+    for r in range(rows):
+        e[r, rng.integers(0, res * res, 3)] += rng.exponential(5.0, 3)
+    return e
+
+
+@pytest.mark.parametrize("res,share", [(16, 0.01), (32, 0.01), (32, 0.05), (8, 0.2)])
+def test_quadtree_matches_a_recursive_oracle(res, share):
+    rng = np.random.default_rng(res)
+    energy = lumpy(rng, 6, res)
+    got = guide_quadtree.density(energy, res, share)
+    counts = guide_quadtree.leaf_count(energy, res, share)
+    for r in range(len(energy)):
+        want, leaves = oracle(energy[r], res, share)
+        np.testing.assert_allclose(got[r], want, rtol=1e-12, atol=1e-15)
+        assert counts[r] == leaves
+    # each row keeps its total; share 0 is the raw histogram
+    np.testing.assert_allclose(got.sum(axis=1), energy.sum(axis=1), rtol=1e-12)
+    np.testing.assert_allclose(guide_quadtree.density(energy, res, 0.0), energy)
+
+
+def test_quadtree_refines_where_the_energy_is():
+    """All the energy in one bin: the tree descends to it alone (3 leaves per level and
+    the bin), which keeps all of it; a uniform field at share 0.01 stops at the first level
+    whose nodes hold at most 1% (4^-4 = 0.4%: 256 leaves of 4 bins), uniform."""
+    res = 32
+    one = np.zeros((1, res * res))
+    one[0, 17 * res + 5] = 2.0
+    d = guide_quadtree.density(one, res, 0.01)
+    assert d[0, 17 * res + 5] == 2.0 and d.sum() == 2.0
+    assert guide_quadtree.leaf_count(one, res, 0.01)[0] == 3 * 5 + 1
+    flat = np.ones((1, res * res))
+    assert guide_quadtree.leaf_count(flat, res, 0.01)[0] == 256
+    np.testing.assert_allclose(guide_quadtree.density(flat, res, 0.01), flat)
+
+
+def test_quadtree_pools_a_noisy_dim_region_and_keeps_a_bright_one():
+    """Records of a field with a bright lobe: in the dim region the tree averages the
+    noisy bins (its error against the field's own bin shares is well below the raw
+    bins'), in the lobe it keeps the bins (its error there within 10% of theirs: a few
+    merged bins at the lobe's edge)."""
+    res, n = 32, 20_000
+    rng = np.random.default_rng(3)
+    z, phi = rng.uniform(-1, 1, n), rng.uniform(0, 2 * np.pi, n)
+    d = np.stack([np.sqrt(1 - z ** 2) * np.cos(phi), np.sqrt(1 - z ** 2) * np.sin(phi), z], 1)
+    axis = np.array([0.0, 0.6, 0.8])
+    field = 1 + 400 * np.maximum(d @ axis, 0) ** 64
+    records = np.bincount(guide_warps.direction_to_bin_np(d, res), field, res * res)[None]
+    m = 8 * res         # the field's bin shares by a fine midpoint quadrature
+    zz = np.repeat((np.arange(m) + 0.5) / m * 2 - 1, m)
+    pp = np.tile((np.arange(m) + 0.5) / m * 2 * np.pi, m)
+    q = np.stack([np.sqrt(1 - zz ** 2) * np.cos(pp), np.sqrt(1 - zz ** 2) * np.sin(pp), zz], 1)
+    truth = np.bincount(guide_warps.direction_to_bin_np(q, res), 1 + 400 * np.maximum(
+        q @ axis, 0) ** 64, res * res)
+    truth /= truth.sum()
+    raw = records[0] / records.sum()
+    fitted = guide_quadtree.density(records, res, 0.01)[0] / records.sum()
+    dim = truth < 2.0 / (res * res)
+    assert np.abs(fitted - truth)[dim].sum() < 0.6 * np.abs(raw - truth)[dim].sum()
+    assert np.abs(fitted - truth)[~dim].sum() <= 1.1 * np.abs(raw - truth)[~dim].sum()
+
+
+def test_quadtree_needs_a_power_of_two():
+    with pytest.raises(ValueError, match="power-of-two resolution, got 24"):
+        guide_quadtree.density(np.ones((1, 24 * 24)), 24)
+
+
+def add_records(tree, unit, bins, values, count):
+    """``count`` records of ``values`` (per bin of ``bins``) in ``unit``."""
+    dr.scatter_add(tree.energy, mi.Float(values), mi.UInt32(unit * tree.bins + bins))
+    dr.scatter_add(tree.counts, mi.UInt32(count), mi.UInt32([unit]))
+
+
+@pytest.mark.parametrize("pooled", [True, False])
+def test_every_iteration_s_records_are_pooled(pooled, monkeypatch):
+    """Two iterations' records in a unit: with pooling its histogram is fitted to both
+    (A + B), without it to the last (B); a leaf that splits hands each child half of its
+    sums, so a child with few new records still learns from the old ones."""
+    monkeypatch.setattr(sdtree, "POOLED", pooled)
+    res = 4
+    tree = sdtree.SDTree(res, 4, split_share=0.0)
+    a, b = np.zeros(res * res), np.zeros(res * res)
+    a[3], b[3], b[9] = 6.0, 2.0, 4.0
+    add_records(tree, 0, np.arange(res * res), a, 100)
+    tree.refine(threshold=1e12)
+    add_records(tree, 0, np.arange(res * res), b, 100)
+    tree.refine(threshold=50)                    # leaf 0 splits: 100 records > 50
+    want = (a + b) / (a + b).sum() if pooled else b / b.sum()
+    np.testing.assert_allclose(tree.prob[0], want, rtol=1e-12)
+    assert tree.leaves == 2
+    # the new leaf's unit 0 (leaf 1, class 0): 10 new records of c, too few alone
+    c = np.zeros(res * res)
+    c[0] = 1.0
+    add_records(tree, sdtree.CLASSES, np.arange(res * res), c, 10)
+    tree.refine(threshold=1e12)
+    got = tree.prob[sdtree.CLASSES]
+    if pooled:       # half of the pooled sums and the new records: 110 >= MIN_RECORDS
+        np.testing.assert_allclose(got, (0.5 * (a + b) + c) / (0.5 * (a + b) + c).sum())
+    else:            # 10 records: the parent's histogram kept
+        np.testing.assert_allclose(got, want)
