@@ -7,6 +7,7 @@ import os
 import re
 import xml.etree.ElementTree as ET
 
+import drjit as dr
 import mitsuba as mi
 import numpy as np
 import pytest
@@ -24,7 +25,8 @@ SUITE = scenes.suite_names()
 METHODS = (list(STRATEGIES) + [f"{s}+nee" for s in STRATEGIES]
            + ["guided+nee", "bsdf+nee+independent", "path"])
 #: The suite scenes that isolate what path guiding is for (their header's methods).
-GUIDING = ("suite/door_room.xml", "suite/glossy_indirect.xml", "suite/hidden_lamp.xml")
+GUIDING = ("suite/door_room.xml", "suite/glossy_indirect.xml", "suite/hidden_lamp.xml",
+           "suite/sunlit_room.xml")
 #: The $ parameters every suite scene declares with a <default> (the suite sets them).
 PARAMETERS = ("width", "height", "spp", "max_depth", "strategy", "emitter_sampling",
               "sampler")
@@ -278,11 +280,12 @@ HIDDEN = {
 }
 
 
-def light_samples_reaching(file: str, width=48, height=36, per_pixel=64):
+def light_samples_reaching(file: str, width=48, height=36, per_pixel=64, **params):
     """First hits of the camera's pixel-centre rays, and per pixel whether any of
     ``per_pixel`` light samples from the hit (Mitsuba's emitter sampling, visibility
-    tested) carries light: (x, y, z, reached), each (height, width)."""
-    scene = mi.load_file(file, width=width, height=height)
+    tested) carries light: (x, y, z, reached), each (height, width). ``params``: the
+    scene's parameters."""
+    scene = mi.load_file(file, width=width, height=height, **params)
     sensor = scene.sensors()[0]
     px = np.repeat(np.arange(width * height), per_pixel)
     u = ((px % width) + 0.5) / width
@@ -308,3 +311,23 @@ def test_light_samples_from_the_room_never_reach_the_light(name):
     assert room.mean() > 0.4, "the camera sees the hidden region"
     assert not reached[room].any(), f"{reached[room].sum()} room pixels see the light"
     assert seen.any() and reached[seen].mean() > 0.5, "the lit region is seen and lit"
+
+
+def test_the_sunlit_room_s_camera_sees_no_sunlit_point():
+    """sunlit_room's premise: no point the camera sees gets a sun sample through (the sky
+    turned off, every light sample is the sun's), while the patch of floor behind the
+    camera does (positive control: its points, lit through the window)."""
+    file = scenes.path("suite/sunlit_room.xml")
+    *_, reached = light_samples_reaching(file, sky_radiance=0.0)
+    assert not reached.any(), f"{reached.sum()} pixels see sunlit points"
+    scene = mi.load_file(file, sky_radiance=0.0)
+    rng = np.random.default_rng(2)
+    n = 256
+    si = dr.zeros(mi.SurfaceInteraction3f, n)
+    si.p = mi.Point3f(rng.uniform(0.3, 0.8, n), np.full(n, 1e-3), rng.uniform(1.4, 1.7, n))
+    si.n = mi.Normal3f(0, 1, 0)
+    si.sh_frame = mi.Frame3f(si.n)
+    _, weight = scene.sample_emitter_direction(
+        si, mi.Point2f(*(rng.random(n).astype(np.float32) for _ in range(2))), True)
+    # half the samples pick the (dark) sky: every sun sample gets through
+    assert (np.array(weight).max(axis=0) > 0).mean() > 0.4
