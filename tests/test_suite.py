@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 
 import scenes
-from experiments.lib import counts, metrics, stats
+from experiments.lib import counts, methods, metrics, stats
+from experiments.lib import engine as engine_module
 from experiments.lib.engine import Engine, Planned
 from experiments.lib.studies.suite import analysis as A
 from experiments.lib.studies.suite import declare
@@ -364,10 +365,12 @@ def test_equal_time_count_is_the_budgets_power_of_two(tmp_path):
 
 def test_a_learning_methods_equal_time_count_comes_from_its_pilot(tmp_path, monkeypatch):
     """guided+nee's equal-spp renders are too short to train and cost what BSDF sampling
-    costs; its equal-time count comes from one pilot render at the count they give (stored,
-    in no comparison), which trains and costs 2.5 times as much per sample here: 0.4 of the
-    count, not rounded to a power of two. A method that does not learn renders no pilot.
-    The engine decides it (:meth:`.Engine.count`), for the suite as for every study."""
+    costs; its equal-time count comes from one pilot render (stored, in no comparison) at
+    the count they give over LEARNER_COST (the same training decision at both counts),
+    which costs 2.5 times as much per sample here: 0.4 of the count, not rounded to a power
+    of two. A method that does not learn renders no pilot. The engine decides it
+    (:meth:`.Engine.count`), for the suite as for every study. Where the smaller count
+    would not train and the count would, the pilot renders the count itself."""
     cfg = S.settings(S.parse(["--quick", "--spp", "16", "--time-budget", "0.1",
                               "--methods", "path,bsdf+nee,guided+nee", "--scenes",
                               scenes.path("suite/cbox.xml"), "--out", str(tmp_path)]))
@@ -389,9 +392,16 @@ def test_a_learning_methods_equal_time_count_comes_from_its_pilot(tmp_path, monk
            for slot in engine.slots(decl) if slot.method.name in ("bsdf+nee", "guided+nee")}
     assert got["bsdf+nee"] == 64 * scale
     assert got["guided+nee"] == int(0.1 * scale / (per_sample * 2.5)) != 32 * scale
-    assert [(j.method.name, j.spp) for j in rendered] == [("guided+nee", 64 * scale)]
+    assert [(j.method.name, j.spp) for j in rendered] == \
+        [("guided+nee", int(64 * scale / engine_module.LEARNER_COST))]
     assert rendered[0].key.startswith("suite/cbox/guided_nee/equal-time/pilot-")
     assert rendered[0].pilot
+    # the training thresholds between the two counts: the pilot at the count itself
+    monkeypatch.setattr(methods.Method, "trains", lambda self, spp, pixels: spp >= 100)
+    rendered.clear()
+    slot = next(s for s in engine.slots(decl) if s.method.name == "guided+nee")
+    engine.count(decl, time_budget, slot, planned)
+    assert [j.spp for j in rendered] == [64 * scale]
 
 
 def test_a_learning_methods_equal_time_count_is_not_rounded_to_a_power_of_two(tmp_path):

@@ -322,6 +322,14 @@ MUTANTS = [
            "every bin of a quadtree leaf gets the leaf's whole energy (coarse leaves weigh "
            "their bins' count times too much)",
            ("tests/test_guide_model.py::test_quadtree_matches_a_recursive_oracle",)),
+    Mutant("pilot-halved-across-training", "experiments/lib/engine.py",
+           "        if slot.method.trains(fewer, pixels) == slot.method.trains(spp, pixels):\n",
+           "        if True:\n",
+           "a learning method's pilot at half the count even where that count does not "
+           "train while the job does: its plain cost per sample would give the job about "
+           "twice its time",
+           ("tests/test_suite.py::test_a_learning_methods_equal_time_count_comes_from_its_"
+            "pilot",)),
     Mutant("bias-untrained-learner-renders", "experiments/lib/studies/suite/bias_test.py",
            "        not (method.learns and trained) else \"renders\"\n",
            "        not method.learns else \"renders\"\n",

@@ -43,6 +43,11 @@ from .names import one_line
 from .plan import job_name
 from .references import MIN_CHUNKS
 from .store import STORE_DIR, JobStore, ReplayError
+
+#: About how many times plain BSDF sampling's cost per sample a learning method's render
+#: that trains costs (the guide: 1.6 to 2.4 on the suite's guiding scenes, training
+#: included): its pilot's count is the plain count over this (:meth:`Engine.pilot`).
+LEARNER_COST = 2.0
 from .study import Study, repeat_prefix
 
 
@@ -153,15 +158,22 @@ class Engine:
 
     def pilot(self, declaration: Declaration, budget: Budget, slot: Slot, spp: int,
               seconds: float) -> int:
-        """A learning method's equal-time count (:attr:`.methods.Method.learns`): ``spp``
-        (what its earlier renders' cost per sample gives) is rendered once as a pilot, kept
-        in the store and in no comparison, and the count is the one that costs ``seconds``
-        at the pilot's cost per sample, exact (:mod:`.counts`). Renders too short to train
-        cost what plain BSDF sampling costs, while a render that trains records, refines
-        and guides: at their cost per sample its equal-time render would take about twice
-        the budget. The pilot renders once (:attr:`.jobs.Job.pilot`), not again warm: the
-        view its short renders warmed did not train, so its kernels compile in it."""
+        """A learning method's equal-time count (:attr:`.methods.Method.learns`): a pilot
+        render, kept in the store and in no comparison, and the count that costs
+        ``seconds`` at the pilot's cost per sample, exact (:mod:`.counts`). ``spp`` (what
+        its earlier renders' cost per sample gives) is too many where the job trains: those
+        renders were too short to train and cost what plain BSDF sampling costs, while a
+        render that trains records, refines and guides, at about
+        :data:`LEARNER_COST` times the cost per sample. So the pilot renders ``spp /``
+        :data:`LEARNER_COST` samples (nearer the count it finds, at half the time) where
+        that count trains as ``spp`` would (:meth:`.methods.Method.trains`), else ``spp``.
+        It renders once (:attr:`.jobs.Job.pilot`), not again warm: the view its short
+        renders warmed did not train, so its kernels compile in it."""
         cell = slot.cell(budget.name)
+        pixels = slot.setup.resolution[0] * slot.setup.resolution[1]
+        fewer = max(1, int(spp / LEARNER_COST))
+        if slot.method.trains(fewer, pixels) == slot.method.trains(spp, pixels):
+            spp = fewer
         job = self.study.job(f"{declaration.key(declaration, cell)}/pilot", slot.method, spp,
                              pilot=True,
                              sample_moments=declaration.moments(slot.method, slot.setup),
