@@ -63,6 +63,36 @@ def test_quick_run_writes_the_report(quick_run):
         assert 1 <= len(s["sentences"]) <= 3 and len(" ".join(s["sentences"]).split()) <= 80
 
 
+def test_the_findings_open_with_a_table_of_every_scene(quick_run):
+    """The findings box opens with one row per scene (winner or tied set, the best
+    method's efficiency over the baseline, flagged methods, untestable cells), each
+    following from the scene's own verdicts in summary.json, and the matrix figure; a
+    reason that repeats across cells is one count, its table linked."""
+    out, summary = quick_run, _summary(quick_run)
+    table = summary["findings_table"]
+    assert table["header"][0] == "scene" and table["figure"] == "suite/matrix.png"
+    cells = {(c["scene"], c["method"]): c for c in summary["cells"]
+             if c["budget"] == "equal_time"}
+    tested = (out / "suite" / "bias_test.csv").read_text().splitlines()[1:]
+    for row, scene in zip(table["rows"], summary["scenes"]):
+        name, best, ratio, flagged, untestable = row
+        assert name == scene["name"]
+        lead = scene["winner"] or scene["ties"][0]
+        assert best == (scene["winner"] or best) and lead in best
+        c = cells[(name, lead)]
+        assert ratio.startswith(f"{c['efficiency']:.3g}"[:3]) or c["efficiency_bound"]
+        assert flagged == (", ".join(scene["biased"]) or "none")
+        assert untestable == sum(line.split(",")[0] == name and line.split(",")[2] ==
+                                 "untestable" for line in tested)
+    page = (out / "index.html").read_text()
+    box = page[page.index('class="findings"'):page.index("<nav>")]
+    assert box.index("<table>") < box.index("<ul>") and 'src="suite/matrix.png"' in box
+    bias = [f for f in summary["findings"] if f.startswith("Bias test")]
+    if "untestable" in bias[0]:
+        assert "each cell in suite/bias_test.csv" in bias[0]
+        assert '<a href="suite/bias_test.csv">' in box
+
+
 def test_quick_run_numbers_follow_from_each_other(quick_run):
     summary = _summary(quick_run)
     cells = {(c["scene"], c["method"], c["budget"]): c for c in summary["cells"]}

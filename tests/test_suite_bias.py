@@ -215,3 +215,33 @@ def test_a_failed_calibration_makes_the_scenes_biased_verdicts_untestable():
         assert out["mine"].status == "untestable" and out["mine"].reason == "calibration"
         assert out["mine"].delta == (0.1,) and out["other"].status == "unbiased"
     assert suite_bias.calibrated({"mine": bad}, "path")["mine"].status == "biased"
+
+
+def test_untestable_cells_are_counted_by_reason_and_their_table_named():
+    """The findings' bias sentence counts the untestable cells by reason (one count per
+    reason, however many cells share it) and names the table of every cell, which the
+    report links; no cell is listed by name."""
+    from types import SimpleNamespace
+    from experiments.lib.studies.suite import bias_report
+    cells = {f"m{i}": SimpleNamespace(block_bias=suite_bias.untestable("heavy_tails"))
+             for i in range(7)}
+    cells["d"] = SimpleNamespace(block_bias=suite_bias.untestable("deterministic"))
+    cells["ok"] = SimpleNamespace(block_bias=suite_bias.CellBias("unbiased"))
+    results = [SimpleNamespace(name="a", cells=cells, power=None),
+               SimpleNamespace(name="b", cells={"m0": cells["m0"]}, power=None)]
+    text = bias_report.bias_finding(results)
+    assert "untestable: 9 of 10 cells: " in text
+    assert f"{bias_report.UNTESTABLE['heavy_tails']}: 8" in text
+    assert f"{bias_report.UNTESTABLE['deterministic']}: 1" in text
+    assert text.count(bias_report.UNTESTABLE["heavy_tails"]) == 1 and "m3" not in text
+    assert f"each cell in {bias_report.BIAS_TABLE}" in text
+
+
+def test_a_file_named_in_a_finding_is_linked_where_it_exists(tmp_path):
+    from experiments.lib import report
+    (tmp_path / "suite").mkdir()
+    (tmp_path / "suite" / "bias_test.csv").write_text("x\n")
+    html = report._linked("see suite/bias_test.csv, not suite/none.csv <b>", str(tmp_path))
+    assert '<a href="suite/bias_test.csv">suite/bias_test.csv</a>' in html
+    assert "suite/none.csv" in html and 'href="suite/none.csv"' not in html
+    assert "&lt;b&gt;" in html

@@ -14,6 +14,7 @@ import datetime
 import html
 import os
 import platform
+import re
 import resource
 
 from . import store
@@ -256,20 +257,51 @@ def _files_html(files: list[str]) -> str:
 #: A study's ``summary.json`` may hold a list of sentences under this key: the report shows
 #: them in a findings box at the top of the page (computed from the data by the study).
 FINDINGS_KEY = "findings"
+#: ... and under this one a table that opens the box (``{"header": [...], "rows": [[...]],
+#: "figure": path under the output folder or ""}``), the figure beneath it.
+FINDINGS_TABLE_KEY = "findings_table"
+#: A file named in a finding (a path under the output folder) becomes a link.
+_FILE = re.compile(r"\b[\w.-]+(?:/[\w.-]+)*\.(?:csv|md|json|png|pdf|html)\b")
+
+
+def _linked(sentence: str, out: str) -> str:
+    """``sentence`` escaped, each path in it of a file under ``out`` a link to it."""
+    parts, last = [], 0
+    for match in _FILE.finditer(sentence):
+        if not os.path.isfile(os.path.join(out, match.group(0))):
+            continue
+        parts += [_esc(sentence[last:match.start()]),
+                  f'<a href="{_esc(match.group(0))}">{_esc(match.group(0))}</a>']
+        last = match.end()
+    return "".join(parts) + _esc(sentence[last:])
+
+
+def _findings_table(table: dict) -> str:
+    """A findings box's opening table and figure (:data:`FINDINGS_TABLE_KEY`)."""
+    head = "".join(f"<th>{_esc(h)}</th>" for h in table.get("header", []))
+    rows = "".join("<tr>" + "".join(f"<td>{_esc(v)}</td>" for v in row) + "</tr>"
+                   for row in table.get("rows", []))
+    figure = table.get("figure") or ""
+    img = (f'<p><a href="{_esc(figure)}"><img src="{_esc(figure)}" alt="{_esc(figure)}" '
+           f'style="max-width:100%"></a></p>' if figure else "")
+    return f"<table><thead><tr>{head}</tr></thead><tbody>{rows}</tbody></table>{img}"
 
 
 def findings_html(out: str, sections: list[dict]) -> str:
     """The findings boxes of every section whose ``<out>/<name>/summary.json`` has
-    :data:`FINDINGS_KEY`, in section order."""
+    :data:`FINDINGS_KEY`, in section order: its :data:`FINDINGS_TABLE_KEY` table and
+    figure first, then the sentences (files they name linked)."""
     boxes = []
     for section in sections:
         summary = read_json(os.path.join(out, section["name"], "summary.json"), {})
         items = summary.get(FINDINGS_KEY) if isinstance(summary, dict) else None
         if not items:
             continue
-        rows = "".join(f"<li>{_esc(item)}</li>" for item in items)
+        table = summary.get(FINDINGS_TABLE_KEY)
+        rows = "".join(f"<li>{_linked(item, out)}</li>" for item in items)
         boxes.append(f'<div class="findings"><h2>Findings: {_esc(section["title"])}</h2>'
-                     f'<ul>{rows}</ul><p class="note">Computed from the data '
+                     + (_findings_table(table) if isinstance(table, dict) else "")
+                     + f'<ul>{rows}</ul><p class="note">Computed from the data '
                      f'(<a href="{_esc(section["name"])}/summary.json">'
                      f'{_esc(section["name"])}/summary.json</a>); details in '
                      f'<a href="#{_esc(section["name"])}">its section</a>.</p></div>')

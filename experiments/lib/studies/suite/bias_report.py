@@ -3,9 +3,11 @@ box's sentence, each scene's power sentence, the per-cell table."""
 from __future__ import annotations
 
 import math
+from collections import Counter
 
 from ... import prose
 from . import analysis, bias_test
+from .declare import NAME
 
 
 def names(methods, limit: int = 4) -> str:
@@ -28,7 +30,8 @@ BIAS_FINDING = (
     "Bias test (every cell against its scene's reference, per {{ block }}x{{ block }} block "
     "and channel and pooled over the image, Welch, {{ level | pct }} family-wise over the run): "
     "{% if flagged %}BIASED: {{ flagged | join('; ') }}{% else %}no method flagged{% endif %}"
-    "{% if untestable %}; untestable: {{ untestable }}{% endif %}"
+    "{% if untestable %}; untestable: {{ untestable }} (each cell in "
+    "{{ table }}){% endif %}"
     "{% if powers %}; smallest bias detected 90% of the time: {{ powers | join(', ') }}"
     "{% endif %}.")
 POWER = ("Its bias test detects a uniform bias of {{ power }} about 90% of the time "
@@ -68,16 +71,20 @@ def bias_finding(results: list) -> str:
         return ""
     flagged = [f"{m} on {n} (pooled difference {max(b.delta, key=abs):+.2%}, "
                f"{b.flagged_blocks} blocks)" for n, m, b in tested if b.status == "biased"]
-    untestable = [f"{m} on {n}: {UNTESTABLE[b.reason]}" for n, m, b in tested
-                  if b.status == "untestable"]
+    reasons = Counter(b.reason for _, _, b in tested if b.status == "untestable")
+    untestable = (f"{sum(reasons.values())} of {len(tested)} cells: " + "; ".join(
+        f"{UNTESTABLE[reason]}: {count}" for reason, count in reasons.most_common())
+        if reasons else "")
     powers = [f"{r.name} {pct2(r.power)}" + (" (indicative only: heavy tails)"
                                              if power_indicative(r) else "")
               for r in results if r.power is not None]
     return prose.say(BIAS_FINDING, block=tested[0][2].block, level=bias_test.LEVEL,
-                     flagged=flagged, untestable=names(untestable, 6) if untestable else "",
-                     powers=powers)
+                     flagged=flagged, untestable=untestable, powers=powers,
+                     table=BIAS_TABLE)
 
 
+#: The bias test's table of every cell (under the output folder), which the findings name.
+BIAS_TABLE = f"{NAME}/bias_test.csv"
 BLOCK_HEADER = ["scene", "method", "biased", "why untestable", "variance",
                 "detectable bias", "pooled difference", "smallest block p", "block level",
                 "pooled p", "pooled level", "flagged blocks", "ruled by one sample"]

@@ -15,7 +15,7 @@ import numpy as np
 
 from ... import figures, files, metrics, references, report, stats
 from ...declaration import Cell
-from . import analysis, bias_test, declare, words
+from . import analysis, bias_report, bias_test, declare, words
 from .bias_report import BLOCK_HEADER, bias_words, block_bias_rows
 from .declare import NAME, ORDER, TIME, TITLE
 
@@ -244,8 +244,16 @@ def write(cfg, st, plans, outcomes: list[SceneOutcome], measured, timer,
     scales = {sp.name: measured.scales[(sp.name, None, TIME)] for sp in plans
               if measured is not None and (sp.name, None, TIME) in measured.scales}
     found = words.findings(list(results.values()), failed)
-    blocks = [report.text(words.intro(cfg, plans, scales)),
-              report.text("Findings (also at the top of the report): " + " ".join(found))]
+    blocks = [report.text(words.intro(cfg, plans, scales))]
+    if results:
+        blocks.append(report.write_table(
+            cfg.out, f"{NAME}/findings", words.table_header(cfg.baseline.name),
+            words.findings_table(list(results.values())),
+            "Findings per scene (also at the top of the report): the winner at equal time "
+            "or the methods that cannot be told apart, the best method's efficiency over "
+            f"{cfg.baseline} [{stats.LEVEL:.0%} interval], the methods the bias test "
+            f"flags, the cells it cannot test (why: {bias_report.BIAS_TABLE})"))
+    blocks.append(report.text("Findings (also at the top of the report): " + " ".join(found)))
     if results:
         blocks += matrix_blocks(cfg, outcomes)
     for o in outcomes:
@@ -344,7 +352,12 @@ def summary_of(cfg, outcomes: list[SceneOutcome], found: list, failed: dict, tim
     """summary.json: the findings, every scene's verdicts and every cell."""
     results = {o.plan.name: o.result for o in outcomes}
     return {
-        "findings": found, "baseline": cfg.baseline.name,
+        "findings": found,
+        report.FINDINGS_TABLE_KEY: {
+            "header": words.table_header(cfg.baseline.name),
+            "rows": words.findings_table(list(results.values())),
+            "figure": f"{NAME}/matrix.png" if results else ""},
+        "baseline": cfg.baseline.name,
         "methods": [m.name for m in cfg.methods],
         "scenes": [{"name": o.plan.name, "winner": r.ranking.winner,
                     "ties": list(r.ranking.ties), "order": list(r.ranking.order),

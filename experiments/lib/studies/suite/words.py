@@ -69,14 +69,35 @@ def sentences(r: analysis.SceneResult) -> list[str]:
     return out[:3]
 
 
+def table_header(baseline: str) -> list[str]:
+    """The findings table's columns (:func:`findings_table`)."""
+    return ["scene", "best at equal time", f"its efficiency over {baseline}",
+            "flagged biased", "untestable cells"]
+
+
+def findings_table(results: list) -> list[list]:
+    """One row per scene for the report's opening table: the winner (or the methods that
+    cannot be told apart), the best method's equal-time efficiency over the baseline with
+    its interval, the methods the bias test flags, and how many cells it cannot test."""
+    rows = []
+    for r in results:
+        best = r.ranking.winner or (f"{names(r.ranking.ties)} (tied)" if r.ranking.ties
+                                    else "-")
+        lead = r.ranking.winner or (r.ranking.ties[0] if r.ranking.ties else None)
+        ratio = r.cells[lead].relative["equal_time"].short() if lead in r.cells else "-"
+        flagged = [m for m, c in r.cells.items() if c.biased]
+        untestable = sum(c.block_bias is not None and c.block_bias.status == "untestable"
+                         for c in r.cells.values())
+        rows.append([r.name, best, ratio, ", ".join(flagged) or "none", untestable])
+    return rows
+
+
 def findings(results: list, failed_scenes: dict) -> list[str]:
-    """The report's findings box: the best method per scene and the overall picture."""
+    """The report's findings box, beneath its table (:func:`findings_table`): the overall
+    picture in a few sentences."""
     if not results:
         return [f"No scene could be compared ({len(failed_scenes)} failed)."]
-    best = "; ".join(f"{r.name}: " + (r.ranking.winner or
-                                      f"{names(r.ranking.ties)} (cannot be told apart)")
-                     for r in results)
-    out = [f"Best method per scene at equal time (relMSE efficiency, 95% intervals): {best}."]
+    out = []
     methods = list(dict.fromkeys(m for r in results for m in r.cells))
     top = {m: sum(m in r.ranking.best() for r in results) for m in methods}
     leaders = sorted((m for m in methods if top[m]), key=lambda m: -top[m])[:4]
