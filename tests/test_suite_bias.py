@@ -245,3 +245,23 @@ def test_a_file_named_in_a_finding_is_linked_where_it_exists(tmp_path):
     assert '<a href="suite/bias_test.csv">suite/bias_test.csv</a>' in html
     assert "suite/none.csv" in html and 'href="suite/none.csv"' not in html
     assert "&lt;b&gt;" in html
+
+
+def test_findings_table_rows_follow_each_scenes_verdicts():
+    """One row per scene: the winner or the tied set, the best method's equal-time ratio,
+    the methods the bias test flags, the count of its untestable cells."""
+    from types import SimpleNamespace as NS
+    from experiments.lib.studies.suite import words
+
+    def cell(short, status):
+        return NS(relative={"equal_time": NS(short=lambda: short)},
+                  block_bias=None if status is None else suite_bias.CellBias(status),
+                  biased=status == "biased")
+    won = NS(name="a", ranking=A.Ranking(("x", "y"), "x", ("x",)),
+             cells={"x": cell("2 [1.5, 2.5]", "unbiased"), "y": cell("1", "untestable"),
+                    "z": cell("0.5", "biased"), "w": cell("0.9", None)})
+    tied = NS(name="b", ranking=A.Ranking(("y", "x"), None, ("y", "x")),
+              cells={"x": cell("1.1", "untestable"), "y": cell("1.2 [0.9, 1.6]", "untestable")})
+    assert words.findings_table([won, tied]) == [
+        ["a", "x", "2 [1.5, 2.5]", "z", 1],
+        ["b", "y and x (tied)", "1.2 [0.9, 1.6]", "none", 2]]

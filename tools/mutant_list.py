@@ -330,6 +330,17 @@ MUTANTS = [
            "twice its time",
            ("tests/test_suite.py::test_a_learning_methods_equal_time_count_comes_from_its_"
             "pilot",)),
+    Mutant("findings-untestable-counts-biased", "experiments/lib/studies/suite/words.py",
+           "        untestable = sum(c.block_bias is not None and c.block_bias.status == \"untestable\"\n",
+           "        untestable = sum(c.block_bias is not None and c.block_bias.status == \"biased\"\n",
+           "the findings table counts the flagged cells as the untestable ones",
+           ("tests/test_suite_bias.py::test_findings_table_rows_follow_each_scenes_verdicts",)),
+    Mutant("findings-reasons-not-counted", "experiments/lib/studies/suite/bias_report.py",
+           "        f\"{UNTESTABLE[reason]}: {count}\" for reason, count in reasons.most_common())\n",
+           "        f\"{UNTESTABLE[reason]}: 1\" for reason, count in reasons.most_common())\n",
+           "the findings name each reason for untestable cells without its count",
+           ("tests/test_suite_bias.py::test_untestable_cells_are_counted_by_reason_and_their_"
+            "table_named",)),
     Mutant("bias-untrained-learner-renders", "experiments/lib/studies/suite/bias_test.py",
            "        not (method.learns and trained) else \"renders\"\n",
            "        not method.learns else \"renders\"\n",
