@@ -168,3 +168,22 @@ def test_report_words_and_table_say_what_the_checks_found(tmp_path):
     good = analyse(rows[:1])
     assert checks_report.sentences(good)[0].startswith("Every one of the 1 panels passes")
     assert checks_report.sentences(good)[1].startswith("Every check decides")
+
+
+def test_the_conclusion_verdict_carries_the_checks_the_chi_square_cannot_see():
+    """The warps' conclusion table has one verdict per strategy over all three checks: a
+    density 10% high on a cap grid passes its chi-square (0 rejections) and still reads
+    'fail' there, with the mass check's count; its right twin does not fail (its albedo
+    check cannot decide on this narrow lobe at these samples: 'cannot decide')."""
+    from experiments.lib.studies.lab import mass as lab_mass
+
+    def conclusion(factor):
+        m, a, panel = verdicts(Scaled(strategies.cosine, factor), NARROW, 3)
+        rows = [lab_mass.CheckRow("phong n=1000", 60.0, "mine", m, a)]
+        found = lab_mass.Findings(Z, 2, rows, [("mine", 1, int(rows[0].failed), 0)],
+                                  [r for r in rows if r.failed], [])
+        rejected = int(not panel["p_value"] >= warps.significance(1))
+        return rejected, checks_report.strategy_verdict("mine", rejected, found)
+    rejected, verdict = conclusion(1.1)
+    assert rejected == 0 and verdict.startswith(f"{FAIL}: chi-square 0, mass 1")
+    assert conclusion(1.0) in ((0, PASS), (0, f"{UNDECIDED} (1 of 1 panels)"))

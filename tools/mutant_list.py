@@ -341,6 +341,13 @@ MUTANTS = [
            "the findings name each reason for untestable cells without its count",
            ("tests/test_suite_bias.py::test_untestable_cells_are_counted_by_reason_and_their_"
             "table_named",)),
+    Mutant("lab-verdict-chi-square-only", "experiments/lib/studies/lab/checks_report.py",
+           "    if rejected or masses or albedos:\n",
+           "    if rejected:\n",
+           "the lab's conclusion verdict reads the chi-square alone (a density 10% high on a "
+           "cap grid passes it and 'pass' would hide the mass check's failure)",
+           ("tests/test_lab_checks.py::test_the_conclusion_verdict_carries_the_checks_the_"
+            "chi_square_cannot_see",)),
     Mutant("bias-untrained-learner-renders", "experiments/lib/studies/suite/bias_test.py",
            "        not (method.learns and trained) else \"renders\"\n",
            "        not method.learns else \"renders\"\n",

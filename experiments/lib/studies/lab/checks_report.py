@@ -78,6 +78,25 @@ def panel_verdict(row, p_value: float, alpha: float) -> str:
     return mass.UNDECIDED if row.undecided else mass.PASS
 
 
+#: The verdict column of the warps' conclusion table (:func:`strategy_verdict`).
+VERDICT_HEADER = "verdict (chi-square, mass, albedo)"
+
+
+def strategy_verdict(strategy: str, rejected: int, found: mass.Findings) -> str:
+    """One strategy's verdict over all its panels and all three checks: ``fail`` with the
+    count of panels that fail each (``rejected``: its chi-square rejections), else
+    ``cannot decide`` with the count of undecided panels, else ``pass``."""
+    mine = [r for r in found.rows if r.strategy == strategy]
+    masses = sum(r.mass.verdict == mass.FAIL for r in mine)
+    albedos = sum(r.albedo.verdict == mass.FAIL for r in mine)
+    if rejected or masses or albedos:
+        return (f"{mass.FAIL}: chi-square {rejected}, mass {masses}, albedo {albedos} of "
+                f"{len(mine)} panels")
+    undecided = sum(r.undecided for r in mine)
+    return (f"{mass.UNDECIDED} ({undecided} of {len(mine)} panels)" if undecided
+            else mass.PASS)
+
+
 def report_checks(out: str, found: mass.Findings, p_values: list, alpha: float) -> list:
     """The table (one row per panel, in ``found``'s order; ``p_values`` the panels'
     chi-square p-values, ``alpha`` their Sidak level) and the sentences."""

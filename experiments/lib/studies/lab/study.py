@@ -151,7 +151,7 @@ def blocks_of(settings: Settings, m: Measured) -> list:
     sentences (writing their files)."""
     cfg, out = settings.config, settings.out
     return ([report.text(GUIDE)]
-            + warp_part.report_warps(out, cfg, m.warp_panels, m.warp_found)
+            + warp_part.report_warps(out, cfg, m.warp_panels, m.warp_found, m.checks)
             + (warp_part.report_guide(out, m.guide_config, m.frozen) if m.frozen else [])
             + checks_report.report_checks(out, m.checks, [r["p_value"] for r in m.rows],
                                           m.warp_found.alpha)

@@ -16,7 +16,7 @@ import os
 import numpy as np
 
 from experiments.lib import report
-from experiments.lib.studies.lab import figures, guide, warps
+from experiments.lib.studies.lab import checks_report, figures, guide, mass, warps
 from experiments.lib.studies.lab.config import NAME, Config
 
 
@@ -51,7 +51,8 @@ WARP_HEADER = ["bsdf", "incidence_deg", "strategy", "samples", "seed", "grid", "
                "max_z"]
 
 
-def report_warps(out: str, cfg: Config, m: WarpsMeasured, found: warps.Findings) -> list:
+def report_warps(out: str, cfg: Config, m: WarpsMeasured, found: warps.Findings,
+                 checks: mass.Findings) -> list:
     out_dir = os.path.join(out, NAME)
     strategies = list(dict.fromkeys(s.strategy for s in m.specs))
     blocks = []
@@ -97,11 +98,15 @@ def report_warps(out: str, cfg: Config, m: WarpsMeasured, found: warps.Findings)
         + [f"p_value {s}" for s in strategies] + [f"rel_variance {s}" for s in strategies],
         wide, "Chi-square p-value and Var[w]/E[w]^2 per configuration and strategy"))
     blocks += [report.write_table(
-        out, f"{NAME}/warps_conclusion", warps.HEADER, [r.cells() for r in found.rows],
-        f"Warps, per strategy over {found.configurations} configurations: chi-square "
-        f"rejections at 1% (Sidak over the panels: p < {found.alpha:.1e}), the lowest "
-        f"p-value, where Var[w]/E[w]^2 exceeds {warps.EXPLODES:g}, and in how many "
-        f"configurations the strategy's Var[w]/E[w]^2 is the lowest"),
+        out, f"{NAME}/warps_conclusion", [checks_report.VERDICT_HEADER] + warps.HEADER,
+        [[checks_report.strategy_verdict(r.strategy, r.rejected, checks)] + r.cells()
+         for r in found.rows],
+        f"Warps, per strategy over {found.configurations} configurations: the verdict of "
+        f"all three checks of every panel (the chi-square test, and the mass and albedo "
+        f"checks of {NAME}/mass_albedo.csv), chi-square rejections at 1% (Sidak over the "
+        f"panels: p < {found.alpha:.1e}), the lowest p-value, where Var[w]/E[w]^2 exceeds "
+        f"{warps.EXPLODES:g}, and in how many configurations the strategy's Var[w]/E[w]^2 "
+        f"is the lowest"),
         report.text("\n\n".join(found.sentences))]
     return blocks
 
