@@ -294,7 +294,8 @@ class SDTree:
         fresh[:rows] = (pooled >= MIN_RECORDS) & (total > 0)
         learned = energy[fresh[:rows]]
         learned = blur(learned, self.res) if SMOOTH else learned
-        learned = guide_quadtree.density(learned, self.res, self.split_share)
+        if self.split_share > 0:
+            learned = guide_quadtree.density(learned, self.res, self.split_share)
         self.prob[fresh] = learned / learned.sum(axis=1, keepdims=True)
         was_learned = self.learned.copy()
         self.learned |= fresh

@@ -131,3 +131,34 @@ def test_every_iteration_s_records_are_pooled(pooled, monkeypatch):
         np.testing.assert_allclose(got, (0.5 * (a + b) + c) / (0.5 * (a + b) + c).sum())
     else:            # 10 records: the parent's histogram kept
         np.testing.assert_allclose(got, want)
+
+
+def test_the_integrator_fits_its_quadtree_to_the_pooled_records():
+    """``directional_split`` > 0: every learned histogram is the quadtree fitted to the
+    unit's pooled energies (its raw sums are kept, the fit is the table); a resolution that
+    is not a power of two is refused, naming both parameters."""
+    import integrators  # noqa: F401
+    scene = mi.load_dict({
+        "type": "scene", "sky": {"type": "constant"},
+        "floor": {"type": "rectangle", "bsdf": {"type": "diffuse"}},
+        "sensor": {"type": "perspective", "fov": 40,
+                   "to_world": mi.ScalarTransform4f().look_at([0, 0, 3], [0, 0, 0], [0, 1, 0]),
+                   "film": {"type": "hdrfilm", "width": 16, "height": 16}}})
+    integ = mi.load_dict({"type": "vr_guided_path", "max_depth": 3, "min_train_spp": 2,
+                          "min_train_samples": 1, "directional_resolution": 16,
+                          "directional_split": 0.05, "bsdf_fraction": 1.0})
+    schedule = integ.pass_schedule(30, 256)
+    for i, spp in enumerate(schedule):
+        integ.after_pass(i, mi.render(scene, integrator=integ, spp=spp, seed=i), spp)
+    tree = integ.guide.tree
+    units = np.flatnonzero(tree.learned)
+    assert len(units) > 0 and tree.split_share == 0.05
+    fitted = guide_quadtree.density(tree.kept_energy[units], 16, 0.05)
+    np.testing.assert_allclose(tree.prob[units], fitted / fitted.sum(axis=1, keepdims=True),
+                               rtol=1e-9, atol=1e-12)
+    raw = tree.kept_energy[units] / tree.kept_energy[units].sum(axis=1, keepdims=True)
+    assert np.abs(tree.prob[units] - raw).max() > 1e-3     # the fit is not the raw bins
+    with pytest.raises(Exception, match="'directional_split' 0.05 needs a power-of-two "
+                                         "'directional_resolution'.*got 12"):
+        mi.load_dict({"type": "vr_guided_path", "directional_resolution": 12,
+                      "directional_split": 0.05})

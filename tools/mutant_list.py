@@ -316,6 +316,12 @@ MUTANTS = [
            "a split leaf hands each child all of its pooled sums (each counts the parent's "
            "records twice over against its own)",
            ("tests/test_guide_model.py::test_every_iteration_s_records_are_pooled",)),
+    Mutant("guide-quadtree-option-ignored", "integrators/sdtree.py",
+           "        if self.split_share > 0:\n",
+           "        if False:\n",
+           "directional_split accepted and never applied: the raw bins learned",
+           ("tests/test_guide_model.py::test_the_integrator_fits_its_quadtree_to_the_pooled_"
+            "records",)),
     Mutant("quadtree-leaf-energy-not-spread", "integrators/guide_quadtree.py",
            "        spread = np.repeat(np.repeat(nodes / (side * side), side, axis=1), side, axis=2)\n",
            "        spread = np.repeat(np.repeat(nodes, side, axis=1), side, axis=2)\n",

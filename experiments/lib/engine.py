@@ -43,12 +43,12 @@ from .names import one_line
 from .plan import job_name
 from .references import MIN_CHUNKS
 from .store import STORE_DIR, JobStore, ReplayError
+from .study import Study, repeat_prefix
 
 #: About how many times plain BSDF sampling's cost per sample a learning method's render
 #: that trains costs (the guide: 1.6 to 2.4 on the suite's guiding scenes, training
 #: included): its pilot's count is the plain count over this (:meth:`Engine.pilot`).
 LEARNER_COST = 2.0
-from .study import Study, repeat_prefix
 
 
 @dataclass
