@@ -390,6 +390,22 @@ MUTANTS = [
            "reference makes unbiased methods look biased)",
            ("tests/test_unbiased.py::test_agreement_has_its_size_and_power_on_synthetic_renders",
             "tests/test_suite_bias.py")),
+    Mutant("pooled-variance-other-half", "experiments/lib/bias.py",
+           "    var = np.maximum(tested.var, other.var * level)\n",
+           "    var = other.var * level\n",
+           "the pooled test's variance of a half from the other half alone: a firefly in the "
+           "tested half meets a variance that never saw it (path on phong_highlight flagged "
+           "in 3 of 20 draws, uniform on grazing in 9)",
+           ("tests/test_suite_bias.py::test_a_firefly_in_one_half_does_not_void_the_pooled_"
+            "tests_size",)),
+    Mutant("tail-few-terms-counted", "experiments/lib/bias.py",
+           "    used = pixels * (min(len(h) for h in halves) - 1) >= TAIL_TERMS\n",
+           "    used = pixels > 0\n",
+           "the heavy-tail check reads blocks of 1 to 7 varying pixels, where one deviation "
+           "of light-tailed values holds most of the squares by chance: path, bsdf and mis "
+           "on environment untestable for heavy tails they do not have",
+           ("tests/test_suite_bias.py::test_blocks_of_few_varying_pixels_do_not_read_as_"
+            "heavy_tails",)),
     Mutant("bias-sidak-missing", "experiments/lib/studies/suite/bias_test.py",
            "    return bias.sidak(1.0 - LEVEL, max(1, cells))",
            "    return 1.0 - LEVEL",
