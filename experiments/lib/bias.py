@@ -15,9 +15,9 @@ channel does over the whole image:
   other half's blocks, so that the weights do not follow the noise they are applied to (a
   skewed block mean that falls low has its variance underestimated too: the statistic
   would drift), and takes the larger of its own variance and the other half's, so that a
-  firefly in one half and not the other does not void the test's size. A bias spread over the image (a missing factor, a clamp of
-  large weights) moves every block a little; this test sees it with a standard error about
-  ``sqrt(blocks)`` times smaller than a block's.
+  firefly in one half and not the other does not void the test's size. A bias spread over
+  the image (a missing factor, a clamp of large weights) moves every block a little; this
+  test sees it with a standard error about ``sqrt(blocks)`` times smaller than a block's.
 
 Pixels that are the same in every render of both sides (to :data:`ROUNDING`; a directly
 visible constant environment or emitter) carry no estimate: they are left out of both
@@ -416,7 +416,8 @@ def tail_share(halves, varying: np.ndarray, block: int = BLOCK, dominance: float
     ``dominance`` of the squared deviations from the renders' mean over the block (in either
     set of ``halves``). About 0 for light tails (a block has ``block^2 (renders - 1)`` terms
     of like size); high where rare large values rule the variance estimates (heavy tails:
-    most renders miss them, the estimate falls short and the t tests lose their size)."""
+    most renders miss them, the estimate falls short and the t tests lose their size).
+    Blocks of fewer than :data:`TAIL_TERMS` terms are not read."""
     pixels = _block_sum(varying.astype(np.float64), block)
     used = pixels * (min(len(h) for h in halves) - 1) >= TAIL_TERMS
     if not used.any():
@@ -451,4 +452,3 @@ def compare(a: Side, b: Side, varying: np.ndarray, alpha_blocks: float, alpha_po
                      _detectable(blocks, ua, ub, alpha_blocks),
                      _detectable(pooled, ua, ub, alpha_pooled),
                      int(varying.sum(axis=(0, 1)).max()))
-
