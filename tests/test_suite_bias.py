@@ -273,8 +273,9 @@ def test_blocks_of_few_varying_pixels_do_not_read_as_heavy_tails():
     holds most of the block's squares by chance (always, for normal values). Such blocks
     are not read by the heavy-tail check (fewer than bias.TAIL_TERMS terms): light-tailed
     renders with a silhouette of 1 to 3 pixels per block are testable (tail share 0);
-    negative control: the same blocks counted (TAIL_TERMS 1) give a tail share of 0.17 (5 of 30 blocks), over the gate of 0.05,
-    and renders of rare large values over the object stay untestable."""
+    negative control: the same blocks counted (TAIL_TERMS 1) give a tail share of 0.17
+    (5 of 30 blocks), over the gate of 0.05, and renders of rare large values over the
+    object stay untestable."""
     rng = np.random.default_rng(11)
     mu = rng.uniform(0.2, 1.0, (H, W, C))
     varying = np.zeros((H, W, C), bool)
