@@ -390,14 +390,6 @@ MUTANTS = [
            "reference makes unbiased methods look biased)",
            ("tests/test_unbiased.py::test_agreement_has_its_size_and_power_on_synthetic_renders",
             "tests/test_suite_bias.py")),
-    Mutant("pooled-variance-other-half", "experiments/lib/bias.py",
-           "    var = np.maximum(tested.var, other.var * level)\n",
-           "    var = other.var * level\n",
-           "the pooled test's variance of a half from the other half alone: a firefly in the "
-           "tested half meets a variance that never saw it (path on phong_highlight flagged "
-           "in 3 of 20 draws, uniform on grazing in 9)",
-           ("tests/test_suite_bias.py::test_a_firefly_in_one_half_does_not_void_the_pooled_"
-            "tests_size",)),
     Mutant("tail-few-terms-counted", "experiments/lib/bias.py",
            "    used = pixels * (min(len(h) for h in halves) - 1) >= TAIL_TERMS\n",
            "    used = pixels > 0\n",

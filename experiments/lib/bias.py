@@ -14,8 +14,7 @@ channel does over the whole image:
   the difference), and its z statistic. Each half of a side's renders is weighted by the
   other half's blocks, so that the weights do not follow the noise they are applied to (a
   skewed block mean that falls low has its variance underestimated too: the statistic
-  would drift), and takes the larger of its own variance and the other half's, so that a
-  firefly in one half and not the other does not void the test's size. A bias spread over
+  would drift), and the other half's variance at its own samples. A bias spread over
   the image (a missing factor, a clamp of large weights) moves every block a little; this
   test sees it with a standard error about ``sqrt(blocks)`` times smaller than a block's.
 
@@ -196,25 +195,18 @@ def _block_test(a: Side, b: Side, rounding: float):
 
 def _variance_of(tested: Blocks, other: Blocks, used: np.ndarray, level: float) -> Blocks:
     """The block variances the pooled test gives the tested half, with their dof: the
-    larger of its own and the other half's times ``level`` (:meth:`Side.level`, the ratio
-    of their samples: the suite's two budgets of 16 and 256 spp differ 16x); for
-    ``renders`` variances (2 dof for a half of 3 renders) its own.
-
-    Either alone loses the test's size where tails are heavy. The other half's alone: a
-    firefly in the tested half meets a variance that never saw it (path on
-    phong_highlight flagged in 3 of 20 draws, uniform+nee there 8, uniform on grazing 9).
-    Its own alone: a half that missed the rare large values has its mean and its variance
-    low together (cosine on environment: 1 of 20). The larger of the two: 0 of 20 on
-    each, at the same power (the 10%-high density flagged in 17 and 20 of 20 on
-    phong_highlight and veach_mis); docs/methodology.md has the measurement. With
-    ``renders`` variances the weights follow the other half's noise, so its variances fall
-    low exactly where the weights are high (they would understate the statistic's
-    variance by nu / (nu - 2) at nu dof, without bound at 2): the tested half's own only."""
+    other half's times ``level`` (:meth:`Side.level`, the ratio of their samples: halves
+    of unequal samples, the suite's two budgets of 16 and 256 spp, differ 16x; taken as
+    they are, the pooled statistic's spread was sqrt((16 + 1/16) / 2) = 2.8, unbiased
+    cells flagged); for ``renders`` variances (2 dof for a half of 3 renders) the tested
+    half's own. The weights are the other half's inverse variances, so with few dof its
+    variances fall low exactly where the weights are high: they would understate the
+    statistic's variance (by nu / (nu - 2) at nu dof, without bound at 2). Where tails
+    are heavy a firefly in the tested half meets a variance that never saw it: such cells
+    are withheld (:func:`tail_share`); docs/methodology.md has the measurement."""
     if other.variance == "renders":
         return tested
-    var = np.maximum(tested.var, other.var * level)
-    return Blocks(tested.mean, var, np.minimum(tested.dof, other.dof), tested.pixels,
-                  other.variance)
+    return Blocks(tested.mean, other.var * level, other.dof, tested.pixels, other.variance)
 
 
 def _pooled_test(a: Side, b: Side, rounding: float):
@@ -226,12 +218,10 @@ def _pooled_test(a: Side, b: Side, rounding: float):
     variance of their difference, both from the other half), the best weights for a
     uniform relative bias, and z_h = sum_j w_j d_hj / sqrt(sum_j w_j^2 V_hj), d_h the
     difference of half h's block means and V_h its variance (:func:`_variance_of`: the
-    larger of half h's own and the other half's at half h's samples; with few dof half
-    h's own). Weights estimated from the data they are applied to would correlate with it
-    (a skewed block mean that falls low has its variance underestimated too: the statistic
-    drifts); weights from the other half keep each z_h's mean at 0 under no bias, whatever
-    the skew, and the larger variance its spread at most 1 where a firefly falls in one
-    half and not the other. z = (z_0 + z_1) / sqrt(2);
+    other half's at half h's samples, or with few dof half h's own). Weights or a variance
+    estimated from the data they are applied to would correlate with it (a skewed block
+    mean that falls low has its variance underestimated too: the statistic drifts); this
+    way each z_h has mean 0 under no bias, whatever the skew. z = (z_0 + z_1) / sqrt(2);
     the relative difference: sum_h sum_j w_hj d_hj / sum_h sum_j w_hj mu_hj.
     """
     z = num = scale = 0.0
