@@ -12,11 +12,11 @@ channel does over the whole image:
 * **pooled** (per channel): the best linear estimate of a uniform relative difference from
   all blocks, each weighted by its information (``mu / V``: its mean over the variance of
   the difference), and its z statistic. Each half of a side's renders is weighted by the
-  other half's blocks, so that the weights do not follow the noise they are applied to (a
-  skewed block mean that falls low has its variance underestimated too: the statistic
-  would drift), and the other half's variance at its own samples. A bias spread over
-  the image (a missing factor, a clamp of large weights) moves every block a little; this
-  test sees it with a standard error about ``sqrt(blocks)`` times smaller than a block's.
+  other half's blocks, so that the weights and the variance do not follow the noise they
+  are applied to (a skewed block mean that falls low has its variance underestimated too:
+  the statistic would drift). A bias spread over the image (a missing factor, a clamp of
+  large weights) moves every block a little; this test sees it with a standard error about
+  ``sqrt(blocks)`` times smaller than a block's.
 
 Pixels that are the same in every render of both sides (to :data:`ROUNDING`; a directly
 visible constant environment or emitter) carry no estimate: they are left out of both
