@@ -89,13 +89,16 @@ def f_test(ref: R.Reference, exact: float) -> float:
     return 2 * min(cdf, 1 - cdf)
 
 
-def test_own_error_estimates_the_true_error(tmp_path):
+@pytest.mark.parametrize("method", ["path", "bsdf+nee+zsobol:owen"])
+def test_own_error_estimates_the_true_error(tmp_path, method):
     """16 chunks of 8 spp: the F test assumes normal chunk means, and the furnace's
     roulette makes a 2-spp chunk mean skewed (most chunks of a pixel equal, a few far
     above: 0.2% of seeds rejected at ALPHA = 0.1%, and a key of this test's once gave
-    p = 6e-6); with 8 spp per chunk 0.1% of 1000 seeds were rejected, the least p 8e-4."""
+    p = 6e-6); with 8 spp per chunk 0.1% of 1000 seeds were rejected, the least p 8e-4.
+    A sampler that continues one sequence over a cell's jobs (zsobol) takes a seed of its
+    own per chunk: its chunks are independent scrambles, their spread its own error."""
     store = R.ReferenceStore(str(tmp_path))
-    s = spec(chunk=8)
+    s = spec(chunk=8, method=method)
     store.ensure(s, 128)
     ref = store.read(s)
     # mse_floor is the variance of the mean from the chunks' spread: hand-computed here
@@ -105,7 +108,7 @@ def test_own_error_estimates_the_true_error(tmp_path):
     assert ref.mse_floor == pytest.approx(by_hand, rel=1e-5)
     assert f_test(ref, 2.0) > ALPHA
     # negative control: a floor P times too small (the per-chunk spread divided by P^2)
-    small = R.Reference(ref.image, ref.spp, ref.chunks, 0.0, "path", "",
+    small = R.Reference(ref.image, ref.spp, ref.chunks, 0.0, method, "",
                         ref.mse_floor / ref.chunks, ref.relmse_floor / ref.chunks,
                         ref.relmse_floor_map / ref.chunks)
     assert f_test(small, 2.0) < ALPHA
@@ -138,7 +141,8 @@ def test_a_users_exr_has_no_known_error(tmp_path):
 
 def test_a_reference_that_cannot_estimate_its_own_error_is_refused(tmp_path):
     with pytest.raises(ValueError, match="spread of its chunks"):
-        spec(method="path+halton")          # halton continues one sequence over chunks
+        spec(method="path+halton:none")     # every chunk the same image
+    assert spec(method="path+halton").chunk == 4    # randomized: a scramble per chunk
     with pytest.raises(KeyError, match="chunks"):
         R.ReferenceStore(str(tmp_path)).read(spec())
     assert math.isfinite(spec().chunks_for(1)) and spec().chunks_for(1) == R.MIN_CHUNKS

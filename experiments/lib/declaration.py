@@ -26,13 +26,15 @@ class SceneSetup:
     """A scene as a study renders it: its file, film and path settings, and a short name
     (its part of the job keys and of the report). ``time_scale``: the factor of every
     equal-time budget on this scene (a suite scene's header ``budget``); ``left_out``: the
-    names of the declaration's methods this scene does not render."""
+    names of the declaration's methods this scene does not render; ``reference_method``: the
+    method of this scene's reference (None: the declaration's)."""
     name: str
     info: SceneInfo
     resolution: tuple            # (width, height)
     depth: Depth = Depth()
     time_scale: float = 1.0
     left_out: tuple = ()
+    reference_method: Method | None = None
 
 
 class TimeScale(Protocol):

@@ -1,10 +1,11 @@
 """The engine's references: planned in the shared reference store, rendered, extended.
 
 Every scene (at every sweep point that changes its image) is measured against a reference
-of the declaration's reference method (:mod:`.references`: keyed by the scene's content,
-cached and shared by every study and run). :func:`render` renders what the store lacks,
-scene by scene where a failure must not end the run; :func:`extend` extends a reference too
-noisy for its comparison, as the declaration's :class:`~.declaration.ReferenceFloor` says.
+of its own reference method, else the declaration's (:mod:`.references`: keyed by the
+scene's content, cached and shared by every study and run). :func:`render` renders what
+the store lacks, scene by scene where a failure must not end the run; :func:`extend`
+extends a reference too noisy for its comparison, as the declaration's
+:class:`~.declaration.ReferenceFloor` says.
 """
 from __future__ import annotations
 
@@ -28,7 +29,8 @@ def jobs(study, declaration: Declaration, scenes=None, spp: dict | None = None) 
         out[key] = study.reference_jobs(
             setup.info, setup.depth, setup.resolution,
             (spp or {}).get(key) or declaration.reference_spp,
-            declaration.reference_method, declaration.reference_typical_spp)
+            setup.reference_method or declaration.reference_method,
+            declaration.reference_typical_spp)
     return out
 
 

@@ -103,11 +103,11 @@ class RefSpec:
     chunk_spp: int | None = None      # None: chunk_spp_for(width, height)
 
     def __post_init__(self):
-        if self.method.continues_sequence or self.method.deterministic:
+        if self.method.deterministic:
             raise ValueError(
-                f"reference method '{self.method}' does not reseed per chunk (its sampler "
-                f"continues one sequence or is deterministic), so the spread of its chunks "
-                f"would not estimate its own error: use a reseeding sampler (e.g. path)")
+                f"reference method '{self.method}' is deterministic (every chunk would be "
+                f"the same image), so the spread of its chunks would not estimate its own "
+                f"error: use a randomized sampler (e.g. path, or zsobol:owen)")
         if self.chunk_spp is not None and self.chunk_spp < 1:
             raise ValueError(f"chunk_spp must be >= 1, got {self.chunk_spp}")
 

@@ -4,6 +4,8 @@ Data flows one way through its modules:
 
 * :mod:`.declare`      the settings, the scenes as read (header, film, reference) and the
                        one declaration the experiment engine renders;
+* :mod:`.reference_choice`  which reference each scene's errors use (path's, or the best
+                       sampler's method's where its chunks agree with path's);
 * :mod:`.precision`    the precision rule, a policy the declaration gives its equal-time
                        budget (the engine asks it once per scene);
 * :mod:`.errors`       expected relMSE from the pixels' variances, paired efficiencies;

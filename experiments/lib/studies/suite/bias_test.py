@@ -16,7 +16,9 @@ fewer than 2 renders per half (4 in all), renders of unequal sample counts withi
 or heavy tails (:func:`.bias.tail_share` above :data:`TAILS_SHARE`: one pixel of one render
 rules the variance estimate of many blocks, the test's size is void).
 
-The result is data (:class:`CellBias`); the words are the report's (:mod:`.report`).
+:func:`check_reference` is the same test of a candidate reference's chunks against the
+reference's (:mod:`.reference_choice`). The result is data (:class:`CellBias`); the words
+are the report's (:mod:`.report`).
 """
 from __future__ import annotations
 
@@ -139,7 +141,33 @@ def check_cell(method, budgets: list, chunks: np.ndarray | None, box: bool, ref_
     ref = bias.padded(chunks)
     varying = bias.varying_pixels(bias.Renders(np.concatenate(halves)), bias.Renders(ref))
     side = bias.side_of_halves(halves, samples, varying, variance=kind)
-    other = bias.side_of_renders(ref, varying, variance=variance_kind(reference_method, ref_box))
+    return _test(side, halves, varying, kind, ref, variance_kind(reference_method, ref_box),
+                 alpha)
+
+
+def check_reference(chunks: np.ndarray, against: np.ndarray, method, against_method,
+                    box: bool, alpha: float) -> CellBias:
+    """The bias test of a candidate reference: its ``chunks`` (independent randomizations
+    of ``method``) against the chunks of the reference that every cell's bias test reads
+    (``against``, of ``against_method``), halves its even and odd chunks, at level
+    ``alpha``. The candidate stands in for that reference only where this passes."""
+    kind = variance_kind(method, box)
+    if method.deterministic:
+        return untestable("deterministic", kind)
+    if min(len(chunks), len(against)) < 2 * MIN_PER_HALF:
+        return untestable("too_few_renders", kind)
+    mine, ref = bias.padded(chunks), bias.padded(against)
+    varying = bias.varying_pixels(bias.Renders(mine), bias.Renders(ref))
+    side = bias.side_of_renders(mine, varying, variance=kind)
+    return _test(side, [mine[0::2], mine[1::2]], varying, kind, ref,
+                 variance_kind(against_method, box), alpha)
+
+
+def _test(side, halves: list, varying: np.ndarray, kind: str, ref: np.ndarray,
+          ref_kind: str, alpha: float) -> CellBias:
+    """Both tests of ``side`` (its renders in ``halves``, variance ``kind``) against the
+    renders ``ref`` (variance ``ref_kind``) at level ``alpha``, and the heavy-tail check."""
+    other = bias.side_of_renders(ref, varying, variance=ref_kind)
     blocks_y, blocks_x, channels = side.full.mean.shape
     alpha_blocks = bias.sidak(alpha / 2, blocks_y * blocks_x * channels)
     alpha_pooled = bias.sidak(alpha / 2, channels)

@@ -65,6 +65,9 @@ class Settings:
     reference_spp_default: int | None = None     # the parser's default --reference-spp
     replay_counts: str | None = None    # an earlier run's --out (--replay-counts)
     min_size: int = 0                   # --min-size: a film's long side scaled up to it
+    #: a method whose reference stands in for reference_method's where it is proven
+    #: (:mod:`.reference_choice`); None: reference_method's everywhere
+    precise_reference: Method | None = None
 
 
 # ------------------------------------------------------------------ the scenes
@@ -81,7 +84,10 @@ class ScenePlan:
     width: int = 0
     height: int = 0
     depth: Depth = Depth()
-    ref: references.RefSpec | None = None
+    ref: references.RefSpec | None = None         # the reference errors are measured against
+    bias_ref: references.RefSpec | None = None    # the one the bias test reads (the suite's)
+    reference_note: str = ""                      # why ref is the one it is (reference_choice)
+    reference_test: object = None                 # the candidate's bias test (bias_test.CellBias)
     user_ref: str | None = None
     box: bool = False                             # every filter a box (bias_test.box_filter)
     left_out: dict = field(default_factory=dict)  # {method name: why} (header ``methods``)
@@ -90,7 +96,7 @@ class ScenePlan:
         """The scene as the engine renders it (the header's budget its equal-time factor)."""
         return SceneSetup(self.name, self.info, (self.width, self.height), self.depth,
                           self.header.budget if self.header is not None else 1.0,
-                          tuple(self.left_out or ()))
+                          tuple(self.left_out or ()), self.ref.method if self.ref else None)
 
 
 def film(cfg: Settings, info: scenes.SceneInfo, user_exr: str | None) -> tuple[int, int]:
@@ -145,8 +151,8 @@ def plan_scenes(cfg: Settings) -> list[ScenePlan]:
         sp.box = bias_test.box_filter(path)
         if sp.user_ref is None:
             chunk = references.chunk_spp_for(sp.width, sp.height, cfg.reference_typical_spp)
-            sp.ref = references.RefSpec(sp.info, sp.width, sp.height, sp.depth,
-                                        cfg.reference_method, cfg.variant, chunk)
+            sp.ref = sp.bias_ref = references.RefSpec(sp.info, sp.width, sp.height, sp.depth,
+                                                      cfg.reference_method, cfg.variant, chunk)
         sp.left_out = left_out(cfg, sp.header)
     return plans
 

@@ -112,13 +112,14 @@ def cell_rows(results: dict) -> tuple[list[list], list[dict]]:
 # ------------------------------------------------------------------ per scene
 
 def scene_row(r: analysis.SceneResult, header, numbers: analysis.SceneNumbers,
-              ref) -> list:
+              ref, note: str = "") -> list:
     best = r.ranking.winner or ", ".join(r.ranking.ties) + " (cannot be told apart)"
     ratio = r.time_ratio.text() if r.time_ratio is not None else "-"
-    reference = (f"{ref.spp} spp, own relMSE {g(numbers.floor.relmse)} = "
+    reference = (f"{ref.method}, {ref.spp} spp, own relMSE {g(numbers.floor.relmse)} = "
                  f"{r.floor_share:.1%} of the smallest measured"
                  + ("" if r.reference_adequate else " (too noisy)")
                  if ref.floor_known else f"user's EXR (own error unknown)")
+    reference += f" [{note}]" if note else ""
     return [r.name, header.isolates if header else "(no header)", best, r.verdict.status,
             words.verdict_text(r.verdict), ratio, reference]
 
@@ -298,7 +299,8 @@ def matrix_blocks(cfg, outcomes: list[SceneOutcome]) -> list[dict]:
             out, f"{NAME}/scenes", ["scene", "isolates", "best at equal time", "hypothesis",
                                     "why", f"{analysis.TIMED_PAIR[0]} / "
                                     f"{analysis.TIMED_PAIR[1]} time per sample", "reference"],
-            [scene_row(o.result, o.plan.header, o.numbers, o.reference) for o in outcomes],
+            [scene_row(o.result, o.plan.header, o.numbers, o.reference, o.plan.reference_note)
+             for o in outcomes],
             "Per scene: the winner (or the methods that cannot be told apart), the "
             "hypothesis of its header, vr_path's time per sample over path's, the reference")]
     biases = bias_rows(results)
@@ -364,6 +366,8 @@ def summary_of(cfg, outcomes: list[SceneOutcome], found: list, failed: dict, tim
                     "hypothesis": r.verdict.status,
                     "hypothesis_text": words.verdict_text(r.verdict),
                     "sentences": words.sentences(r),
+                    "reference_method": o.reference.method,
+                    "reference_note": o.plan.reference_note,
                     "reference_spp": o.reference.spp, "reference_floor_share": r.floor_share,
                     "reference_adequate": r.reference_adequate,
                     **(r.time_ratio.fields("time_ratio") if r.time_ratio else {}),
@@ -385,7 +389,9 @@ def settings_of(cfg, st, plans, measured) -> dict:
             "resolution": ("x".join(map(str, cfg.forced_resolution))
                            if cfg.forced_resolution else f"own film, long side <= "
                                                          f"{cfg.max_size}"),
-            "reference": f"{cfg.reference_method}, >= {cfg.reference_spp} spp (cap "
+            "reference": f"{cfg.reference_method}" + (
+                f" (or {cfg.precise_reference} where proven)" if cfg.precise_reference
+                else "") + f", >= {cfg.reference_spp} spp (cap "
                          f"{cfg.reference_max_spp}), chunks of " + (
                 ", ".join(sorted({f"{sp.ref.chunk} spp" for sp in plans if sp.ref})) or "-"),
             "reference store": cfg.reference_root, "variant": cfg.variant,

@@ -24,8 +24,9 @@ summed over both budgets' renders. The suite is one declaration (:mod:`.declare`
 experiment engine, which decides every count and renders: a scene's cells in groups of at
 most the methods a process keeps warm (the baseline and vr_path bsdf+nee lead the first),
 their renders taking turns. Errors against the reference (from
-:mod:`experiments.lib.references`: rendered once per scene, cached, extended when too noisy)
-with its own expected error subtracted; efficiency over ``--baseline`` (Mitsuba's ``path``:
+:mod:`experiments.lib.references`: rendered once per scene, cached, extended when too noisy;
+the best sampler's method's where it is proven against ``--reference-method``'s on the
+scene, :mod:`.reference_choice`) with its own expected error subtracted; efficiency over ``--baseline`` (Mitsuba's ``path``:
 what a user would run instead) from relMSE and time per sample.
 
     python -m experiments.suite --help
@@ -42,7 +43,8 @@ from experiments.lib.engine import Engine
 from experiments.lib.methods import parse_method, strategies
 from experiments.lib.studies import StudySpec, register_study
 from experiments.lib.studies.sampler_comparison import efficiency as sampler_efficiency
-from experiments.lib.studies.suite import analysis, bias_test, declare, measure, report
+from experiments.lib.studies.suite import (analysis, bias_test, declare, measure,
+                                           reference_choice, report)
 from experiments.lib.study import Study
 from integrators.strategies import integrator_type
 
@@ -224,10 +226,14 @@ def parse(argv=None):
     files_list = args.scenes or bundled.suite()
     methods = list(args.methods)
     args.best_note = "methods as given (--methods)"
+    args.precise_reference = None
     if "methods" not in args.explicit and not args.quick:
         best, args.best_note = _best_sampler(args.best_sampler, args.out, files_list)
         if best is not None and best not in methods:
             methods.insert(methods.index("path") if "path" in methods else len(methods), best)
+        if best is not None and "reference_method" not in args.explicit \
+                and not parse_method(best).deterministic:
+            args.precise_reference = parse_method(best)
     args.methods = methods
     args.method_objs = [parse_method(m) for m in methods]
     fixed = [m.name for m in args.method_objs if m.deterministic]
@@ -267,7 +273,8 @@ def settings(args) -> declare.Settings:
         reference_cache=args.reference_cache, replay_counts=args.replay_counts,
         reference_method=args.reference_method,
         reference_root=args.reference_cache or os.path.join(args.out, references.REFERENCES_DIR),
-        user_references=dict(args.user_references), flip=args.flip, best_note=args.best_note)
+        user_references=dict(args.user_references), flip=args.flip, best_note=args.best_note,
+        precise_reference=args.precise_reference)
 
 
 # ------------------------------------------------------------------ the study
@@ -282,6 +289,7 @@ def run_suite(cfg: declare.Settings) -> dict:
     live = [sp for sp in plans if not sp.error]
     measured = None
     if live:
+        timer.time("references", reference_choice.choose, engine.study, cfg, live, refs)
         own = {(sp.name, None): (lambda r: (r.image, r.meta()))(declare.reference_of(refs, sp))
                for sp in live if sp.user_ref is not None}
         measured = timer.time("renders", engine.run, declare.declaration(cfg, live), own)
@@ -304,7 +312,7 @@ def outcome(cfg: declare.Settings, sp: declare.ScenePlan, measured, refs,
     and viewer."""
     ref = declare.reference_of(refs, sp)
     numbers = measure.measure_scene(cfg, sp, measured, ref, True,
-                                    bias_test.reference_chunks(refs, sp.ref), alpha)
+                                    bias_test.reference_chunks(refs, sp.bias_ref), alpha)
     result = analysis.analyse_scene(numbers)
     return report.SceneOutcome(sp, numbers, result, ref,
                                report.viewer_block(cfg, sp, measured, result, ref))

@@ -1,0 +1,79 @@
+"""Which reference each suite scene's errors are measured against, and why.
+
+Every scene has a reference of the suite's ``--reference-method`` (``path``: Mitsuba's own
+estimator), whose chunks every cell's bias test reads (:mod:`.bias_test`). Where the run
+has a more efficient method (its best sampler's, ``bsdf+nee+zsobol:owen``: several times
+``path``'s efficiency at reference counts) and the scene renders it, that method's
+reference is the candidate: its own error is a few times smaller at the same samples, which
+the comparison of the most efficient methods needs (their errors are the smallest measured
+against the reference, :data:`.analysis.FLOOR_SHARE`). It stands in only where it is
+proven on the scene: its chunks pass the bias test against ``path``'s chunks (per block
+and pooled, at :data:`LEVEL` per scene, not heavy-tailed). Otherwise the scene keeps
+``path``'s reference, and the reason is reported. A wrong stand-in would move every error
+of the scene; a wrong rejection only keeps the noisier reference, so the level is loose.
+
+:func:`choose` renders both references at the suite's reference count (``path``'s at the
+extension cap, as every cell's bias test reads it) before the engine runs, so that the
+engine measures, and extends, the chosen one.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+
+from ...names import one_line
+from . import bias_test
+from .declare import ScenePlan, Settings
+
+#: Level of one scene's test of a candidate reference (a rejection keeps ``path``'s).
+LEVEL = 0.99
+
+
+def candidate(cfg: Settings, sp: ScenePlan):
+    """The candidate reference of ``sp`` (a :class:`~...references.RefSpec`), or None: no
+    precise method in the run, the scene's header leaves it out, or a user's reference."""
+    method, header = cfg.precise_reference, sp.header
+    if method is None or sp.ref is None or sp.user_ref is not None \
+            or method.name == sp.ref.method.name:
+        return None
+    if header is not None and header.methods and not header.renders(method.name):
+        return None
+    return replace(sp.ref, method=method)
+
+
+def choose(study, cfg: Settings, plans: list[ScenePlan], refs) -> None:
+    """Render every candidate and the ``path`` reference it is tested against, test, and
+    set each scene's ``ref`` (its errors' reference) and ``reference_note`` (why)."""
+    tried = [(sp, c) for sp in plans if not sp.error for c in [candidate(cfg, sp)] if c]
+    if not tried:
+        return
+    jobs = {}
+    for sp, spec in tried:
+        for s, spp in ((spec, cfg.reference_spp), (sp.bias_ref, cfg.reference_max_spp)):
+            jobs[s.key] = study.reference_jobs(s.info, s.depth, (s.width, s.height), spp,
+                                               s.method, cfg.reference_typical_spp)
+    try:
+        study.run([j for js in jobs.values() for j in js], "suite: references")
+    except Exception as e:  # noqa: BLE001  (every scene keeps path's, and says why)
+        for sp, _ in tried:
+            sp.reference_note = f"{cfg.precise_reference}'s reference failed: {one_line(e)}"
+        return
+    for sp, spec in tried:
+        test = bias_test.check_reference(
+            bias_test.reference_chunks(refs, spec), bias_test.reference_chunks(refs, sp.bias_ref),
+            spec.method, sp.bias_ref.method, sp.box, 1.0 - LEVEL)
+        sp.reference_test = test
+        against = f"{sp.bias_ref.method}'s {cfg.reference_max_spp}-spp reference"
+        if test.status == "unbiased":
+            sp.ref = spec
+            sp.reference_note = f"agrees with {against}: {test_words(test)}"
+        else:
+            why = ("heavy tails, the test's size is void" if test.reason == "heavy_tails"
+                   else test.reason or "it differs")
+            sp.reference_note = (f"{spec.method}'s is not proven against {against} ({why}: "
+                                 f"{test_words(test)})")
+
+
+def test_words(test: bias_test.CellBias) -> str:
+    """The reference test's numbers in words."""
+    return (f"smallest block p {test.p_blocks:.2g}, pooled p {test.p_pooled:.2g}, "
+            f"detectable {test.detectable:.2%}")

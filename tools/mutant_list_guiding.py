@@ -1,0 +1,189 @@
+"""The mutants of path guiding (its warps, model, recording, passes and study), a part of
+:data:`tools.mutant_list.MUTANTS`: realistic bugs, one each (see that module)."""
+from tools.mutant import Mutant
+
+GUIDING = [
+    Mutant("guide-share-missing", "integrators/guided.py",
+           "        pdf = dr.select(s < 1.0, dr.fma(s, pdf_bsdf - p, p), pdf_bsdf)",
+           "        pdf = dr.select(s < 1.0, (1.0 - s) * p, pdf_bsdf)",
+           "the guided mixture's density without the BSDF's share (only the guide's part)",
+           ("tests/test_guiding.py::test_drawn_pdf_and_weights",)),
+    Mutant("guide-bin-solid-angle", "integrators/guide_warps.py",
+           "    return 4.0 * math.pi / (res * res)",
+           "    return 2.0 * math.pi / (res * res)",
+           "a histogram bin's solid angle taken over the hemisphere (2 pi / res^2) though "
+           "the bins tile the sphere (the density twice too high)",
+           ("tests/test_guiding.py::test_guide_density_integrates_to_one",
+            "tests/test_guiding.py")),
+    Mutant("guide-record-wrong-vertex", "integrators/guide_record.py",
+           "            after = L - dr.gather(mi.Color3f, self.radiance, slot, valid)\n",
+           "            after = L\n",
+           "every vertex files the path's whole radiance, its own NEE and what earlier "
+           "vertices found included, instead of what arrived along its direction",
+           ("tests/test_guiding.py::test_with_nee_the_guide_leaves_out_the_light_nee_samples",
+            "tests/test_guiding.py::test_training_learns_the_sky_from_the_floor")),
+    Mutant("guide-direct-wrong-vertex", "integrators/guide_record.py",
+           "        slot = (depth - 1) * self.lanes + self.lane\n",
+           "        slot = depth * self.lanes + self.lane\n",
+           "the emission a direction found (which NEE samples too) filed under the vertex "
+           "that found it, not the one whose direction found it: the guide learns direct "
+           "light, which its records rate with the drawn MIS weight (textured_phong trained "
+           "to the end at 0.39 of bsdf+nee's efficiency)",
+           ("tests/test_guiding.py::test_with_nee_the_guide_leaves_out_the_light_nee_samples",)),
+    Mutant("guide-mean-bakes-lanes", "integrators/guide_record.py",
+           "        nee = channel_mean(L - ",
+           "        nee = dr.mean(L - ",
+           "a record's NEE share averaged with dr.mean, which writes the lane count into "
+           "the render kernel: every training pass (each twice the last) compiles it again "
+           "(0.4-1 s a pass on a cold kernel cache, hidden from the timed renders)",
+           ("tests/test_guiding.py::test_no_recompile_between_passes",)),
+    Mutant("guide-record-no-pdf", "integrators/guide_record.py",
+           "        scale = beta * mi.Color3f(mi.unpolarized_spectrum(direction.weight)) "
+           "* direction.pdf",
+           "        scale = beta * mi.Color3f(mi.unpolarized_spectrum(direction.weight))",
+           "records' radiance not divided by the sampling pdf (the guide learns the "
+           "radiance times the density that sampled it)",
+           ("tests/test_guiding.py::test_training_learns_the_sky_from_the_floor",)),
+    Mutant("guide-record-densities-swapped", "integrators/guide_record.py",
+           "mi.Vector2f(drawn.p_bsdf * rcp, drawn.p_guide * rcp)",
+           "mi.Vector2f(drawn.p_bsdf * rcp, drawn.p_bsdf * rcp)",
+           "the recorder takes the BSDF's density from the draw's record as the guide's too: "
+           "every candidate share rates the same, and no unit learns to guide",
+           ("tests/test_guiding.py::test_the_recorder_files_the_draws_densities",
+            "tests/test_guiding.py::test_shares_go_down_where_guiding_helps")),
+    Mutant("guide-draw-delta-densities", "integrators/guided.py",
+           "        guide = GuideDraw(unit, ~use_bsdf, dr.select(delta, 0.0, pdf_bsdf),\n"
+           "                          dr.select(delta, 0.0, p), delta)\n",
+           "        guide = GuideDraw(unit, ~use_bsdf, pdf_bsdf, p, delta)\n",
+           "the draw's record keeps the densities on a BSDF with a Dirac lobe, whose share is "
+           "always 1: its smooth lobe's records rate the unit's candidate shares as if they "
+           "could be guided",
+           ("tests/test_guiding.py::test_a_draw_carries_what_it_drew",)),
+    Mutant("guide-share-no-reweighting", "integrators/sdtree.py",
+           "            dr.scatter_add(self.moments, x2 / dr.maximum(mix, 1e-20), row + k,",
+           "            dr.scatter_add(self.moments, x2 / dr.maximum(dr.square(mix), 1e-20), "
+           "row + k,",
+           "the learned BSDF share's second moments averaged as if the records had been drawn "
+           "from each candidate mixture ((F / p_s)^2), not reweighted by the density q they "
+           "were drawn with (F^2 / (q p_s))",
+           ("tests/test_guiding.py::test_share_moments_from_bsdf_drawn_records",)),
+    Mutant("guide-roulette-unclamped", "integrators/guide_roulette.py",
+           "        q = dr.clip(WINDOW * b * after / dr.maximum(reference, 1e-30), MIN_SURVIVAL,\n"
+           "                    RR_MAX_PROBABILITY)",
+           "        q = dr.maximum(WINDOW * b * after / dr.maximum(reference, 1e-30), MIN_SURVIVAL)",
+           "the guided roulette's survival not clamped below 1: a path whose continuation "
+           "matters goes on for sure but its throughput is still divided by the 'probability' "
+           "(> 1), darkening what it brings",
+           ("tests/test_guiding.py::test_roulette_survival_by_hand",
+            "tests/test_guiding.py::test_blocks_agree_with_path")),
+    Mutant("guide-roulette-weight", "integrators/path.py",
+           "                rr_prob = dr.select(survival > 0, survival, rr_prob)\n"
+           "            rr_continue = sampler.next_1d(active_next) < rr_prob\n",
+           "                rr_continue = sampler.next_1d(active_next) < dr.select(\n"
+           "                    survival > 0, survival, rr_prob)\n"
+           "            else:\n"
+           "                rr_continue = sampler.next_1d(active_next) < rr_prob\n",
+           "the guided roulette decides with its own survival probability but the survivors "
+           "are divided by the throughput rule's",
+           ("tests/test_guiding.py::test_blocks_agree_with_path",)),
+    Mutant("guide-stopped-rest-split", "integrators/guided_path.py",
+           "        self._passes = guide_passes.merged_rest(self._passes, index)\n",
+           "",
+           "a guide whose training stopped renders the rest of its job in renders of "
+           "max_pass_spp samples (many small renders: on veach_mis 26% more kernel time per "
+           "sample than bsdf+nee for the same estimator)",
+           ("tests/test_guiding.py::test_a_guide_that_learns_nothing_stops_and_renders_the_"
+            "rest_in_one_pass",)),
+    Mutant("guide-last-iteration-split", "integrators/guide_passes.py",
+           "            for n in (split(it, most) if trains and k + 1 < len(counts) else [it])]\n",
+           "            for n in (split(it, most) if trains else [it])]\n",
+           "the last iteration of a training job, which records nothing, split into renders "
+           "of max_pass_spp samples as if its records bounded its size",
+           ("tests/test_guiding.py::test_only_recording_iterations_are_split_and_a_stop_"
+            "merges_the_rest",)),
+    Mutant("pass-parts-rounded", "experiments/lib/jobs.py",
+           "                for p in ([n] if spec.rendered_count(n) == n else powers_of_two(n))]\n",
+           "                for p in [n]]\n",
+           "a multi-pass method's pass rendered whole with zsobol, which rounds its count up to "
+           "a power of two: the job takes more of the sequence than it has (or than planned)",
+           ("tests/test_guiding.py::test_a_pass_renders_in_counts_the_sampler_takes_exactly",
+            "tests/test_guiding.py::test_guide_with_a_qmc_sampler_agrees_with_path")),
+    Mutant("guide-records-not-pooled", "integrators/sdtree.py",
+           "            energy = energy + self.kept_energy[:rows]\n",
+           "",
+           "a unit's histogram fitted to the last iteration's records alone while its counts "
+           "are pooled (PPG's rebuild with a pooled record count)",
+           ("tests/test_guide_model.py::test_every_iteration_s_records_are_pooled",)),
+    Mutant("guide-pool-not-halved", "integrators/sdtree.py",
+           "            kept = 0.5 * self.kept_energy[parent], 0.5 * self.kept_counts[parent]\n",
+           "            kept = self.kept_energy[parent], self.kept_counts[parent]\n",
+           "a split leaf hands each child all of its pooled sums (each counts the parent's "
+           "records twice over against its own)",
+           ("tests/test_guide_model.py::test_every_iteration_s_records_are_pooled",)),
+    Mutant("guide-quadtree-option-ignored", "integrators/sdtree.py",
+           "        if self.split_share > 0:\n",
+           "        if False:\n",
+           "directional_split accepted and never applied: the raw bins learned",
+           ("tests/test_guide_model.py::test_the_integrator_fits_its_quadtree_to_the_pooled_"
+            "records",)),
+    Mutant("quadtree-leaf-energy-not-spread", "integrators/guide_quadtree.py",
+           "        spread = np.repeat(np.repeat(nodes / (side * side), side, axis=1), side, axis=2)\n",
+           "        spread = np.repeat(np.repeat(nodes, side, axis=1), side, axis=2)\n",
+           "every bin of a quadtree leaf gets the leaf's whole energy (coarse leaves weigh "
+           "their bins' count times too much)",
+           ("tests/test_guide_model.py::test_quadtree_matches_a_recursive_oracle",)),
+    Mutant("pilot-halved-across-training", "experiments/lib/engine.py",
+           "        if slot.method.trains(fewer, pixels) == slot.method.trains(spp, pixels):\n",
+           "        if True:\n",
+           "a learning method's pilot at half the count even where that count does not "
+           "train while the job does: its plain cost per sample would give the job about "
+           "twice its time",
+           ("tests/test_suite.py::test_a_learning_methods_equal_time_count_comes_from_its_"
+            "pilot",)),
+    Mutant("findings-untestable-counts-biased", "experiments/lib/studies/suite/words.py",
+           "        untestable = sum(c.block_bias is not None and c.block_bias.status == \"untestable\"\n",
+           "        untestable = sum(c.block_bias is not None and c.block_bias.status == \"biased\"\n",
+           "the findings table counts the flagged cells as the untestable ones",
+           ("tests/test_suite_bias.py::test_findings_table_rows_follow_each_scenes_verdicts",)),
+    Mutant("findings-reasons-not-counted", "experiments/lib/studies/suite/bias_report.py",
+           "        f\"{UNTESTABLE[reason]}: {count}\" for reason, count in reasons.most_common())\n",
+           "        f\"{UNTESTABLE[reason]}: 1\" for reason, count in reasons.most_common())\n",
+           "the findings name each reason for untestable cells without its count",
+           ("tests/test_suite_bias.py::test_untestable_cells_are_counted_by_reason_and_their_"
+            "table_named",)),
+    Mutant("lab-verdict-chi-square-only", "experiments/lib/studies/lab/checks_report.py",
+           "    if rejected or masses or albedos:\n",
+           "    if rejected:\n",
+           "the lab's conclusion verdict reads the chi-square alone (a density 10% high on a "
+           "cap grid passes it and 'pass' would hide the mass check's failure)",
+           ("tests/test_lab_checks.py::test_the_conclusion_verdict_carries_the_checks_the_"
+            "chi_square_cannot_see",)),
+    Mutant("bias-untrained-learner-renders", "experiments/lib/studies/suite/bias_test.py",
+           "        not (method.learns and trained) else \"renders\"\n",
+           "        not method.learns else \"renders\"\n",
+           "a learning method's cell tested on its renders' spread (few degrees of freedom) "
+           "even where no render trained and its pixels are independent (a guided cell at "
+           "269 spp flagged by one block at p = 1.9e-7 that reruns did not repeat)",
+           ("tests/test_suite_bias.py::test_a_learning_method_under_its_training_thresholds_"
+            "is_tested_on_its_pixels",)),
+    Mutant("executor-rest-unchecked", "experiments/lib/execute.py",
+           "    if sum(rest) != sum(schedule[index + 1:]) or any(n < 1 for n in rest):\n",
+           "    if False:\n",
+           "a method's replacement of its remaining passes accepted whatever samples it "
+           "renders (a job's count silently changed)",
+           ("tests/test_guiding.py::test_the_executor_refuses_a_rest_that_changes_the_"
+            "samples",)),
+    Mutant("guide-variance-from-passes", "experiments/lib/execute.py",
+           "    sq, passes = done * mean * mean, 1\n",
+           "    sq, passes = done * mean * mean, len(spps)\n",
+           "a guided job's per-pixel variance taken from the spread of its passes, as if the "
+           "untrained and the trained ones were one estimator (the suite's error of "
+           "guided+nee twice too high on hidden_lamp), where it states none",
+           ("tests/test_clock.py",)),
+    Mutant("guide-variance-ignored", "experiments/lib/execute.py",
+           "    variance = getattr(integrator, \"combined_variance\", None)\n",
+           "    variance = None\n",
+           "the guided integrator's variance of its combined image not used: the suite's "
+           "per-pixel errors of guided+nee lost (its errors from 3 repeats, bounds only)",
+           ("tests/test_guiding.py::test_the_executor_takes_the_combined_variance",)),
+]
