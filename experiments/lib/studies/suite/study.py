@@ -52,7 +52,7 @@ NAME, ORDER, TITLE = declare.NAME, declare.ORDER, declare.TITLE
 #: Long side of the film when --resolution is not given (the scene's film scaled down to it).
 MAX_SIZE = 48
 #: The reference's automatic extension stops at this many times --reference-spp.
-REFERENCE_GROWTH = 8
+REFERENCE_GROWTH = 16
 QUICK_DEFAULTS = {"spp": 4, "time_budget": 0.02, "reference_spp": 32, "max_size": 12,
                   "scenes": "furnace,veach_mis", "methods": "bsdf,bsdf+nee,path"}
 FLIP_MODES = ("first", "all")
