@@ -12,9 +12,9 @@ and pooled, at :data:`LEVEL` per scene, not heavy-tailed). Otherwise the scene k
 ``path``'s reference, and the reason is reported. A wrong stand-in would move every error
 of the scene; a wrong rejection only keeps the noisier reference, so the level is loose.
 
-:func:`choose` renders both references at the suite's reference count (``path``'s at the
-extension cap, as every cell's bias test reads it) before the engine runs, so that the
-engine measures, and extends, the chosen one.
+:func:`choose` renders both references before the engine runs (the candidate at the
+suite's reference count, ``path``'s at :data:`AGAINST_GROWTH` times it, which every cell's
+bias test then reads), so that the engine measures, and extends, the chosen one.
 """
 from __future__ import annotations
 
@@ -26,6 +26,9 @@ from .declare import ScenePlan, Settings
 
 #: Level of one scene's test of a candidate reference (a rejection keeps ``path``'s).
 LEVEL = 0.99
+#: ``path``'s reference that a candidate is tested against, and that every cell's bias test
+#: reads on its scene: this many times ``--reference-spp`` (at most the extension cap).
+AGAINST_GROWTH = 8
 
 
 def candidate(cfg: Settings, sp: ScenePlan):
@@ -46,9 +49,9 @@ def choose(study, cfg: Settings, plans: list[ScenePlan], refs) -> None:
     tried = [(sp, c) for sp in plans if not sp.error for c in [candidate(cfg, sp)] if c]
     if not tried:
         return
-    jobs = {}
+    jobs, against_spp = {}, min(cfg.reference_max_spp, AGAINST_GROWTH * cfg.reference_spp)
     for sp, spec in tried:
-        for s, spp in ((spec, cfg.reference_spp), (sp.bias_ref, cfg.reference_max_spp)):
+        for s, spp in ((spec, cfg.reference_spp), (sp.bias_ref, against_spp)):
             jobs[s.key] = study.reference_jobs(s.info, s.depth, (s.width, s.height), spp,
                                                s.method, cfg.reference_typical_spp)
     try:
@@ -58,11 +61,11 @@ def choose(study, cfg: Settings, plans: list[ScenePlan], refs) -> None:
             sp.reference_note = f"{cfg.precise_reference}'s reference failed: {one_line(e)}"
         return
     for sp, spec in tried:
-        test = bias_test.check_reference(
-            bias_test.reference_chunks(refs, spec), bias_test.reference_chunks(refs, sp.bias_ref),
-            spec.method, sp.bias_ref.method, sp.box, 1.0 - LEVEL)
+        paths = bias_test.reference_chunks(refs, sp.bias_ref)    # every chunk cached
+        test = bias_test.check_reference(bias_test.reference_chunks(refs, spec), paths,
+                                         spec.method, sp.bias_ref.method, sp.box, 1.0 - LEVEL)
         sp.reference_test = test
-        against = f"{sp.bias_ref.method}'s {cfg.reference_max_spp}-spp reference"
+        against = f"{sp.bias_ref.method}'s {len(paths) * sp.bias_ref.chunk}-spp reference"
         if test.status == "unbiased":
             sp.ref = spec
             sp.reference_note = f"agrees with {against}: {test_words(test)}"

@@ -184,8 +184,8 @@ def intro(cfg, plans, scales: dict) -> str:
         f"Errors are expected values over the repeats "
         f"against a reference per scene ({cfg.reference_method}"
         + (f", or {cfg.precise_reference} where its chunks pass the bias test against "
-           f"{cfg.reference_method}'s {cfg.reference_max_spp}-spp reference on the scene "
-           f"(which every cell's bias test reads)" if cfg.precise_reference else "")
+           f"{cfg.reference_method}'s reference on the scene (which every cell's bias test "
+           f"reads)" if cfg.precise_reference else "")
         + f", at least "
         f"{cfg.reference_spp} spp, extended up to {cfg.reference_max_spp} spp where its own "
         f"relMSE exceeds {analysis.FLOOR_SHARE:.0%} of the smallest error measured "
