@@ -44,7 +44,8 @@ __all__ = ["register", "register_strategy", "strategies", "PLUGIN_MODULES",
 #: Modules that each define and register one plugin for the current variant.
 #: (``guided`` registers the strategy ``guided``, ``guided_path`` the integrator that
 #: trains it; the recorder, roulette and pass maths it imports define nothing per variant.)
-PLUGIN_MODULES = ("phong", "path", "guided", "guided_path", "moments", "halton", "zsobol")
+PLUGIN_MODULES = ("phong", "path", "guided", "guided_path", "moments", "adaptive", "halton",
+                  "zsobol")
 #: Modules of per-variant base classes, defined again before the plugins that derive from them.
 BASE_MODULES = ("sequence_sampler",)
 

@@ -288,6 +288,26 @@ MUTANTS = [
            "a learning method's rungs (one training job each) accumulated into one image as "
            "if they were stretches of one render",
            ("tests/test_one_loop.py",)),
+    # ------------------------------------------------------------ adaptive sampling
+    Mutant("adaptive-by-variance", "integrators/adaptive.py",
+           "        ratio = dr.sqrt(var) / dr.maximum(lum, dr.maximum(floor, 1e-12))",
+           "        ratio = var / dr.square(dr.maximum(lum, dr.maximum(floor, 1e-12)))",
+           "samples allocated in proportion to the relative variance instead of the relative "
+           "standard deviation (the relMSE-optimal rule): unbiased, but the error is larger",
+           ("tests/test_adaptive.py::test_the_allocation_is_proportional_to_the_relative_deviation",)),
+    Mutant("adaptive-pilot-twice", "integrators/adaptive.py",
+           "    return share * pilot + (1.0 - share) * final",
+           "    return share * pilot + final",
+           "the pilot's samples counted twice when the passes are combined (the final pass's "
+           "weight not reduced by the pilot's share): the image about 25% bright",
+           ("tests/test_adaptive.py::test_adaptive_agrees_with_path_per_block",)),
+    Mutant("adaptive-zero-samples", "integrators/adaptive.py",
+           "        return dr.opaque(mi.UInt32, least) + mi.UInt32(dr.floor(share *",
+           "        return mi.UInt32(dr.floor(share *",
+           "no floor: a pixel whose pilot saw no variance rounds to 0 samples in the final "
+           "pass, its mean 0/0",
+           ("tests/test_adaptive.py::test_no_pixel_gets_no_samples_and_the_image_is_finite",
+            "tests/test_adaptive.py")),
     # ------------------------------------------------------------ the suite's reference
     Mutant("reference-unproven", "experiments/lib/studies/suite/reference_choice.py",
            '        if test.status == "unbiased":',

@@ -2,8 +2,8 @@
 
 Method names (every part read from its registry)::
 
-    STRATEGY[+nee][+SAMPLER[:RANDOMIZATION]]      vr_path, e.g. cosine, bsdf+nee+orthogonal
-    path[+SAMPLER[:RANDOMIZATION]]                Mitsuba's C++ path (always NEE + MIS)
+    STRATEGY[+nee][+SAMPLER[:RANDOMIZATION]][+adaptive]   vr_path, e.g. bsdf+nee+orthogonal
+    path[+SAMPLER[:RANDOMIZATION]][+adaptive]             Mitsuba's C++ path (NEE + MIS)
 
 STRATEGY is any registered ``vr_path`` strategy (:func:`integrators.strategies.names`:
 uniform, cosine, bsdf, mis and any a user registers), ``+nee`` turns on emitter sampling
@@ -11,7 +11,9 @@ uniform, cosine, bsdf, mis and any a user registers), ``+nee`` turns on emitter 
 ``independent``) and RANDOMIZATION one of that sampler's randomizations. One name is fixed
 by the writeup: ``uniform+halton`` is its plain (unrandomized) Halton, i.e.
 ``uniform+halton:none``; any other sampler without a randomization uses the sampler's
-default.
+default. ``+adaptive`` nests the integrator in ``vr_adaptive`` (a pilot, then the samples
+where the relative error is: :mod:`integrators.adaptive`): with the independent sampler
+only, and not for a strategy that learns between passes.
 
 A :class:`Method` is plain frozen data (picklable, hashable): jobs carry it, and its
 ``name`` is what the job keys hash, so keys do not depend on how a method is represented.
@@ -39,7 +41,8 @@ FIXED = {"uniform+halton": "uniform+halton:none"}
 
 #: Words of the grammar that no strategy may be called (a strategy ``nee`` would make
 #: ``bsdf+nee`` ambiguous).
-RESERVED = (PATH, "nee")
+ADAPTIVE = "adaptive"
+RESERVED = (PATH, "nee", ADAPTIVE)
 
 
 def strategies() -> tuple[str, ...]:
@@ -74,6 +77,7 @@ class Method:
     nee: bool = False
     sampler: str = samplers.DEFAULT
     randomization: str | None = None   # None: the sampler's default
+    adaptive: bool = False             # nested in vr_adaptive (+adaptive)
 
     def __str__(self) -> str:
         return self.name
@@ -135,7 +139,7 @@ class Method:
         d = ({"type": PATH} if self.strategy is None else
              {"type": self.integrator, "strategy": self.strategy, "emitter_sampling": self.nee})
         d.update({k: v for k, v in dataclasses.asdict(depth).items() if v is not None})
-        return d
+        return {"type": "vr_adaptive", "nested": d} if self.adaptive else d
 
     def sampler_dict(self, spp: int = 1, width: int = 0, height: int = 0) -> dict:
         return self.sampler_spec.dict(spp, self.randomization, width, height)
@@ -145,7 +149,8 @@ def grammar() -> str:
     """The valid parts, for error messages and --help."""
     rand = [f"{n}: {'|'.join(samplers.get(n).randomizations)}" for n in samplers.names()
             if samplers.get(n).randomizations]
-    return (f"STRATEGY[+nee][+SAMPLER[:RANDOMIZATION]] or path[+SAMPLER[:RANDOMIZATION]]; "
+    return (f"STRATEGY[+nee][+SAMPLER[:RANDOMIZATION]][+{ADAPTIVE}] or "
+            f"path[+SAMPLER[:RANDOMIZATION]][+{ADAPTIVE}]; "
             f"STRATEGY {'|'.join(strategies())}, SAMPLER {'|'.join(samplers.names())}, "
             f"RANDOMIZATION ({'; '.join(rand) or 'none'})")
 
@@ -158,6 +163,8 @@ def parse_method(name: str) -> Method:
         return ValueError(f"unknown method '{name}': {why} (methods look like {grammar()})")
 
     parts = FIXED.get(name, name).split("+")
+    adaptive = len(parts) > 1 and parts[-1] == ADAPTIVE
+    parts = parts[:-1] if adaptive else parts
     head, rest = parts[0], parts[1:]
     if head != PATH and head not in strategies():
         raise bad(f"strategy '{head}' is not one of {', '.join(strategies())} or {PATH}")
@@ -184,7 +191,14 @@ def parse_method(name: str) -> Method:
             raise bad(f"'{head}' learns between passes, and the sampler '{sampler}' compiles "
                       f"the sample count into the kernel (every pass would recompile); "
                       f"valid samplers for it: {', '.join(valid)}")
-    return Method(name, None if head == PATH else head, nee, sampler, randomization)
+    if adaptive and head != PATH and _strategies.integrator_type(head) != "vr_path":
+        raise bad(f"'{head}' learns between its own passes, which one adaptive pass of "
+                  f"per-pixel counts cannot hold: '+{ADAPTIVE}' goes with a vr_path strategy "
+                  f"or path")
+    if adaptive and sampler != samplers.DEFAULT:
+        raise bad(f"'+{ADAPTIVE}' gives pixels unequal counts that are not powers of two, "
+                  f"which break the points of '{sampler}': use the {samplers.DEFAULT} sampler")
+    return Method(name, None if head == PATH else head, nee, sampler, randomization, adaptive)
 
 
 def method_name(base: Method, sampler_label: str) -> str:

@@ -43,8 +43,9 @@ def scale_for(error: float, precision: float = PRECISION,
 
 def precise(method: Method, box: bool) -> bool:
     """Whether a cell's error comes from its pixels' variances (:mod:`.errors`): the
-    independent sampler under a box filter, whose pixels are independent estimates."""
-    return bias_test.variance_kind(method, box) == "pixels"
+    independent sampler under a box filter, whose pixels are independent estimates (not an
+    adaptive method: its passes are its own, the samples' moments are not kept)."""
+    return bias_test.variance_kind(method, box) == "pixels" and not method.adaptive
 
 
 @dataclass(frozen=True)

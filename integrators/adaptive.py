@@ -1,0 +1,214 @@
+"""The ``vr_adaptive`` integrator: another integrator's image, its samples where the error is.
+
+A pilot pass gives every pixel the same few samples; their per-pixel spread says where the
+image's relative error is; the rest of the budget goes to the pixels in proportion to their
+relative standard deviation (the allocation that minimises the image's relMSE at a fixed
+number of samples), with a floor so that no pixel starves. The estimate is unbiased: the
+final pass's samples are independent of the pilot's, so its per-pixel mean is unbiased
+whatever count the pilot chose for it, and the two passes are combined with a weight fixed
+before either is drawn (the pilot's share of the budget), never one that depends on the
+samples (that would be optional stopping: a pixel whose pilot missed a rare bright path
+would get few samples and keep its low pilot mean).
+"""
+from __future__ import annotations
+
+import drjit as dr
+import mitsuba as mi
+
+from . import guided_path
+
+#: A pixel's mean in the allocation's denominator is at least this share of the image's
+#: mean luminance (a black pixel's relative deviation is undefined).
+MEAN_FLOOR = 0.05
+
+
+class AdaptiveIntegrator(mi.SamplingIntegrator):
+    r"""
+    .. _integrator-vr_adaptive:
+
+    Adaptive sampling (:monosp:`vr_adaptive`)
+    -----------------------------------------
+
+    .. pluginparameters::
+
+     * - nested
+       - |integrator|
+       - The integrator whose samples are spent (required): a sampling integrator such as
+         ``path`` or ``vr_path`` (not one that learns between passes, ``vr_guided_path``).
+     * - pilot_share
+       - |float|
+       - Share of the samples per pixel spent on the pilot pass, which every pixel gets
+         alike, at least 2 samples per pixel. (Default: 0.25)
+     * - min_share
+       - |float|
+       - Share of the final pass's average samples per pixel that every pixel gets at
+         least: the floor that keeps a pixel whose pilot missed its rare bright paths
+         from starving. (Default: 0.25)
+     * - min_spp
+       - |int|
+       - Fewest samples per pixel of the final pass. (Default: 1)
+
+    Renders ``spp`` samples per pixel on average in two passes. The pilot (``pilot_share``
+    of them) estimates each pixel's relative standard deviation of one sample,
+    sigma_i / max(mu_i, 0.05 mean(mu)), from the luminance of its samples, averaged over
+    its 3 x 3 neighbourhood (the pilot's few samples per pixel are noisy); the final pass
+    gives pixel i its floor (``min_share`` of the pass's average count, at least ``min_spp``)
+    plus its share of the remaining samples in proportion to that ratio (rounded down). The image is the pilot's mean and the final pass's mean combined
+    with the fixed weight ``pilot_share`` (the pilot's share of the samples): both are
+    unbiased and the weight depends on no sample, so the image is unbiased (a weight by
+    each pixel's own counts would bias it). The per-pixel counts are not a power of two nor
+    equal: the ``independent`` sampler only, and a ``box`` filter (each sample in its own
+    pixel); the film's developed image is returned without AOVs.
+    """
+
+    def __init__(self, props: mi.Properties):
+        super().__init__(props)
+        nested = [props[name] for name in props.keys()
+                  if isinstance(props[name], mi.SamplingIntegrator)]
+        if len(nested) != 1:
+            raise ValueError(f"vr_adaptive: give exactly one nested sampling integrator "
+                             f"(got {len(nested)}), e.g. {{'type': 'vr_adaptive', "
+                             f"'nested': {{'type': 'path'}}}}")
+        self.nested = nested[0]
+        if isinstance(self.nested, guided_path.GuidedPathIntegrator):
+            raise ValueError("vr_adaptive: the nested integrator (vr_guided_path) learns "
+                             "between its own passes, which one pass of per-pixel counts "
+                             "cannot hold; nest a plain sampling integrator (path, vr_path)")
+        self.pilot_share = float(props.get("pilot_share", 0.25))
+        self.min_spp = int(props.get("min_spp", 1))
+        self.min_share = float(props.get("min_share", 0.25))
+        if not 0.0 < self.pilot_share < 1.0:
+            raise ValueError(f"vr_adaptive: pilot_share must be in (0, 1), got "
+                             f"{self.pilot_share}")
+        if self.min_spp < 1:
+            raise ValueError(f"vr_adaptive: min_spp must be >= 1, got {self.min_spp}")
+        if not 0.0 <= self.min_share < 1.0:
+            raise ValueError(f"vr_adaptive: min_share must be in [0, 1), got "
+                             f"{self.min_share}")
+
+    # ------------------------------------------------------------ the render
+    def render(self, scene, sensor=0, seed=0, spp=0, develop=True, evaluate=True):
+        if isinstance(sensor, int):
+            sensor = scene.sensors()[sensor]
+        film, sampler = sensor.film(), sensor.sampler()
+        _check(film, sampler)
+        if spp:
+            sampler.set_sample_count(spp)     # as Mitsuba's render(): the count it ran
+        spp = sampler.sample_count()
+        pilot = max(2, round(spp * self.pilot_share))
+        size = film.crop_size()
+        pixels = int(size.x) * int(size.y)
+        final = spp - pilot
+        if final < self.min_spp:
+            raise ValueError(f"vr_adaptive: {spp} spp leaves the final pass {final} samples "
+                             f"per pixel after a pilot of {pilot} (pilot_share "
+                             f"{self.pilot_share}, at least 2), fewer than min_spp "
+                             f"{self.min_spp}: render more samples")
+        # counts enter the kernels as opaque values: one kernel for every count (a
+        # literal would compile new kernels whenever spp changes, e.g. after a warm-up)
+        n_pilot = dr.opaque(mi.Float, pilot)
+        counts = dr.opaque(mi.UInt32, pilot, pixels)
+        total, squares = self._pass(scene, sensor, sampler, seed, counts, pilot * pixels)
+        mean = total / n_pilot
+        counts = self.allocate(mean, squares / n_pilot, pilot, final * pixels, size)
+        n = int(dr.sum(counts)[0]) if dr.width(counts) else 0
+        rest, _ = self._pass(scene, sensor, sampler, _other_seed(seed), counts, n)
+        image = combine(dr.opaque(mi.Float, pilot / spp), mean, rest / mi.Float(counts))
+        return mi.TensorXf(dr.ravel(image), shape=(int(size.y), int(size.x), 3))
+
+    def allocate(self, mean: mi.Color3f, second: mi.Float, pilot: int, budget: int,
+                 size) -> mi.UInt32:
+        """Per-pixel counts of the final pass: the floor each plus the rest of ``budget``
+        in proportion to the pilot's relative standard deviation of one sample (its
+        luminance's, averaged over 3 x 3 pixels), rounded down."""
+        lum = mi.luminance(mean)
+        var = dr.maximum(second - dr.square(lum), 0.0) * dr.opaque(mi.Float,
+                                                                       pilot / (pilot - 1.0))
+        floor = MEAN_FLOOR * dr.mean(lum)
+        ratio = dr.sqrt(var) / dr.maximum(lum, dr.maximum(floor, 1e-12))
+        ratio = _blur(ratio, int(size.x), int(size.y))
+        pixels = int(size.x) * int(size.y)
+        least = max(self.min_spp, int(self.min_share * budget / pixels))
+        spare = max(0, budget - least * pixels)
+        total = dr.sum(ratio)
+        share = dr.select(total > 0, ratio / dr.maximum(total, 1e-30), 1.0 / pixels)
+        return dr.opaque(mi.UInt32, least) + mi.UInt32(dr.floor(share *
+                                                                dr.opaque(mi.Float, spare)))
+
+    def _pass(self, scene, sensor, sampler, seed, counts: mi.UInt32, n: int):
+        """``counts[i]`` samples in pixel i: (the per-pixel sums of the samples' RGB, of
+        their luminance's squares)."""
+        width, height = int(sensor.film().crop_size().x), int(sensor.film().crop_size().y)
+        pixels = width * height
+        start = dr.prefix_sum(counts)                 # exclusive: the pixel's first sample
+        marks = dr.zeros(mi.UInt32, n)
+        dr.scatter(marks, 1, start, counts > 0)
+        index = dr.cumsum(marks) - 1                  # the pixel of every sample
+        sampler = sampler.clone()
+        sampler.seed(seed, n)
+        pos = mi.Vector2f(mi.Float(index % width), mi.Float(index // width))
+        pos += sampler.next_2d()
+        scale = dr.rcp(mi.ScalarVector2f(width, height))
+        aperture = sampler.next_2d() if sensor.needs_aperture_sample() else mi.Point2f(0.5)
+        time = sensor.shutter_open()
+        if sensor.shutter_open_time() > 0:
+            time += sampler.next_1d() * sensor.shutter_open_time()
+        ray, weight = sensor.sample_ray_differential(time, sampler.next_1d(),
+                                                     mi.Point2f(pos * scale), aperture)
+        L, valid, _ = self.nested.sample(scene, sampler, ray, None, True)
+        rgb = mi.Color3f(dr.select(valid, weight * L, 0.0))
+        total = dr.zeros(mi.Color3f, pixels)
+        for c in range(3):
+            dr.scatter_reduce(dr.ReduceOp.Add, total[c], rgb[c], index)
+        squares = dr.zeros(mi.Float, pixels)
+        dr.scatter_reduce(dr.ReduceOp.Add, squares, dr.square(mi.luminance(rgb)), index)
+        dr.eval(total, squares)
+        return total, squares
+
+    def aov_names(self):
+        return []
+
+    def to_string(self):
+        return (f"AdaptiveIntegrator[nested={self.nested}, pilot_share={self.pilot_share}, "
+                f"min_share={self.min_share}, min_spp={self.min_spp}]")
+
+
+def _check(film, sampler) -> None:
+    """Refuse what per-pixel counts cannot serve, naming why."""
+    if not film.rfilter().is_box_filter():
+        raise ValueError("vr_adaptive: the film's reconstruction filter must be a 'box' (each "
+                         "sample in its own pixel, so that a pixel's count is its own); got "
+                         f"{type(film.rfilter()).__name__} (Mitsuba's default is gaussian)")
+    kind = str(sampler).split("[", 1)[0]
+    if kind != "IndependentSampler":
+        raise ValueError(f"vr_adaptive: the sampler must be 'independent' (per-pixel counts "
+                         f"that are neither equal nor a power of two break a stratified or "
+                         f"low-discrepancy sampler's points); got {kind}")
+
+
+def combine(share: float, pilot: mi.Color3f, final: mi.Color3f) -> mi.Color3f:
+    """The pixel estimate from the passes' means: the pilot's with the fixed weight
+    ``share`` (its share of the samples), the final pass's with the rest."""
+    return share * pilot + (1.0 - share) * final
+
+
+def _other_seed(seed) -> int:
+    """The final pass's seed: another stream than the pilot's."""
+    return (int(seed) * 0x9E3779B1 + 0x7F4A7C15) & 0xFFFFFFFF
+
+
+def _blur(x: mi.Float, width: int, height: int) -> mi.Float:
+    """The mean of ``x`` (one value per pixel) over each pixel's 3 x 3 neighbourhood (the
+    film's edge clamped)."""
+    i = dr.arange(mi.UInt32, width * height)
+    px, py = mi.Int32(i % width), mi.Int32(i // width)
+    out = dr.zeros(mi.Float, width * height)
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            qx = dr.clip(px + dx, 0, width - 1)
+            qy = dr.clip(py + dy, 0, height - 1)
+            out += dr.gather(mi.Float, x, mi.UInt32(qy * width + qx))
+    return out / 9.0
+
+
+mi.register_integrator("vr_adaptive", lambda props: AdaptiveIntegrator(props))
