@@ -3,12 +3,12 @@
 A pilot pass gives every pixel the same few samples; their per-pixel spread says where the
 image's relative error is; the rest of the budget goes to the pixels in proportion to their
 relative standard deviation (the allocation that minimises the image's relMSE at a fixed
-number of samples), with a floor so that no pixel starves. The estimate is unbiased: the
-final pass's samples are independent of the pilot's, so its per-pixel mean is unbiased
-whatever count the pilot chose for it, and the two passes are combined with a weight fixed
-before either is drawn (the pilot's share of the budget), never one that depends on the
-samples (that would be optional stopping: a pixel whose pilot missed a rare bright path
-would get few samples and keep its low pilot mean).
+number of samples), with a floor so that no pixel starves. A pixel's count is read from its
+8 neighbours' pilot samples, never its own: then its count is independent of its own
+samples, and the mean of all of them (pilot and final) is unbiased. A count read from the
+pixel's own pilot would be optional stopping: a pixel whose pilot missed a rare bright path
+gets few samples and keeps its low pilot mean (a synthetic pixel whose sample is 50 with
+probability 0.02 came out 20% dark so, tests/test_adaptive.py).
 """
 from __future__ import annotations
 
@@ -50,15 +50,16 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
 
     Renders ``spp`` samples per pixel on average in two passes. The pilot (``pilot_share``
     of them) estimates each pixel's relative standard deviation of one sample,
-    sigma_i / max(mu_i, 0.05 mean(mu)), from the luminance of its samples, averaged over
-    its 3 x 3 neighbourhood (the pilot's few samples per pixel are noisy); the final pass
-    gives pixel i its floor (``min_share`` of the pass's average count, at least ``min_spp``)
-    plus its share of the remaining samples in proportion to that ratio (rounded down). The image is the pilot's mean and the final pass's mean combined
-    with the fixed weight ``pilot_share`` (the pilot's share of the samples): both are
-    unbiased and the weight depends on no sample, so the image is unbiased (a weight by
-    each pixel's own counts would bias it). The per-pixel counts are not a power of two nor
-    equal: the ``independent`` sampler only, and a ``box`` filter (each sample in its own
-    pixel); the film's developed image is returned without AOVs.
+    sigma_i / max(mu_i, 0.05 mean(mu)), from the luminance of its samples; pixel i's count
+    in the final pass is read from the mean of that ratio over its 8 neighbours, never its
+    own: its floor (``min_share`` of the pass's average count, at least ``min_spp``) plus
+    its share of the remaining samples in proportion to the ratio (rounded down). The
+    image is each pixel's mean over all its samples, pilot and final: unbiased, because
+    the pixel's count does not depend on its own samples (one read from its own pilot
+    would: a pixel whose pilot missed a rare bright path would keep its low pilot mean).
+    The per-pixel counts are not a power of two nor equal: the ``independent`` sampler
+    only, and a ``box`` filter (each sample in its own pixel); the film's developed image
+    is returned without AOVs.
     """
 
     def __init__(self, props: mi.Properties):
@@ -113,14 +114,14 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
         counts = self.allocate(mean, squares / n_pilot, pilot, final * pixels, size)
         n = int(dr.sum(counts)[0]) if dr.width(counts) else 0
         rest, _ = self._pass(scene, sensor, sampler, _other_seed(seed), counts, n)
-        image = combine(dr.opaque(mi.Float, pilot / spp), mean, rest / mi.Float(counts))
+        image = combine(total, n_pilot, rest, mi.Float(counts))
         return mi.TensorXf(dr.ravel(image), shape=(int(size.y), int(size.x), 3))
 
     def allocate(self, mean: mi.Color3f, second: mi.Float, pilot: int, budget: int,
                  size) -> mi.UInt32:
         """Per-pixel counts of the final pass: the floor each plus the rest of ``budget``
         in proportion to the pilot's relative standard deviation of one sample (its
-        luminance's, averaged over 3 x 3 pixels), rounded down."""
+        luminance's, averaged over the pixel's 8 neighbours), rounded down."""
         lum = mi.luminance(mean)
         var = dr.maximum(second - dr.square(lum), 0.0) * dr.opaque(mi.Float,
                                                                        pilot / (pilot - 1.0))
@@ -186,10 +187,11 @@ def _check(film, sampler) -> None:
                          f"low-discrepancy sampler's points); got {kind}")
 
 
-def combine(share: float, pilot: mi.Color3f, final: mi.Color3f) -> mi.Color3f:
-    """The pixel estimate from the passes' means: the pilot's with the fixed weight
-    ``share`` (its share of the samples), the final pass's with the rest."""
-    return share * pilot + (1.0 - share) * final
+def combine(pilot: mi.Color3f, n_pilot: mi.Float, final: mi.Color3f,
+            n_final: mi.Float) -> mi.Color3f:
+    """The pixel estimate from the passes' sums and counts: the mean of all its samples
+    (unbiased because its final count does not depend on its own pilot samples)."""
+    return (pilot + final) / (n_pilot + n_final)
 
 
 def _other_seed(seed) -> int:
@@ -198,17 +200,20 @@ def _other_seed(seed) -> int:
 
 
 def _blur(x: mi.Float, width: int, height: int) -> mi.Float:
-    """The mean of ``x`` (one value per pixel) over each pixel's 3 x 3 neighbourhood (the
-    film's edge clamped)."""
+    """The mean of ``x`` (one value per pixel) over each pixel's neighbours on the film (8
+    inside, fewer at its edge), the pixel itself never among them (see the module)."""
     i = dr.arange(mi.UInt32, width * height)
     px, py = mi.Int32(i % width), mi.Int32(i // width)
-    out = dr.zeros(mi.Float, width * height)
+    total, count = dr.zeros(mi.Float, width * height), dr.zeros(mi.Float, width * height)
     for dy in (-1, 0, 1):
         for dx in (-1, 0, 1):
-            qx = dr.clip(px + dx, 0, width - 1)
-            qy = dr.clip(py + dy, 0, height - 1)
-            out += dr.gather(mi.Float, x, mi.UInt32(qy * width + qx))
-    return out / 9.0
+            if dx == 0 and dy == 0:
+                continue
+            qx, qy = px + dx, py + dy
+            inside = (qx >= 0) & (qx < width) & (qy >= 0) & (qy < height)
+            total += dr.gather(mi.Float, x, mi.UInt32(qy * width + qx), inside)
+            count += dr.select(inside, 1.0, 0.0)
+    return total / dr.maximum(count, 1.0)
 
 
 mi.register_integrator("vr_adaptive", lambda props: AdaptiveIntegrator(props))

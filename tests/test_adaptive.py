@@ -73,14 +73,49 @@ def test_adaptive_agrees_with_path_per_block(scene):
 
 
 def test_the_pilot_counted_twice_is_found(monkeypatch):
-    """Negative control: the pilot's mean added once more (the image about 1 + pilot_share
-    times too bright) fails the same test."""
+    """Negative control: the pilot's samples added once more (the image about 1 + pilot's
+    share times too bright) fails the same test."""
     combine = adaptive.combine
-    monkeypatch.setattr(adaptive, "combine",
-                        lambda share, pilot, final: combine(share, pilot, final) + share * pilot)
+    monkeypatch.setattr(adaptive, "combine", lambda pilot, n_pilot, final, n_final: combine(
+        2.0 * pilot, n_pilot, final, n_final))
     agreement = _blocks.agree(blocks(cbox(), ADAPTIVE, 32, 3), blocks(cbox(), PATH, 128, 1),
                               *LEVELS)
     assert not agreement.passed
+
+
+class Rare(mi.SamplingIntegrator):
+    """A synthetic heavy pixel: every sample is 50 with probability 0.02, else 0 (mean 1,
+    standard deviation 7): most pilots of 4 samples see nothing."""
+
+    def sample(self, scene, sampler, ray, medium=None, active=True):
+        return mi.Spectrum(dr.select(sampler.next_1d() < 0.02, 50.0, 0.0)), True, []
+
+    def aov_names(self):
+        return []
+
+
+def rare_image_means(renders: int = 20) -> np.ndarray:
+    mi.register_integrator("test_rare", lambda props: Rare(props))
+    scene = mi.load_dict({"type": "scene", "sensor": {"type": "perspective", "film": {
+        "type": "hdrfilm", "width": 64, "height": 64, "rfilter": {"type": "box"}}}})
+    integrator = mi.load_dict({"type": "vr_adaptive", "nested": {"type": "test_rare"}})
+    return np.array([np.mean(np.array(mi.render(scene, integrator=integrator, spp=16,
+                                                seed=s))[..., 0]) for s in range(renders)])
+
+
+def test_a_heavy_pixel_stays_unbiased(monkeypatch):
+    """The image mean of the synthetic heavy pixel over 20 renders of 64 x 64 pixels is 1
+    within 4 standard errors (measured: 1.009, 1.1 standard errors). Negative control: the
+    counts read from each pixel's own pilot too (its value in the neighbours' mean, the
+    optional stopping the module avoids): measured 0.80, 27 standard errors low."""
+    means = rare_image_means()
+    se = means.std(ddof=1) / np.sqrt(len(means))
+    assert abs(means.mean() - 1.0) < 4 * se, (means.mean(), se)
+    blur = adaptive._blur
+    monkeypatch.setattr(adaptive, "_blur", lambda x, w, h: (8.0 * blur(x, w, h) + x) / 9.0)
+    means = rare_image_means()
+    se = means.std(ddof=1) / np.sqrt(len(means))
+    assert means.mean() < 1.0 - 8 * se, (means.mean(), se)
 
 
 def allocation(ratio: np.ndarray, budget: int, min_spp: int = 1,
@@ -102,7 +137,7 @@ def test_the_allocation_is_proportional_to_the_relative_deviation():
     by the variance r_i^2 instead, the same field's relMSE is 30% worse."""
     rng = np.random.default_rng(0)
     levels = rng.choice([0.1, 1.0, 5.0, 30.0], size=4096)
-    ratio = np.repeat(levels, 3)[:4096]          # runs of 3: the blur keeps them
+    ratio = np.repeat(levels, 3)[:4096]          # runs of 3: the neighbours' mean keeps some
     budget = 64 * len(ratio)
     n = allocation(ratio, budget)
     r = np.array(adaptive._blur(mi.Float(ratio), len(ratio), 1)) / np.sqrt(0.5)  # pilot 2
@@ -167,9 +202,9 @@ def test_bad_parameters_are_refused_with_their_values():
 def test_it_lowers_the_error_where_a_few_pixels_hold_the_variance():
     """At equal spp (32) on the suite's phong_highlight (a narrow lobe reflecting an area
     light: the highlight's pixels hold most of the relative variance), the adaptive image's
-    relMSE against a 4096-spp path reference is below half the plain one's (measured over
-    8 renders each, three sets of seeds: 2.9, 3.1, 2.9 times at the defaults; on Mitsuba's
-    Cornell box, whose variance is even, about 1)."""
+    relMSE against a 4096-spp path reference is below a third of the plain one's (measured
+    over 8 renders each at the defaults: 6.3 times; grazing 1.5, environment 1.3,
+    veach_mis 1.8; on the suite's cbox, whose variance is even, 1.04)."""
     scene = mi.load_file(scenes.path("suite/phong_highlight.xml"))
 
     def renders(integrator, seeds, spp):
@@ -182,7 +217,7 @@ def test_it_lowers_the_error_where_a_few_pixels_hold_the_variance():
         images = renders(integrator, range(100, 108), 32)
         return float(np.mean(np.square(images - ref) / (np.square(ref) + 1e-2)))
     nested = {"type": "vr_path", "strategy": "bsdf", "emitter_sampling": True}
-    assert relmse({"type": "vr_adaptive", "nested": nested}) < relmse(nested) / 2
+    assert relmse({"type": "vr_adaptive", "nested": nested}) < relmse(nested) / 3
 
 
 # ------------------------------------------------------------ as a method of the studies

@@ -295,12 +295,18 @@ MUTANTS = [
            "samples allocated in proportion to the relative variance instead of the relative "
            "standard deviation (the relMSE-optimal rule): unbiased, but the error is larger",
            ("tests/test_adaptive.py::test_the_allocation_is_proportional_to_the_relative_deviation",)),
-    Mutant("adaptive-pilot-twice", "integrators/adaptive.py",
-           "    return share * pilot + (1.0 - share) * final",
-           "    return share * pilot + final",
-           "the pilot's samples counted twice when the passes are combined (the final pass's "
-           "weight not reduced by the pilot's share): the image about 25% bright",
+    Mutant("adaptive-pilot-uncounted", "integrators/adaptive.py",
+           "    return (pilot + final) / (n_pilot + n_final)",
+           "    return (pilot + final) / n_final",
+           "the pilot's samples summed but not counted when the passes are combined: the "
+           "image about a third too bright where the final pass has three times the pilot's",
            ("tests/test_adaptive.py::test_adaptive_agrees_with_path_per_block",)),
+    Mutant("adaptive-own-pilot", "integrators/adaptive.py",
+           "            if dx == 0 and dy == 0:\n                continue\n",
+           "",
+           "a pixel's count read from a 3 x 3 mean that includes its own pilot (optional "
+           "stopping: a pixel whose pilot missed a rare bright path keeps its low mean)",
+           ("tests/test_adaptive.py::test_a_heavy_pixel_stays_unbiased",)),
     Mutant("adaptive-zero-samples", "integrators/adaptive.py",
            "        return dr.opaque(mi.UInt32, least) + mi.UInt32(dr.floor(share *",
            "        return mi.UInt32(dr.floor(share *",
