@@ -15,7 +15,7 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
-from . import guided_path
+from . import guided_path, moments
 
 #: A pixel's mean in the allocation's denominator is at least this share of the image's
 #: mean luminance (a black pixel's relative deviation is undefined).
@@ -64,13 +64,7 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
 
     def __init__(self, props: mi.Properties):
         super().__init__(props)
-        nested = [props[name] for name in props.keys()
-                  if isinstance(props[name], mi.SamplingIntegrator)]
-        if len(nested) != 1:
-            raise ValueError(f"vr_adaptive: give exactly one nested sampling integrator "
-                             f"(got {len(nested)}), e.g. {{'type': 'vr_adaptive', "
-                             f"'nested': {{'type': 'path'}}}}")
-        self.nested = nested[0]
+        self.nested = moments.nested_integrator(props, "vr_adaptive")
         if isinstance(self.nested, guided_path.GuidedPathIntegrator):
             raise ValueError("vr_adaptive: the nested integrator (vr_guided_path) learns "
                              "between its own passes, which one pass of per-pixel counts "

@@ -44,13 +44,7 @@ class MomentsIntegrator(mi.SamplingIntegrator):
 
     def __init__(self, props: mi.Properties):
         super().__init__(props)
-        nested = [props[name] for name in props.keys()
-                  if isinstance(props[name], mi.SamplingIntegrator)]
-        if len(nested) != 1:
-            raise ValueError(f"vr_moments: give exactly one nested sampling integrator "
-                             f"(got {len(nested)}), e.g. {{'type': 'vr_moments', "
-                             f"'nested': {{'type': 'path'}}}}")
-        self.nested = nested[0]
+        self.nested = nested_integrator(props, "vr_moments")
 
     def sample(self, scene, sampler, ray, medium=None, active=True):
         L, valid, aovs = self.nested.sample(scene, sampler, ray, medium, active)
@@ -62,6 +56,18 @@ class MomentsIntegrator(mi.SamplingIntegrator):
 
     def to_string(self):
         return f"MomentsIntegrator[nested={self.nested}]"
+
+
+def nested_integrator(props: mi.Properties, plugin: str):
+    """The one nested sampling integrator of a wrapper ``plugin``'s ``props``; ValueError
+    naming the plugin otherwise."""
+    nested = [props[name] for name in props.keys()
+              if isinstance(props[name], mi.SamplingIntegrator)]
+    if len(nested) != 1:
+        raise ValueError(f"{plugin}: give exactly one nested sampling integrator (got "
+                         f"{len(nested)}), e.g. {{'type': '{plugin}', 'nested': "
+                         f"{{'type': 'path'}}}}")
+    return nested[0]
 
 
 mi.register_integrator("vr_moments", lambda props: MomentsIntegrator(props))
