@@ -2,11 +2,12 @@
 Mitsuba's path, its allocation the relMSE-optimal one, a clear refusal where per-pixel
 counts cannot be served.
 
-The bias tests use the pixels' variances: the passes' pixels are independent, and the final
-pass's counts depend on the pilot only, so two pixels' estimates are uncorrelated (their
-covariance is the pilot's, times the fixed weight squared: zero) and each pixel's spread
-over the renders is its variance. Negative control: the pilot's mean counted twice (a
-realistic slip when combining passes), about 25% bright.
+The bias tests use the pixels' spread over the renders. Given every pilot, the pixels'
+final passes are independent; a pixel's pilot moves its neighbours' counts but never their
+expected values, so two pixels' estimates are correlated only through how a pilot's
+deviation goes with its spread (a second-order term), and the sum of the pixels' variances
+is the block's. Negative controls: the pilot's samples counted twice (a realistic slip when
+combining passes); a pixel's count read from its own pilot (a synthetic heavy pixel).
 """
 from __future__ import annotations
 
