@@ -34,8 +34,11 @@ def cbox() -> dict:
 
 
 def glossy() -> dict:
-    """A narrow rough-metal sphere over a diffuse floor under a small light, 32 x 32: a few
-    pixels (the highlight) hold most of the variance, where the allocation matters."""
+    """A rough-metal sphere (alpha 0.2) over a diffuse floor under a sphere light of radius
+    0.3, 32 x 32: the highlight's pixels hold most of the variance, where the allocation
+    matters, and tails light enough for the per-block test (a light of radius 0.1 and
+    alpha 0.05: tail share 0.64, the plain method failed 6 of 20 seeds, the test's size
+    void; here 0 of 12 for both, tail share 0.15 and 0.12)."""
     return {"type": "scene",
             "sensor": {"type": "perspective", "fov": 40,
                        "to_world": T().look_at(origin=[0, 1.2, 4], target=[0, 0.2, 0],
@@ -46,10 +49,10 @@ def glossy() -> dict:
                       "to_world": T().translate([0, -0.5, 0]).rotate([1, 0, 0], -90).scale(3),
                       "bsdf": {"type": "diffuse"}},
             "ball": {"type": "sphere", "radius": 0.5,
-                     "bsdf": {"type": "roughconductor", "alpha": 0.05}},
-            "light": {"type": "sphere", "radius": 0.1,
+                     "bsdf": {"type": "roughconductor", "alpha": 0.2}},
+            "light": {"type": "sphere", "radius": 0.3,
                       "to_world": T().translate([1.0, 1.6, 1.0]),
-                      "emitter": {"type": "area", "radiance": {"type": "rgb", "value": 300}}}}
+                      "emitter": {"type": "area", "radiance": {"type": "rgb", "value": 33}}}}
 
 
 NESTED = {"type": "vr_path", "strategy": "bsdf", "emitter_sampling": True, "max_depth": 4}
@@ -66,6 +69,8 @@ def blocks(scene: dict, integrator: dict, spp: int, seed0: int) -> _blocks.Rende
 
 @pytest.mark.parametrize("scene", [cbox, glossy])
 def test_adaptive_agrees_with_path_per_block(scene):
+    """Size, measured over fresh seeds: 0 of 20 failed on cbox, 0 of 12 on glossy (the
+    plain nested method: 0 of 12 there)."""
     images = blocks(scene(), ADAPTIVE, 32, 3)
     reference = blocks(scene(), PATH, 128, 1)
     agreement = _blocks.agree(images, reference, *LEVELS)
