@@ -248,7 +248,9 @@ def test_the_suite_measures_an_adaptive_cell(tmp_path):
     from experiments.lib.studies.suite import study as S
     S.STUDY.main(["--quick", "--out", str(tmp_path), "--scenes", "cbox",
                   "--methods", "bsdf+nee,bsdf+nee+adaptive,path", "--spp", "8"])
-    cells = [c for c in json.loads((tmp_path / "suite" / "summary.json").read_text())["cells"]
-             if c["method"] == "bsdf+nee+adaptive"]
+    summary = json.loads((tmp_path / "suite" / "summary.json").read_text())
+    cells = [c for c in summary["cells"] if c["method"] == "bsdf+nee+adaptive"]
     assert {c["budget"] for c in cells} == {"equal_spp", "equal_time"}
     assert all(c["biased"] in (False, "untestable") for c in cells), cells
+    # the ceiling an oracle's allocation of bsdf+nee's samples would reach, beside it
+    assert summary["scenes"][0]["adaptive_ceiling"] >= 1.0

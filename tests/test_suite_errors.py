@@ -275,3 +275,15 @@ def test_vr_moments_adds_the_squares_after_the_nested_image_and_refuses_no_neste
     assert np.all(image[..., -3:] >= image[..., :3] ** 2 * (1 - 1e-4) - 1e-7)
     with pytest.raises(Exception, match="exactly one nested"):
         mi.load_dict({"type": "vr_moments"})
+
+
+def test_the_adaptive_ceiling_is_the_oracle_allocations_gain():
+    """Exact values: pixels of equal relative variance gain nothing; two pixels of relative
+    variances 1 and 100 gain mean(v) / mean(sqrt v)^2 = 50.5 / 5.5^2; the repeats' maps are
+    averaged first; no maps, no ceiling."""
+    from experiments.lib.studies.suite import errors as E
+    assert E.oracle_gain([np.full((4, 4), 0.3)]) == pytest.approx(1.0)
+    assert E.oracle_gain([np.array([[1.0, 100.0]])]) == pytest.approx(50.5 / 5.5 ** 2)
+    assert E.oracle_gain([np.array([[2.0, 50.0]]), np.array([[0.0, 150.0]])]) == \
+        pytest.approx(50.5 / 5.5 ** 2)
+    assert math.isnan(E.oracle_gain([])) and math.isnan(E.oracle_gain([None]))

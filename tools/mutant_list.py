@@ -314,6 +314,12 @@ MUTANTS = [
            "pass, its mean 0/0",
            ("tests/test_adaptive.py::test_no_pixel_gets_no_samples_and_the_image_is_finite",
             "tests/test_adaptive.py")),
+    Mutant("oracle-unsquared", "experiments/lib/studies/suite/errors.py",
+           "    return float(np.mean(v)) / (root * root) if root > 0 else math.nan",
+           "    return float(np.mean(v)) / root if root > 0 else math.nan",
+           "the adaptive ceiling divides by the mean relative deviation, not its square: "
+           "the ceiling then follows the image's brightness",
+           ("tests/test_suite_errors.py::test_the_adaptive_ceiling_is_the_oracle_allocations_gain",)),
     # ------------------------------------------------------------ the suite's reference
     Mutant("reference-unproven", "experiments/lib/studies/suite/reference_choice.py",
            '        if test.status == "unbiased":',

@@ -99,6 +99,7 @@ class SceneNumbers:
     failed: dict = field(default_factory=dict)    # {method: error}
     calibration: str = ""     # the method that renders the reference (its bias test is
     #                           the test's own negative control)
+    oracle_gain: float = math.nan   # errors.oracle_gain of TIMED_PAIR[0]'s equal-time renders
 
 
 # ------------------------------------------------------------------ ratios with bounds
@@ -318,6 +319,7 @@ class SceneResult:
     #: {learning method: (Ratio of its equal-time efficiency over its counterpart without
     #: learning (Method.plain), whether the scene's header favours it)}
     learned: dict = field(default_factory=dict)
+    oracle_gain: float = math.nan   # the adaptive sampling ceiling (SceneNumbers')
 
     @property
     def reference_adequate(self) -> bool:
@@ -378,7 +380,7 @@ def analyse_scene(numbers: SceneNumbers) -> SceneResult:
                if (plain := _plain(m)) in cells}
     return SceneResult(numbers.name, base, results, ranking, verdict, time_ratio, share,
                        floor.known, dict(numbers.failed), power, power_method,
-                       numbers.calibration, learned)
+                       numbers.calibration, learned, numbers.oracle_gain)
 
 
 def _plain(name: str) -> str | None:

@@ -50,6 +50,20 @@ def pixel_map(variance: np.ndarray | None, ref: np.ndarray) -> np.ndarray | None
     return (np.asarray(variance, np.float64) / (ref * ref + metrics.RELMSE_EPS)).mean(axis=-1)
 
 
+def oracle_gain(maps) -> float:
+    """How many times an oracle's allocation of the same samples would lower the relMSE of
+    the renders whose :func:`pixel_map` values are ``maps``: pixel p's samples in
+    proportion to its relative standard deviation sqrt(v_p) give mean(v) / mean(sqrt v)^2
+    (the repeats' maps averaged first; nan without maps). Per-pixel variances from a few
+    renders make it read a little high (their noise adds spread to sqrt v): the ceiling
+    that adaptive sampling could reach, not a measurement of a method."""
+    if not maps or any(m is None for m in maps):
+        return math.nan
+    v = np.mean(np.stack([np.asarray(m, np.float64).ravel() for m in maps]), axis=0)
+    root = float(np.mean(np.sqrt(np.maximum(v, 0.0))))
+    return float(np.mean(v)) / (root * root) if root > 0 else math.nan
+
+
 def pooled(maps) -> tuple[float, float]:
     """(expected relMSE over the repeats' :func:`pixel_map` values, the variance of that
     estimate): sum over pixels of each pixel's variance across the R repeats, over R N^2

@@ -105,6 +105,10 @@ def measure_scene(cfg: Settings, sp: ScenePlan, measured: Measurements,
     floor = analysis.Floor(ref.relmse_floor or 0.0,
                            float(np.mean(rej_floors)) if rej_floors else 0.0,
                            ref.mse_floor or 0.0, ref.floor_known)
+    pair = analysis.TIMED_PAIR[0]
+    oracle = (errors.oracle_gain([errors.pixel_map(x.variance, ref.image)
+                                  for x in measured.final(Cell(sp.name, pair, TIME))])
+              if pair in cells else math.nan)
     header = sp.header
     exact = None
     if header is not None and header.exact is not None and cfg.max_depth is None \
@@ -113,6 +117,7 @@ def measure_scene(cfg: Settings, sp: ScenePlan, measured: Measurements,
     return analysis.SceneNumbers(sp.name, cells, floor, cfg.baseline.name,
                                  header.favours if header else (), header.over if header else (),
                                  header.hypothesis if header else "", exact, failed,
-                                 cfg.reference_method.name if sp.user_ref is None else "")
+                                 cfg.reference_method.name if sp.user_ref is None else "",
+                                 oracle)
 
 

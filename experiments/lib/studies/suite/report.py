@@ -120,8 +120,9 @@ def scene_row(r: analysis.SceneResult, header, numbers: analysis.SceneNumbers,
                  + ("" if r.reference_adequate else " (too noisy)")
                  if ref.floor_known else f"user's EXR (own error unknown)")
     reference += f" [{note}]" if note else ""
+    ceiling = f"{r.oracle_gain:.3g}" if math.isfinite(r.oracle_gain) else "-"
     return [r.name, header.isolates if header else "(no header)", best, r.verdict.status,
-            words.verdict_text(r.verdict), ratio, reference]
+            words.verdict_text(r.verdict), ratio, ceiling, reference]
 
 
 def bias_rows(results: dict) -> list[list]:
@@ -298,11 +299,15 @@ def matrix_blocks(cfg, outcomes: list[SceneOutcome]) -> list[dict]:
         report.write_table(
             out, f"{NAME}/scenes", ["scene", "isolates", "best at equal time", "hypothesis",
                                     "why", f"{analysis.TIMED_PAIR[0]} / "
-                                    f"{analysis.TIMED_PAIR[1]} time per sample", "reference"],
+                                    f"{analysis.TIMED_PAIR[1]} time per sample",
+                                    "adaptive ceiling", "reference"],
             [scene_row(o.result, o.plan.header, o.numbers, o.reference, o.plan.reference_note)
              for o in outcomes],
             "Per scene: the winner (or the methods that cannot be told apart), the "
-            "hypothesis of its header, vr_path's time per sample over path's, the reference")]
+            "hypothesis of its header, vr_path's time per sample over path's, the adaptive "
+            f"ceiling (how many times an oracle's allocation of {analysis.TIMED_PAIR[0]}'s "
+            "samples to its pixels, by their relative standard deviations from its "
+            "equal-time renders, would lower its relMSE), the reference")]
     biases = bias_rows(results)
     if biases:
         blocks.append(report.write_table(
@@ -366,6 +371,7 @@ def summary_of(cfg, outcomes: list[SceneOutcome], found: list, failed: dict, tim
                     "hypothesis": r.verdict.status,
                     "hypothesis_text": words.verdict_text(r.verdict),
                     "sentences": words.sentences(r),
+                    "adaptive_ceiling": r.oracle_gain,
                     "reference_method": o.reference.method,
                     "reference_note": o.plan.reference_note,
                     "reference_spp": o.reference.spp, "reference_floor_share": r.floor_share,
