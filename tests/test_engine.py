@@ -310,3 +310,19 @@ def test_a_time_scale_policy_is_asked_once_per_scene_with_the_reference_at_its_s
         per_sample = np.mean([r[0].cost / r[0].spp for r in runs])
         got = {r[0].spp for r in measured.runs[Cell("cbox", m.name, "equal-time")]}
         assert got == {max(1, int(4 * 2e-3 / per_sample))} != {max(1, int(2e-3 / per_sample))}
+
+
+def test_a_runs_variance_comes_only_from_independent_passes(tmp_path):
+    """Two passes per job (``pass_spp``): their spread is the image's variance where they
+    are independent (the independent sampler: reseeded per pass), and none for a sampler
+    whose passes continue one sequence (zsobol: the two halves of one Owen-scrambled Sobol'
+    sequence are not independent estimates; its cells then keep their repeats)."""
+    plain, sobol = parse_method("bsdf+nee"), parse_method("bsdf+nee+zsobol:owen")
+    declared = Declaration("engine-spread", (plain, sobol), SCENES[:1],
+                           (Budget.equal_spp(8),), repeats=2,
+                           pass_spp=lambda method, spp, repeat: 4)
+    measured = Engine(make_study(tmp_path)).run(declared)
+    plain_run = measured.runs[Cell("cbox", plain.name, "equal-spp")][0][0]
+    sobol_run = measured.runs[Cell("cbox", sobol.name, "equal-spp")][0][0]
+    assert plain_run.variance is not None and np.all(np.isfinite(plain_run.variance))
+    assert sobol_run.variance is None

@@ -287,3 +287,16 @@ def test_the_adaptive_ceiling_is_the_oracle_allocations_gain():
     assert E.oracle_gain([np.array([[2.0, 50.0]]), np.array([[0.0, 150.0]])]) == \
         pytest.approx(50.5 / 5.5 ** 2)
     assert math.isnan(E.oracle_gain([])) and math.isnan(E.oracle_gain([None]))
+
+
+def test_a_noisy_reference_is_said_to_touch_no_verdict_only_where_no_cell_uses_it():
+    """The report's sentence on a scene whose every cell's relMSE comes from its pixels'
+    variances; not where one cell (a QMC sampler's, from the repeats) is measured against
+    the reference."""
+    from types import SimpleNamespace as NS
+    from experiments.lib.studies.suite import report
+    precise = NS(runs={"equal_time": NS(expected=(0.1, 1e-4))})
+    repeats = NS(runs={"equal_time": NS(expected=())})
+    assert report.precise_only(NS(cells={"path": precise, "guided+nee": precise}))
+    assert not report.precise_only(NS(cells={"path": precise, "zsobol": repeats}))
+    assert not report.precise_only(NS(cells={}))

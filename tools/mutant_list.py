@@ -288,6 +288,12 @@ MUTANTS = [
            "a learning method's rungs (one training job each) accumulated into one image as "
            "if they were stretches of one render",
            ("tests/test_one_loop.py",)),
+    Mutant("sequence-passes-spread", "experiments/lib/engine.py",
+           "                spread = not declaration.method(cell.method).continues_sequence",
+           "                spread = True",
+           "a zsobol job's passes (parts of one Owen-scrambled Sobol' sequence) read as "
+           "independent: their spread taken for the image's variance, the cell's error from it",
+           ("tests/test_engine.py::test_a_runs_variance_comes_only_from_independent_passes",)),
     # ------------------------------------------------------------ adaptive sampling
     Mutant("adaptive-by-variance", "integrators/adaptive.py",
            "        ratio = dr.sqrt(var) / dr.maximum(lum, dr.maximum(floor, 1e-12))",

@@ -314,7 +314,9 @@ class Engine:
                 ref = out.reference_of(cell)[0]
                 independent = bool(budgets[name].ladder) and \
                     declaration.method(cell.method).learns
-                runs = [rungs(self.study.results(jobs), ref, independent) for jobs in reps]
+                spread = not declaration.method(cell.method).continues_sequence
+                runs = [rungs(self.study.results(jobs), ref, independent, spread)
+                        for jobs in reps]
                 out.runs[cell] = runs * (declaration.repeats if len(runs) == 1 else 1)
                 out.jobs[cell] = reps
         return out

@@ -31,13 +31,18 @@ class Run:
     image: np.ndarray
     overhead: float = 0.0        # seconds the clock does not count (tracing, launching)
     variance: np.ndarray | None = None   # per pixel, of the image (from its passes' spread;
-                                         # None with fewer than two passes)
+                                         # None with fewer than two passes, or passes
+                                         # of one sequence)
 
 
-def rungs(results: list, ref: np.ndarray, independent: bool = False) -> list[Run]:
+def rungs(results: list, ref: np.ndarray, independent: bool = False,
+          spread: bool = True) -> list[Run]:
     """A run's :class:`Run` per rung from its jobs' ``results``: the images accumulated over
     the jobs (a ladder of stretches), or each job alone where ``independent`` (a learning
-    method's ladder: one job per rung, each its own training run)."""
+    method's ladder: one job per rung, each its own training run). ``spread``: whether the
+    passes are independent estimates, so that their spread is the image's variance (not
+    for a sampler whose passes continue one sequence: the parts of one Owen-scrambled
+    Sobol' sequence are not independent, their spread is no variance)."""
     if independent:
         accs = []
         for r in results:
@@ -50,7 +55,7 @@ def rungs(results: list, ref: np.ndarray, independent: bool = False) -> list[Run
         overheads = np.cumsum([clock.overhead(r) for r in results])
     return [Run(acc.spp, acc.cost, metrics.mse(acc.mean, ref), metrics.relmse(acc.mean, ref),
                 acc.mean, float(overhead),
-                acc.variance_of_mean() if acc.passes > 1 else None)
+                acc.variance_of_mean() if spread and acc.passes > 1 else None)
             for acc, overhead in zip(accs, overheads)]
 
 

@@ -336,6 +336,13 @@ def matrix_blocks(cfg, outcomes: list[SceneOutcome]) -> list[dict]:
     return blocks
 
 
+def precise_only(numbers: analysis.SceneNumbers) -> bool:
+    """Whether every cell's equal-time relMSE comes from its pixels' variances (none is
+    measured against the reference)."""
+    return bool(numbers.cells) and all(c.runs["equal_time"].expected
+                                       for c in numbers.cells.values())
+
+
 def scene_blocks(cfg, o: SceneOutcome, measured, guide: dict | None) -> list[dict]:
     """A scene's paragraph, viewer, crop figure and guide figure."""
     sp, r, ref = o.plan, o.result, o.reference
@@ -344,7 +351,11 @@ def scene_blocks(cfg, o: SceneOutcome, measured, guide: dict | None) -> list[dic
     extra = [] if r.reference_adequate else [
         f"The reference is too noisy for this comparison even at {ref.spp} spp (its own "
         f"relMSE is {r.floor_share:.0%} of the smallest measured); bounded errors: "
-        f"{', '.join(r.bounds()) or 'none'}."]
+        f"{', '.join(r.bounds()) or 'none'}." + (
+            " No verdict here rests on its noise: every cell's relMSE comes from its "
+            "pixels' variances, where the reference is only the denominator, the same "
+            "for every method of the scene; its noise enters the raw errors, FLIP and "
+            "the bias test." if precise_only(o.numbers) else "")]
     if sp.header_note:
         extra.append(f"Note: {sp.header_note}.")
     extra += words.left_out_words(cfg, sp)
