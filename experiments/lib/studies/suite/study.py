@@ -26,8 +26,9 @@ most the methods a process keeps warm (the baseline and vr_path bsdf+nee lead th
 their renders taking turns. Errors against the reference (from
 :mod:`experiments.lib.references`: rendered once per scene, cached, extended when too noisy;
 the best sampler's method's where it is proven against ``--reference-method``'s on the
-scene, :mod:`.reference_choice`) with its own expected error subtracted; efficiency over ``--baseline`` (Mitsuba's ``path``:
-what a user would run instead) from relMSE and time per sample.
+scene, :mod:`.reference_choice`) with its own expected error subtracted; efficiency over
+``--baseline`` (Mitsuba's ``path``: what a user would run instead) from relMSE and time per
+sample.
 
     python -m experiments.suite --help
 """
@@ -231,9 +232,10 @@ def parse(argv=None):
         best, args.best_note = _best_sampler(args.best_sampler, args.out, files_list)
         if best is not None and best not in methods:
             methods.insert(methods.index("path") if "path" in methods else len(methods), best)
-        if best is not None and "reference_method" not in args.explicit \
-                and not parse_method(best).deterministic:
-            args.precise_reference = parse_method(best)
+        chosen = parse_method(best) if best is not None else None
+        if chosen is not None and "reference_method" not in args.explicit \
+                and not chosen.deterministic:
+            args.precise_reference = chosen
     args.methods = methods
     args.method_objs = [parse_method(m) for m in methods]
     fixed = [m.name for m in args.method_objs if m.deterministic]
