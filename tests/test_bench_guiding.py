@@ -7,7 +7,7 @@ def test_quick_measure_gives_rows_and_a_note():
     res = guiding.measure(**guiding.quick_settings(True), methods=("guided+nee", "bsdf+nee"),
                           log=lambda *_: None)
     path, guided = res["methods"]["path"], res["methods"]["guided+nee"]
-    assert path["spp"] == 768 and len(path["relmse"]) == len(guided["relmse"]) == 2
+    assert path["spp"] == 1536 and len(path["relmse"]) == len(guided["relmse"]) == 2
     assert guided["spp"] >= 1 and all(c > 0 for c in guided["cost"] + path["cost"])
     assert guided["spp"] >= 256 and 0 < guided["training_share"] < 1 and guided["after_training_per_sample_over_path"] > 0
     assert "training_share" not in res["methods"]["bsdf+nee"]       # it does not train
