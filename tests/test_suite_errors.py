@@ -257,22 +257,27 @@ def test_a_cost_per_sample_that_differs_between_budgets_is_not_noise():
     assert 365 <= hits <= 396, hits
 
 
-def test_vr_moments_adds_the_squares_after_the_nested_image_and_refuses_no_nested():
+def test_vr_moments_adds_the_raw_moments_after_the_nested_image_and_refuses_no_nested():
     """vr_moments: the nested integrator's image unchanged (same seed, same samples) in
-    front, the squares' means behind (never below the squared mean: Jensen), and a clear error without a
-    nested integrator."""
+    front, the means of the squares, cubes and fourth powers behind (for samples >= 0:
+    m2 >= m1^2 and m4 >= m2^2 by Jensen, m1 m3 >= m2^2 by Cauchy-Schwarz), and a clear
+    error without a nested integrator."""
     import mitsuba as mi
     import integrators  # noqa: F401
     mi.set_variant(VARIANT)
     scene = mi.load_file(scenes.path("suite/cbox.xml"), width=16, height=12)
     nested = {"type": "vr_path", "strategy": "bsdf", "emitter_sampling": True}
     wrapped = mi.load_dict({"type": "vr_moments", "nested": nested})
-    assert list(wrapped.aov_names()) == ["m2.R", "m2.G", "m2.B"]
+    assert list(wrapped.aov_names()) == [f"m{k}.{c}" for k in (2, 3, 4) for c in "RGB"]
     image = np.array(mi.render(scene, integrator=wrapped, spp=8, seed=3), dtype=np.float64)
     plain = np.array(mi.render(scene, integrator=mi.load_dict(nested), spp=8, seed=3))
-    assert image.shape[-1] == plain.shape[-1] + 3
+    assert image.shape[-1] == plain.shape[-1] + 9
     assert np.allclose(image[..., :plain.shape[-1]], plain, rtol=1e-5, atol=1e-6)
-    assert np.all(image[..., -3:] >= image[..., :3] ** 2 * (1 - 1e-4) - 1e-7)
+    m1, (m2, m3, m4) = image[..., :3], np.split(image[..., -9:], 3, axis=-1)
+    assert np.all(m2 >= m1 ** 2 * (1 - 1e-4) - 1e-7)
+    assert np.all(m4 >= m2 ** 2 * (1 - 1e-4) - 1e-7)
+    assert np.all(m1 * m3 >= m2 ** 2 * (1 - 1e-4) - 1e-7)
+    assert np.any(m4 > 2 * m2 ** 2)        # not the squares again
     with pytest.raises(Exception, match="exactly one nested"):
         mi.load_dict({"type": "vr_moments"})
 
@@ -300,3 +305,111 @@ def test_a_noisy_reference_is_said_to_touch_no_verdict_only_where_no_cell_uses_i
     assert report.precise_only(NS(cells={"path": precise, "guided+nee": precise}))
     assert not report.precise_only(NS(cells={"path": precise, "zsobol": repeats}))
     assert not report.precise_only(NS(cells={}))
+
+
+# ------------------------------------------------ how sure a pixel's variance is
+
+def _raw_moments(x: np.ndarray, dtype=np.float64):
+    """Means over the last axis of x, x^2, x^3, x^4, each summed in ``dtype`` one sample
+    after the other (as a film adds its samples' AOVs, in single precision)."""
+    x = x.astype(dtype)
+    n = x.shape[-1]
+    return [np.cumsum(x ** k, axis=-1, dtype=dtype)[..., -1].astype(np.float64) / n
+            for k in (1, 2, 3, 4)]
+
+
+@pytest.mark.parametrize("kind", ["rare bright", "lognormal", "normal"])
+def test_the_variance_of_a_pixels_variance_matches_its_spread_over_many_pixels(kind):
+    """For 4000 pixels of n = 64 independent samples each, the mean over the pixels of
+    :func:`jobs.variance_of_variance` (from each pixel's own raw moments) equals the spread
+    of their variance-of-the-mean estimates s^2 / n within 15%, for a normal, a lognormal
+    (sigma 1) and a rare-bright sample (50 with probability 0.02, else uniform in [0, 1]).
+    Negative control: the normal theory's term alone, 2 s^4 / (n - 1) / n^2, reads the
+    rare-bright pixels' at under a third of their spread."""
+    from experiments.lib import jobs
+    rng = np.random.default_rng(7)
+    n, pixels = 64, 4000
+    if kind == "rare bright":
+        x = np.where(rng.random((pixels, n)) < 0.02, 50.0, rng.random((pixels, n)))
+    elif kind == "lognormal":
+        x = rng.lognormal(0.0, 1.0, (pixels, n))
+    else:
+        x = rng.normal(2.0, 0.5, (pixels, n))
+    estimate = x.var(axis=-1, ddof=1) / n
+    vv = jobs.variance_of_variance(*_raw_moments(x), n)
+    assert float(np.mean(vv)) == pytest.approx(float(np.var(estimate)), rel=0.15)
+    normal = 2 * np.square(x.var(axis=-1, ddof=1)) / (n - 1) / n ** 2
+    if kind == "rare bright":
+        assert float(np.mean(normal)) < float(np.var(estimate)) / 3
+    elif kind == "normal":
+        assert float(np.mean(normal)) == pytest.approx(float(np.var(estimate)), rel=0.15)
+
+
+def test_the_variance_of_a_smooth_pixels_variance_is_not_the_films_rounding(monkeypatch):
+    """A smooth pixel (4096 samples of 100 +- 1) whose raw moments were summed in single
+    precision, as a film sums its AOVs: the central fourth moment read from them is
+    rounding (m4 ~ 1e8 for mu4 = 3), and the excess kurtosis's term stays out (the normal
+    theory's term of the same moments, within 1%); in double precision the formula agrees
+    with the normal theory. Negative control: without the rounding's bound the single
+    precision moments give over 10 times it on average (a few pixels hundreds of times)."""
+    from experiments.lib import jobs
+    rng = np.random.default_rng(3)
+    n = 4096
+    x = rng.normal(100.0, 1.0, (200, n))
+    moments = _raw_moments(x, np.float32)
+    s2 = np.maximum(moments[1] - moments[0] ** 2, 0.0) * n / (n - 1)
+    normal = 2 * s2 * s2 / (n - 1) / n ** 2
+    single = jobs.variance_of_variance(*moments, n)
+    assert np.allclose(single, normal, rtol=0.01)
+    double = jobs.variance_of_variance(*_raw_moments(x), n)
+    exact = 2 * np.square(x.var(axis=-1, ddof=1)) / (n - 1) / n ** 2
+    assert float(np.mean(double / exact)) == pytest.approx(1.0, abs=0.2)
+    monkeypatch.setattr(jobs, "FILM_ROUNDING", 0.0)
+    assert float(np.mean(jobs.variance_of_variance(*moments, n) / normal)) > 10
+
+
+def test_the_pooled_variance_takes_the_larger_of_the_repeats_spread_and_the_renders_own():
+    """Exact values: R = 2 identical maps (no spread across repeats) with their own tail
+    variances t give sum(t) / (R^2 N^2); where the repeats' spread is larger it stands; a
+    missing tail map (a render without its fourth moments) leaves the spread alone."""
+    maps = [np.full((2, 2), 0.5)] * 2
+    tails = [np.full((2, 2), 0.04), np.full((2, 2), 0.08)]
+    value, var = suite_errors.pooled(maps, tails)
+    assert value == pytest.approx(0.5)
+    assert var == pytest.approx((0.16 + 0.32) / (4 * 16))
+    spread = [np.array([[0.0, 1.0], [0.0, 1.0]]), np.array([[1.0, 0.0], [1.0, 0.0]])]
+    assert suite_errors.pooled(spread, tails)[1] == pytest.approx(4 * 0.5 / (2 * 16))
+    assert suite_errors.pooled(maps, [tails[0], None])[1] == pytest.approx(0.0)
+    assert suite_errors.pooled(maps)[1] == pytest.approx(0.0)
+
+
+def test_each_renders_own_variance_of_its_error_agrees_with_the_spread_of_many_renders(
+        monkeypatch):
+    """small_light (a light smaller than many pixels: a few bright samples rule its
+    error), bsdf+nee at 64 spp on a 32x24 film, 64 renders with their samples' moments:
+    the median over the renders of each one's own standard error of its expected relMSE
+    (:func:`errors.pixel_map_variance`, from its samples' fourth moments) lies within
+    [0.6, 1.6] of the spread of the 64 renders' expected relMSEs. Negative control: the
+    normal theory's term alone (the excess kurtosis's left out) reads under 0.4 of it."""
+    from experiments.lib import jobs
+    size, n = (32, 24), 64
+    info = read_scene(SCENE)
+    accs = []
+    for seed in range(64):
+        job = plan.make_job(f"errors/tails/{seed}", info, parse_method("bsdf+nee"), *size, n,
+                            500 + seed, effective_depth(info, None, None), VARIANT,
+                            sample_moments=True)
+        acc = Accumulator.empty(size[1], size[0])
+        acc.add_result(execute.run_job(job, VARIANT))
+        accs.append(acc)
+    ref = np.mean([a.mean for a in accs], axis=0)
+    values = np.array([suite_errors.pixel_map(a.variance_of_mean(), ref).mean() for a in accs])
+    spread = values.std(ddof=1)
+
+    def own():
+        return float(np.median([np.sqrt(suite_errors.pixel_map_variance(
+            a.variance_of_variance(), ref).sum()) / (size[0] * size[1])
+            for a in accs]))
+    assert 0.6 * spread <= own() <= 1.6 * spread, (own(), spread)
+    monkeypatch.setattr(jobs, "FILM_ROUNDING", 1e9)     # the excess term never counts
+    assert own() < 0.4 * spread

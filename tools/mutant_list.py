@@ -188,8 +188,8 @@ MUTANTS = [
            "(the suite's expected relMSE 25% low with 4 passes)",
            ("tests/test_suite_errors.py",)),
     Mutant("pooled-variance-per-pixel", "experiments/lib/studies/suite/errors.py",
-           "        return value, float(v.var(axis=0, ddof=1).sum()) / (repeats * n * n)",
-           "        return value, float(v.var(axis=0, ddof=1).mean()) / repeats",
+           "        var = float(v.var(axis=0, ddof=1).sum()) / (repeats * n * n)",
+           "        var = float(v.var(axis=0, ddof=1).mean()) / repeats",
            "the pooled error's variance is one pixel's, not that of the mean over the pixels "
            "(intervals about sqrt(N) times too wide: nothing is ever decided)",
            ("tests/test_suite_errors.py",)),
@@ -236,6 +236,25 @@ MUTANTS = [
            "        sq += (m2 if per_sample else k * image * image)",
            "the samples' mean squares added without their count: the per-pixel variances "
            "of a vr_moments render wrong by the sample count",
+           ("tests/test_suite_errors.py",)),
+    Mutant("tails-ignored", "experiments/lib/studies/suite/errors.py",
+           "        var = own if math.isnan(var) else max(var, own)",
+           "        var = var",
+           "the renders' own variances of their errors (from their samples' fourth moments) "
+           "left out: where a few pixels rule a cell's error its interval rests on three "
+           "values of each and is far too narrow",
+           ("tests/test_suite_errors.py",)),
+    Mutant("kurtosis-dropped", "experiments/lib/jobs.py",
+           "    return (2.0 * s2 * s2 / (n - 1) + excess / n) / (n * n)",
+           "    return (2.0 * s2 * s2 / (n - 1)) / (n * n)",
+           "the variance of a pixel's variance from the normal theory alone: a pixel ruled "
+           "by rare bright samples reads ten times surer than it is",
+           ("tests/test_suite_errors.py",)),
+    Mutant("moments-rounding-unbounded", "experiments/lib/jobs.py",
+           "    excess = np.maximum(mu4 - 3.0 * mu2 * mu2 - rounding, 0.0)",
+           "    excess = np.maximum(mu4 - 3.0 * mu2 * mu2, 0.0)",
+           "the fourth central moment read from single-precision sums taken at face value: "
+           "smooth pixels' rounding read as heavy tails",
            ("tests/test_suite_errors.py",)),
     Mutant("precision-scale-linear", "experiments/lib/studies/suite/precision.py",
            "    scale = (error / precision) ** 2",

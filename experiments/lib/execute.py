@@ -308,6 +308,8 @@ class Timed(NamedTuple):
     kernel_seconds: float
     host_seconds: float          # CPU time of the method's hooks between passes
     compiled: int                # passes during which a kernel compiled
+    higher: tuple | None = None  # (sum of x^3, sum of x^4) over the samples, (H, W, 3)
+                                 # each: through ``vr_moments`` only
 
 
 def render_pass(view: View, integrator, job: Job, index: int, spp: int, done: int,
@@ -342,7 +344,8 @@ def render_passes(view: View, integrator, job: Job) -> Timed:
     passes of :meth:`.jobs.Job.passes`, or a :class:`MultiPass` method's own schedule with
     its hooks between them (their CPU time measured on this thread, the kernels they launch
     synced first so that their time is the hooks' own). Through ``vr_moments`` every sample
-    is a pass of ``sq`` (its squares' per-pixel mean times the pass's count)."""
+    is a pass of ``sq`` (its squares' per-pixel mean times the pass's count), and the sums
+    of the samples' cubes and fourth powers come with it (``higher``)."""
     import drjit as dr
     from integrators import moments
     multi = isinstance(integrator, MultiPass)
@@ -351,6 +354,7 @@ def render_passes(view: View, integrator, job: Job) -> Timed:
         else job.passes()
     mean = np.zeros((job.height, job.width, 3))
     sq = np.zeros_like(mean)
+    higher = (np.zeros_like(mean), np.zeros_like(mean)) if per_sample else None
     images, spps = [], []
     done, times, cpu, kernels, host, compiled = 0, [], 0.0, 0.0, 0.0, 0
     i = 0
@@ -370,7 +374,10 @@ def render_passes(view: View, integrator, job: Job) -> Timed:
             spps.append(k)
         if per_sample:
             image = np.array(image, dtype=np.float64)
-            image, m2 = image[..., :3], image[..., -len(moments.SQUARES):]
+            m2, m3, m4 = np.split(image[..., -len(moments.MOMENTS):], 3, axis=-1)
+            image = image[..., :3]
+            higher[0][...] += k * m3
+            higher[1][...] += k * m4
         mean += image * k
         sq += k * (m2 if per_sample else image * image)
         done += k
@@ -385,7 +392,7 @@ def render_passes(view: View, integrator, job: Job) -> Timed:
         host += time.thread_time() - start
     else:
         passes = done if per_sample else len(times)
-    return Timed(mean, sq, done, passes, times, cpu, kernels, host, compiled)
+    return Timed(mean, sq, done, passes, times, cpu, kernels, host, compiled, higher)
 
 
 def replaced_rest(schedule: list, index: int, rest: list) -> list:
@@ -431,7 +438,9 @@ def run_job(job: Job, variant: str) -> JobResult:
         timed = render_passes(view, fresh_integrator(job), job)
         if not timed.compiled:
             break
-    return JobResult(image=timed.image.astype(np.float32), sq=timed.sq, spp=timed.spp,
+    return JobResult(image=timed.image.astype(np.float32), sq=timed.sq,
+                     cubes=None if timed.higher is None else timed.higher[0],
+                     fourths=None if timed.higher is None else timed.higher[1], spp=timed.spp,
                      passes=timed.passes,
                      wall_seconds=float(sum(timed.pass_seconds)),
                      pass_seconds=timed.pass_seconds, cpu_seconds=timed.cpu_seconds,

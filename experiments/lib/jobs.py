@@ -19,6 +19,7 @@ render (:func:`~.plan.ladder`), fed with results read back from the store
 from __future__ import annotations
 
 import dataclasses
+import math
 import platform
 import zlib
 from dataclasses import dataclass, field
@@ -119,6 +120,8 @@ class JobResult:
                                  # kernel history): the sample work, no tracing or launch
     host_seconds: float = 0.0    # CPU time of the method's own host work between its passes
                                  # (:mod:`.clock`: the cost is kernel + host seconds)
+    cubes: np.ndarray | None = None     # (H, W, 3) sums of the samples' cubes and fourth
+    fourths: np.ndarray | None = None   # powers (float64): ``sample_moments`` jobs only
 
     def metadata(self) -> dict:
         return {"spp": self.spp, "passes": self.passes, "wall_seconds": self.wall_seconds,
@@ -147,33 +150,43 @@ class Accumulator:
     """Running mean of job images, weighted by their sample counts.
 
     ``sq`` is sum_i k_i m_i^2 over passes i with k_i samples and mean image
-    m_i, from which :meth:`variance_of_mean` estimates per-pixel variances.
+    m_i, from which :meth:`variance_of_mean` estimates per-pixel variances. Where every
+    pass is one sample (``sample_moments``) and every result added has them, ``higher``
+    holds the sums of the samples' cubes and fourth powers, from which
+    :meth:`variance_of_variance` says how sure those variances are.
     """
     mean: np.ndarray
     sq: np.ndarray
     spp: int = 0
     passes: int = 0
     cost: float = 0.0            # seconds of the images added (:func:`.clock.cost`)
+    higher: tuple | None = None  # (sum x^3, sum x^4) per pixel and channel; None: unknown
 
     @classmethod
     def empty(cls, height: int, width: int, channels: int = 3) -> "Accumulator":
         shape = (height, width, channels)
-        return cls(np.zeros(shape), np.zeros(shape))
+        return cls(np.zeros(shape), np.zeros(shape), higher=(np.zeros(shape), np.zeros(shape)))
 
     def add(self, image: np.ndarray, spp: int, cost: float = 0.0, sq=None,
-            passes: int = 1) -> None:
+            passes: int = 1, higher: tuple | None = None) -> None:
         """Fold in an image that averages ``spp`` samples per pixel (``passes`` passes whose
-        sum of squares is ``sq``; one pass when None)."""
+        sum of squares is ``sq``; one pass when None; ``higher``: the sums of its samples'
+        cubes and fourth powers, None where it has none, which makes them unknown here)."""
         image = np.asarray(image, np.float64)
         n = self.spp
         self.mean = (self.mean * n + image * spp) / (n + spp)
         self.sq = self.sq + (spp * image * image if sq is None else np.asarray(sq, np.float64))
+        self.higher = None if self.higher is None or higher is None else \
+            tuple(a + np.asarray(b, np.float64) for a, b in zip(self.higher, higher))
         self.spp += spp
         self.passes += passes
         self.cost += cost
 
     def add_result(self, result: JobResult) -> None:
-        self.add(result.image, result.spp, clock.cost(result), result.sq, result.passes)
+        higher = None if result.cubes is None or result.fourths is None else \
+            (result.cubes, result.fourths)
+        self.add(result.image, result.spp, clock.cost(result), result.sq, result.passes,
+                 higher)
 
     def variance_of_mean(self) -> np.ndarray:
         """Per-pixel variance of :attr:`mean`, from the spread of the pass images.
@@ -185,6 +198,41 @@ class Accumulator:
             return np.full_like(self.mean, np.inf)
         s2 = np.maximum(self.sq - self.spp * self.mean ** 2, 0.0) / (self.passes - 1)
         return s2 / self.spp
+
+    def variance_of_variance(self) -> np.ndarray | None:
+        """Per pixel, the variance of :meth:`variance_of_mean` as an estimate (None where
+        the samples' cubes and fourth powers are unknown):
+        :func:`variance_of_variance` of the samples' raw moments."""
+        if self.higher is None or self.passes != self.spp or self.spp < 4:
+            return None
+        n = self.spp
+        return variance_of_variance(self.mean, self.sq / n, self.higher[0] / n,
+                                    self.higher[1] / n, n)
+
+
+#: Relative rounding of a film's single-precision sums (the raw moments' AOVs).
+FILM_ROUNDING = 2.0 ** -24
+
+
+def variance_of_variance(m1, m2, m3, m4, n: int) -> np.ndarray:
+    """The variance of the estimate s^2 / n of the variance of a mean of ``n`` independent
+    samples, from their raw moments ``m1`` .. ``m4`` (means of x, x^2, x^3, x^4):
+
+        Var(s^2) = 2 mu2^2 / (n - 1) + (mu4 - 3 mu2^2) / n
+
+    (mu_k the central moments; the second term is the excess kurtosis's, which a pixel
+    ruled by rare bright samples makes many times the first, normal one). The excess term
+    counts only above the rounding of the single-precision sums it is read from (the
+    central moment is a difference of raw ones: a smooth pixel's would be rounding
+    noise), and never below 0 (a light-tailed pixel keeps the normal term)."""
+    m1, m2, m3, m4 = (np.asarray(m, np.float64) for m in (m1, m2, m3, m4))
+    mu2 = np.maximum(m2 - m1 * m1, 0.0)
+    mu4 = m4 - 4.0 * m1 * m3 + 6.0 * m1 * m1 * m2 - 3.0 * m1 ** 4
+    rounding = FILM_ROUNDING * (math.sqrt(n) + 1.0) * 16.0 * (
+        np.abs(m4) + 4.0 * np.abs(m1 * m3) + 6.0 * m1 * m1 * np.abs(m2) + 3.0 * m1 ** 4)
+    excess = np.maximum(mu4 - 3.0 * mu2 * mu2 - rounding, 0.0)
+    s2 = mu2 * n / (n - 1)
+    return (2.0 * s2 * s2 / (n - 1) + excess / n) / (n * n)
 
 
 def accumulate(results: Iterable[JobResult]) -> list[Accumulator]:

@@ -33,6 +33,9 @@ class Run:
     variance: np.ndarray | None = None   # per pixel, of the image (from its passes' spread;
                                          # None with fewer than two passes, or passes
                                          # of one sequence)
+    variance_var: np.ndarray | None = None   # per pixel, the variance of ``variance`` as an
+                                             # estimate (from the samples' fourth moments;
+                                             # None where they are unknown)
 
 
 def rungs(results: list, ref: np.ndarray, independent: bool = False,
@@ -55,7 +58,8 @@ def rungs(results: list, ref: np.ndarray, independent: bool = False,
         overheads = np.cumsum([clock.overhead(r) for r in results])
     return [Run(acc.spp, acc.cost, metrics.mse(acc.mean, ref), metrics.relmse(acc.mean, ref),
                 acc.mean, float(overhead),
-                acc.variance_of_mean() if spread and acc.passes > 1 else None)
+                acc.variance_of_mean() if spread and acc.passes > 1 else None,
+                acc.variance_of_variance() if spread else None)
             for acc, overhead in zip(accs, overheads)]
 
 

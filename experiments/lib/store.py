@@ -2,7 +2,8 @@
 
 :class:`JobStore` keeps one entry per finished render job
 (``<root>/<job key>.npz``: the image, the per-pixel sum of squares of its
-passes, the job and the result's metadata). A job whose entry exists is
+passes, for a job with its samples' moments the sums of their cubes and fourth powers,
+the job and the result's metadata). A job whose entry exists is
 finished; :func:`experiments.lib.execute.execute` skips it.
 
 The file helpers (atomic writes, EXR/PNG/JSON/CSV) are :mod:`.files`.
@@ -50,8 +51,9 @@ class JobStore:
         meta = {"job": dataclasses.asdict(job), "result": result.metadata()}
         arrays = {"image": np.asarray(result.image, np.float32),
                   "meta": np.array(json.dumps(meta))}
-        if result.sq is not None:
-            arrays["sq"] = np.asarray(result.sq, np.float64)
+        for name in ("sq", "cubes", "fourths"):
+            if getattr(result, name) is not None:
+                arrays[name] = np.asarray(getattr(result, name), np.float64)
         write_npz(self.path(job.key), **arrays)
         self._forget(job.key)
 
@@ -67,9 +69,10 @@ class JobStore:
         meta = json.loads(str(data["meta"]))["result"]
         if "seconds" in meta:                   # entries stored before the field's rename
             meta["wall_seconds"] = meta.pop("seconds")
-        result = JobResult(image=data["image"], sq=data.get("sq"), **meta)
+        result = JobResult(image=data["image"], sq=data.get("sq"), cubes=data.get("cubes"),
+                           fourths=data.get("fourths"), **meta)
         size = 0
-        for array in (result.image, result.sq):
+        for array in (result.image, result.sq, result.cubes, result.fourths):
             if isinstance(array, np.ndarray):
                 array.flags.writeable = False
                 size += array.nbytes

@@ -13,13 +13,22 @@ spread of those instead). The expected relMSE of an unbiased render is then
 
 (the variance part of the relMSE; the bias is tested apart, :mod:`.bias_test`), with no
 floor to subtract (the reference's noise enters only through the denominators). Pooled over
-the R repeats, its standard error comes from each pixel's variance of v_p across the
-repeats, summed over the pixels: thousands of independent terms with R - 1 degrees of
-freedom each, hence a normal quantile instead of Student's t with R - 1. What it can miss: a
-heavy tail that no render of the run has sampled (its variance is then understated, as every
-estimate from these renders would be). Where a few pixels hold most of E (a light smaller
-than a pixel, caustic fireflies) their rare samples rule its spread: the interval is wide
-there, as it must be.
+the R repeats, its standard error is the larger of two estimates of the same thing:
+
+* each pixel's variance of v_p across the repeats, summed over the pixels: thousands of
+  terms with R - 1 degrees of freedom each;
+* each render's own variance of its v_p, from its samples' fourth central moments
+  (:func:`.jobs.variance_of_variance`, where the renders kept their cubes and fourth
+  powers), summed over the pixels and the repeats.
+
+Either is unbiased, but where a few pixels hold most of E (a light smaller than a pixel,
+caustic fireflies, a narrow lobe sampled uniformly) the first rests on R values of each of
+them and is usually far too small; the second reads all of a pixel's samples (on
+small_light, `bsdf+nee` at 64 spp: 16% of E per render where the spread of 64 renders says
+14%; docs/methodology.md).
+Hence a normal quantile instead of Student's t with R - 1. What both can miss: a heavy tail
+that no render of the run has sampled (its variance is then understated, as every estimate
+from these renders would be).
 
 The cost side of an efficiency pairs the two methods' renders (same repeat, same budget: a
 timing group renders them one after the other, :meth:`...engine.Engine.run`), so that the
@@ -50,6 +59,19 @@ def pixel_map(variance: np.ndarray | None, ref: np.ndarray) -> np.ndarray | None
     return (np.asarray(variance, np.float64) / (ref * ref + metrics.RELMSE_EPS)).mean(axis=-1)
 
 
+def pixel_map_variance(variance_var: np.ndarray | None, ref: np.ndarray) -> np.ndarray | None:
+    """The variance of one render's :func:`pixel_map` as an estimate, (H, W), from its
+    per-pixel variance of the variance (:meth:`.jobs.Accumulator.variance_of_variance`):
+    the channels' standard deviations added (as if fully correlated, which bounds the
+    variance of their mean); None without it."""
+    if variance_var is None or not np.all(np.isfinite(variance_var)):
+        return None
+    ref = np.asarray(ref, np.float64)
+    sd = np.sqrt(np.maximum(np.asarray(variance_var, np.float64), 0.0)) \
+        / (ref * ref + metrics.RELMSE_EPS)
+    return np.square(sd.mean(axis=-1))
+
+
 def oracle_gain(maps) -> float:
     """How many times an oracle's allocation of the same samples would lower the relMSE of
     the renders whose :func:`pixel_map` values are ``maps``: pixel p's samples in
@@ -64,19 +86,26 @@ def oracle_gain(maps) -> float:
     return float(np.mean(v)) / (root * root) if root > 0 else math.nan
 
 
-def pooled(maps) -> tuple[float, float]:
+def pooled(maps, tails=None) -> tuple[float, float]:
     """(expected relMSE over the repeats' :func:`pixel_map` values, the variance of that
-    estimate): sum over pixels of each pixel's variance across the R repeats, over R N^2
-    (R - 1 degrees of freedom per pixel, thousands of pixels); with one repeat, the spread
-    over the pixels (which also counts their differences: wider). (nan, nan) without maps."""
+    estimate): the larger of the sum over pixels of each pixel's variance across the R
+    repeats, over R N^2 (R - 1 degrees of freedom per pixel, thousands of pixels; with one
+    repeat, the spread over the pixels, which also counts their differences: wider), and,
+    where every repeat has its :func:`pixel_map_variance` (``tails``), their sum over
+    pixels and repeats over R^2 N^2 (see the module). (nan, nan) without maps."""
     if not maps or any(m is None for m in maps):
         return math.nan, math.nan
     v = np.stack([np.asarray(m, np.float64).ravel() for m in maps])
     repeats, n = v.shape
     value = float(v.mean())
     if repeats > 1:
-        return value, float(v.var(axis=0, ddof=1).sum()) / (repeats * n * n)
-    return value, float(v.var(ddof=1)) / n if n > 1 else math.nan
+        var = float(v.var(axis=0, ddof=1).sum()) / (repeats * n * n)
+    else:
+        var = float(v.var(ddof=1)) / n if n > 1 else math.nan
+    if tails and len(tails) == repeats and all(t is not None for t in tails):
+        own = float(sum(np.sum(t) for t in tails)) / (repeats * repeats * n * n)
+        var = own if math.isnan(var) else max(var, own)
+    return value, var
 
 
 def estimate(value: float, var: float, n: int, level: float = stats.LEVEL) -> stats.Estimate:

@@ -60,7 +60,8 @@ def _runs(runs: list, ref: references.Reference, b: list[float],
     elif flip == "first":
         flips = [metrics.flip_mean(runs[0].image, ref.image)]
     maps = [errors.pixel_map(x.variance, ref.image) for x in runs]
-    expected = errors.pooled(maps) if all(m is not None for m in maps) else ()
+    tails = [errors.pixel_map_variance(x.variance_var, ref.image) for x in runs]
+    expected = errors.pooled(maps, tails) if all(m is not None for m in maps) else ()
     return analysis.Runs(runs[0].spp, tuple(rel), tuple(rej), tuple(mse), tuple(secs),
                          tuple(flips), tuple(means), tuple(mvars), expected, costs), \
         float(np.mean(rej_floor))

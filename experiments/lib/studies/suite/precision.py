@@ -81,13 +81,14 @@ class Precision:
                 for jobs in planned.runs(Cell(scene.name, method, timed.after))]
         if not runs:
             return None
-        maps = []
+        maps, tails = [], []
         for results in runs:
             acc = Accumulator.empty(*results[0].image.shape[:2])
             for r in results:
                 acc.add_result(r)
             maps.append(errors.pixel_map(acc.variance_of_mean(), ref))
-        value, var = errors.pooled(maps)
+            tails.append(errors.pixel_map_variance(acc.variance_of_variance(), ref))
+        value, var = errors.pooled(maps, tails)
         if not (value > 0 and math.isfinite(var)):
             return None
         spp = sum(r.spp for r in runs[0])
