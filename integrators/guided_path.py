@@ -28,6 +28,8 @@ ROULETTES = ("adjoint", "throughput")
 #: The AOVs of each sample's squared radiance per channel (the passes' per-pixel variances:
 #: their weights, and the variance of the combined image).
 M2_AOVS = ("guiding_m2_r", "guiding_m2_g", "guiding_m2_b")
+#: Then those of their cubes and fourth powers (how sure each pass's variances are).
+MOMENT_AOVS = M2_AOVS + tuple(f"guiding_m{k}_{c}" for k in (3, 4) for c in "rgb")
 #: Samplers that compile the sample count into the kernel: each pass would recompile.
 BAKES_SPP = {"StratifiedSampler": "stratified", "MultijitterSampler": "multijitter",
              "OrthogonalSampler": "orthogonal", "LowDiscrepancySampler": "ldsampler"}
@@ -187,6 +189,8 @@ class GuidedPathIntegrator(VRPathIntegrator):
                                 # iteration whose refinement rendered it
         self._mean, self._m2, self._spp = [], [], []   # per render done: its image, its
                                                        # mean squares, its samples
+        self._m34 = []          # per render done: its mean cubes and fourth powers
+        self._groups = []       # the renders pooled per estimator (:meth:`combine`)
         self._stopped = False   # training stopped (or never started): vr_path's kernel
         #: Per refinement, the predicted gain of its shares (None: nothing measured).
         self.gains = []
@@ -227,11 +231,13 @@ class GuidedPathIntegrator(VRPathIntegrator):
     def _aovs(self, segments, shadow_rays, result=None):
         c = mi.Color3f(0.0) if result is None else \
             mi.Color3f(mi.unpolarized_spectrum(result))
+        c2 = c * c
+        c3, c4 = c2 * c, c2 * c2
         return VRPathIntegrator._aovs(self, segments, shadow_rays) + \
-            [dr.square(c.x), dr.square(c.y), dr.square(c.z)]
+            [c2.x, c2.y, c2.z, c3.x, c3.y, c3.z, c4.x, c4.y, c4.z]
 
     def aov_names(self):
-        return VRPathIntegrator.aov_names(self) + list(M2_AOVS)
+        return VRPathIntegrator.aov_names(self) + list(MOMENT_AOVS)
 
     # ------------------------------------------------------------------ multi-pass
 
@@ -250,6 +256,7 @@ class GuidedPathIntegrator(VRPathIntegrator):
             if not small else [spp]
         self._passes = guide_passes.renders(self._iterations, self.max_pass_spp, not small)
         self._m2, self._mean, self._spp, self.gains = [], [], [], []
+        self._m34, self._groups = [], []
         self.weights, self.variance = None, None
         self._estimator = [-1] * len(self._iterations)
         trains = len(self._iterations) > 1       # one iteration has nothing to learn for
@@ -266,7 +273,9 @@ class GuidedPathIntegrator(VRPathIntegrator):
         (:func:`.guide_passes.merged_rest`), returned as the new rest of the schedule
         (None: the schedule stands)."""
         image = np.array(image, dtype=np.float64)
-        self._m2.append(image[..., -len(M2_AOVS):])
+        m2, m3, m4 = np.split(image[..., -len(MOMENT_AOVS):], 3, axis=-1)
+        self._m2.append(m2)
+        self._m34.append((m3, m4))
         self._mean.append(image[..., :3])
         self._spp.append(spp)
         k = self._passes[index][0]
@@ -320,6 +329,7 @@ class GuidedPathIntegrator(VRPathIntegrator):
                   for e in dict.fromkeys(self._estimator)]
         image, self.weights, self.variance = guide_passes.combine(images, self._m2, spps,
                                                                    groups)
+        self._groups = groups
         return image
 
     def combined_variance(self) -> np.ndarray:
@@ -331,6 +341,21 @@ class GuidedPathIntegrator(VRPathIntegrator):
         (:func:`experiments.lib.execute.render_passes`): the spread of its passes would
         treat the untrained and the trained ones as one estimator."""
         return self.variance
+
+    def combined_moments(self) -> list:
+        """Per group of :meth:`combine` (the renders of one estimator): (its weight, its
+        samples per pixel, and per pixel and channel the means of its samples, of their
+        squares, cubes and fourth powers), from which the experiments bound how sure
+        :meth:`combined_variance` is (the sum over groups of weight^4 x the variance of
+        the group's variance, :func:`experiments.lib.jobs.variance_of_variance`)."""
+        out = []
+        for w, idx in zip(self.weights, self._groups):
+            n = sum(self._spp[i] for i in idx)
+            pooled = [sum(a[i] * self._spp[i] for i in idx) / n
+                      for a in (self._mean, self._m2, [m[0] for m in self._m34],
+                                [m[1] for m in self._m34])]
+            out.append((float(w), n, *pooled))
+        return out
 
     def to_string(self):
         return (f"GuidedPathIntegrator[{VRPathIntegrator.to_string(self)}, "

@@ -3,7 +3,7 @@
 * Only the clock reads a render's timings (``wall_seconds``, ``cpu_seconds``,
   ``kernel_seconds``, ``host_seconds``): an AST scan of every module of the package, tools,
   benchmarks and examples, with a negative control on synthetic source.
-* A method that renders in two passes of its own (:class:`~experiments.lib.execute.MultiPass`,
+* A method that renders in two passes of its own (:class:`~experiments.lib.multipass.MultiPass`,
   declared here) is costed for both passes' kernels and for the host work between them: the
   host work is a known amount of thread CPU time; the kernels of a heavy first pass must be
   counted (negative control: a render of the last pass alone costs far less).

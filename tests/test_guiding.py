@@ -17,7 +17,8 @@ import _blocks
 import integrators.path as vr_path
 from _chi2 import CapDomain, incident, interaction, run_chi2
 from experiments.lib import methods
-from experiments.lib.execute import kernels_compiled, replaced_rest
+from experiments.lib.execute import kernels_compiled
+from experiments.lib.multipass import replaced_rest
 from integrators import guide_passes, guide_warps, sdtree
 from integrators.guide_record import Recorder
 from integrators.guide_roulette import Roulette

@@ -243,19 +243,25 @@ MUTANTS = [
            "the renders' own variances of their errors (from their samples' fourth moments) "
            "left out: where a few pixels rule a cell's error its interval rests on three "
            "values of each and is far too narrow",
-           ("tests/test_suite_errors.py",)),
+           ("tests/test_error_tails.py",)),
+    Mutant("combined-tails-unweighted", "experiments/lib/multipass.py",
+           "            variance_var = sum(w ** 4 * variance_of_variance(m1, m2, m3, m4, n)",
+           "            variance_var = sum(w ** 2 * variance_of_variance(m1, m2, m3, m4, n)",
+           "a guided job's groups' variances of their variances weighted as the variances "
+           "are (w^2), not as their squares (w^4)",
+           ("tests/test_error_tails.py",)),
     Mutant("kurtosis-dropped", "experiments/lib/jobs.py",
            "    return (2.0 * s2 * s2 / (n - 1) + excess / n) / (n * n)",
            "    return (2.0 * s2 * s2 / (n - 1)) / (n * n)",
            "the variance of a pixel's variance from the normal theory alone: a pixel ruled "
            "by rare bright samples reads ten times surer than it is",
-           ("tests/test_suite_errors.py",)),
+           ("tests/test_error_tails.py",)),
     Mutant("moments-rounding-unbounded", "experiments/lib/jobs.py",
            "    excess = np.maximum(mu4 - 3.0 * mu2 * mu2 - rounding, 0.0)",
            "    excess = np.maximum(mu4 - 3.0 * mu2 * mu2, 0.0)",
            "the fourth central moment read from single-precision sums taken at face value: "
            "smooth pixels' rounding read as heavy tails",
-           ("tests/test_suite_errors.py",)),
+           ("tests/test_error_tails.py",)),
     Mutant("precision-scale-linear", "experiments/lib/studies/suite/precision.py",
            "    scale = (error / precision) ** 2",
            "    scale = error / precision",

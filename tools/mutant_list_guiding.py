@@ -166,21 +166,21 @@ GUIDING = [
            "269 spp flagged by one block at p = 1.9e-7 that reruns did not repeat)",
            ("tests/test_suite_bias.py::test_a_learning_method_under_its_training_thresholds_"
             "is_tested_on_its_pixels",)),
-    Mutant("executor-rest-unchecked", "experiments/lib/execute.py",
+    Mutant("executor-rest-unchecked", "experiments/lib/multipass.py",
            "    if sum(rest) != sum(schedule[index + 1:]) or any(n < 1 for n in rest):\n",
            "    if False:\n",
            "a method's replacement of its remaining passes accepted whatever samples it "
            "renders (a job's count silently changed)",
            ("tests/test_guiding.py::test_the_executor_refuses_a_rest_that_changes_the_"
             "samples",)),
-    Mutant("guide-variance-from-passes", "experiments/lib/execute.py",
-           "    sq, passes = done * mean * mean, 1\n",
-           "    sq, passes = done * mean * mean, len(spps)\n",
+    Mutant("guide-variance-from-passes", "experiments/lib/multipass.py",
+           "    sq, passes, variance_var = done * mean * mean, 1, None\n",
+           "    sq, passes, variance_var = done * mean * mean, len(spps), None\n",
            "a guided job's per-pixel variance taken from the spread of its passes, as if the "
            "untrained and the trained ones were one estimator (the suite's error of "
            "guided+nee twice too high on hidden_lamp), where it states none",
            ("tests/test_clock.py",)),
-    Mutant("guide-variance-ignored", "experiments/lib/execute.py",
+    Mutant("guide-variance-ignored", "experiments/lib/multipass.py",
            "    variance = getattr(integrator, \"combined_variance\", None)\n",
            "    variance = None\n",
            "the guided integrator's variance of its combined image not used: the suite's "

@@ -60,12 +60,13 @@ import socket
 import time
 import warnings
 from collections import OrderedDict
-from typing import Iterable, Iterator, NamedTuple, Protocol, runtime_checkable
+from typing import Iterable, Iterator, NamedTuple
 
 import numpy as np
 
 from . import figure_pool
 from .jobs import Job, JobResult, cpu_model, derive_seed
+from .multipass import MultiPass, combined, replaced_rest
 from .methods import Depth, Method
 from .scenes import load_scene, load_sensor, scene_hash
 from .store import JobStore
@@ -199,37 +200,6 @@ def _view(job: Job, variant: str) -> View:
     return view
 
 
-@runtime_checkable
-class MultiPass(Protocol):
-    """An integrator that renders its image in several passes of its own (a method that
-    learns between passes, or combines them), declared by having these three methods. The
-    executor renders each pass with ``mi.render`` and calls the hooks between them; the
-    clock (:mod:`.clock`) counts the kernels of every pass and the CPU time of the hooks.
-
-    * ``pass_schedule(spp, pixels)``: the samples per pixel of each pass for a job of
-      ``spp`` on a film of ``pixels`` (a function of the counts alone, never of time),
-      summing to ``spp``; a pass over the job's lane cap (:data:`.jobs.MAX_LANES`) is
-      rendered in several renders and averaged (:meth:`.jobs.Job.split_lanes`);
-    * ``after_pass(index, image, spp)``: host work after pass ``index`` (learning from it;
-      ``image`` the pass's mean as a Dr.Jit tensor); it may return the passes that follow
-      anew (a list of samples per pixel with the same sum as the ones it replaces: e.g. a
-      method whose learning stopped renders its rest in one pass), None to keep them;
-    * ``combine(images, spps)``: the job's image from every pass's (a numpy (H, W, 3)
-      array; e.g. a weighted mean);
-    * optionally ``combined_variance()``: the per-pixel variance (H, W, 3) of what
-      ``combine`` returned, which the per-pixel errors then use (without it the job is one
-      pass: its errors come from its repeats against the reference).
-
-    Passes are rendered with seeds ``derive_seed(job.seed, index)`` (a pass split for
-    memory: ``derive_seed(job.seed, index, part)`` after its first render)."""
-
-    def pass_schedule(self, spp: int, pixels: int) -> list: ...
-
-    def after_pass(self, index: int, image, spp: int) -> list | None: ...
-
-    def combine(self, images: list, spps: list): ...
-
-
 def sequence_state(job: Job, done: int) -> dict | None:
     """The sampler attributes that make a pass of ``job`` continue its sequence after the
     ``done`` samples its earlier passes took (None: the sampler reseeds instead). The
@@ -310,6 +280,8 @@ class Timed(NamedTuple):
     compiled: int                # passes during which a kernel compiled
     higher: tuple | None = None  # (sum of x^3, sum of x^4) over the samples, (H, W, 3)
                                  # each: through ``vr_moments`` only
+    variance_var: np.ndarray | None = None   # a MultiPass method's: how sure its stated
+                                             # variance is (:func:`combined`)
 
 
 def render_pass(view: View, integrator, job: Job, index: int, spp: int, done: int,
@@ -386,40 +358,15 @@ def render_passes(view: View, integrator, job: Job) -> Timed:
         kernels += kernel
         i += 1
     mean /= done
+    variance_var = None
     if multi:
         start = time.thread_time()
-        mean, sq, passes = combined(integrator, images, spps, done)
+        mean, sq, passes, variance_var = combined(integrator, images, spps, done)
         host += time.thread_time() - start
     else:
         passes = done if per_sample else len(times)
-    return Timed(mean, sq, done, passes, times, cpu, kernels, host, compiled, higher)
-
-
-def replaced_rest(schedule: list, index: int, rest: list) -> list:
-    """``schedule`` with the passes after ``index`` replaced by ``rest``, which a
-    :class:`MultiPass` method's ``after_pass`` returned: refused unless it renders the
-    same samples (a method must not change its job's count)."""
-    if sum(rest) != sum(schedule[index + 1:]) or any(n < 1 for n in rest):
-        raise ValueError(f"after_pass({index}) returned the passes {list(rest)} "
-                         f"({sum(rest)} spp) for {list(schedule[index + 1:])} "
-                         f"({sum(schedule[index + 1:])} spp): the rest must keep its samples")
-    return list(schedule[:index + 1]) + list(rest)
-
-
-def combined(integrator, images: list, spps: list, done: int) -> tuple:
-    """(image, sq, passes) of a :class:`MultiPass` method's job from its passes' images.
-    Its passes are not samples of one estimator (a guide's untrained and trained passes):
-    one pass of the combined image, so that no per-pixel variance comes from their
-    spread, unless the method states its own (``combined_variance``), written as every
-    sample a pass of sq so that :meth:`.jobs.Accumulator.variance_of_mean` returns it:
-    sq = n mean^2 + V n (n - 1)."""
-    mean = np.asarray(integrator.combine(images, spps), dtype=np.float64)
-    sq, passes = done * mean * mean, 1
-    variance = getattr(integrator, "combined_variance", None)
-    if variance is not None and done > 1:
-        passes = done
-        sq = sq + np.asarray(variance(), np.float64) * done * (done - 1)
-    return mean, sq, passes
+    return Timed(mean, sq, done, passes, times, cpu, kernels, host, compiled, higher,
+                 variance_var)
 
 
 def run_job(job: Job, variant: str) -> JobResult:
@@ -440,7 +387,8 @@ def run_job(job: Job, variant: str) -> JobResult:
             break
     return JobResult(image=timed.image.astype(np.float32), sq=timed.sq,
                      cubes=None if timed.higher is None else timed.higher[0],
-                     fourths=None if timed.higher is None else timed.higher[1], spp=timed.spp,
+                     fourths=None if timed.higher is None else timed.higher[1],
+                     variance_var=timed.variance_var, spp=timed.spp,
                      passes=timed.passes,
                      wall_seconds=float(sum(timed.pass_seconds)),
                      pass_seconds=timed.pass_seconds, cpu_seconds=timed.cpu_seconds,

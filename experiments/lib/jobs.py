@@ -122,6 +122,8 @@ class JobResult:
                                  # (:mod:`.clock`: the cost is kernel + host seconds)
     cubes: np.ndarray | None = None     # (H, W, 3) sums of the samples' cubes and fourth
     fourths: np.ndarray | None = None   # powers (float64): ``sample_moments`` jobs only
+    variance_var: np.ndarray | None = None  # (H, W, 3) how sure the variance a MultiPass
+                                            # method states is (multipass.combined), if known
 
     def metadata(self) -> dict:
         return {"spp": self.spp, "passes": self.passes, "wall_seconds": self.wall_seconds,
@@ -161,6 +163,8 @@ class Accumulator:
     passes: int = 0
     cost: float = 0.0            # seconds of the images added (:func:`.clock.cost`)
     higher: tuple | None = None  # (sum x^3, sum x^4) per pixel and channel; None: unknown
+    stated: np.ndarray | None = None     # the one result's own variance_var (a MultiPass
+                                         # method's; None once another result is added)
 
     @classmethod
     def empty(cls, height: int, width: int, channels: int = 3) -> "Accumulator":
@@ -168,12 +172,16 @@ class Accumulator:
         return cls(np.zeros(shape), np.zeros(shape), higher=(np.zeros(shape), np.zeros(shape)))
 
     def add(self, image: np.ndarray, spp: int, cost: float = 0.0, sq=None,
-            passes: int = 1, higher: tuple | None = None) -> None:
+            passes: int = 1, higher: tuple | None = None,
+            variance_var: np.ndarray | None = None) -> None:
         """Fold in an image that averages ``spp`` samples per pixel (``passes`` passes whose
         sum of squares is ``sq``; one pass when None; ``higher``: the sums of its samples'
-        cubes and fourth powers, None where it has none, which makes them unknown here)."""
+        cubes and fourth powers, None where it has none, which makes them unknown here;
+        ``variance_var``: how sure its stated variance is, kept only while it is the one
+        image added)."""
         image = np.asarray(image, np.float64)
         n = self.spp
+        self.stated = variance_var if n == 0 else None
         self.mean = (self.mean * n + image * spp) / (n + spp)
         self.sq = self.sq + (spp * image * image if sq is None else np.asarray(sq, np.float64))
         self.higher = None if self.higher is None or higher is None else \
@@ -186,7 +194,7 @@ class Accumulator:
         higher = None if result.cubes is None or result.fourths is None else \
             (result.cubes, result.fourths)
         self.add(result.image, result.spp, clock.cost(result), result.sq, result.passes,
-                 higher)
+                 higher, result.variance_var)
 
     def variance_of_mean(self) -> np.ndarray:
         """Per-pixel variance of :attr:`mean`, from the spread of the pass images.
@@ -200,11 +208,11 @@ class Accumulator:
         return s2 / self.spp
 
     def variance_of_variance(self) -> np.ndarray | None:
-        """Per pixel, the variance of :meth:`variance_of_mean` as an estimate (None where
-        the samples' cubes and fourth powers are unknown):
-        :func:`variance_of_variance` of the samples' raw moments."""
+        """Per pixel, the variance of :meth:`variance_of_mean` as an estimate:
+        :func:`variance_of_variance` of the samples' raw moments, or the one result's own
+        (a MultiPass method's, which states its variance); None where neither is known."""
         if self.higher is None or self.passes != self.spp or self.spp < 4:
-            return None
+            return None if self.stated is None else np.asarray(self.stated, np.float64)
         n = self.spp
         return variance_of_variance(self.mean, self.sq / n, self.higher[0] / n,
                                     self.higher[1] / n, n)

@@ -51,7 +51,7 @@ class JobStore:
         meta = {"job": dataclasses.asdict(job), "result": result.metadata()}
         arrays = {"image": np.asarray(result.image, np.float32),
                   "meta": np.array(json.dumps(meta))}
-        for name in ("sq", "cubes", "fourths"):
+        for name in ("sq", "cubes", "fourths", "variance_var"):
             if getattr(result, name) is not None:
                 arrays[name] = np.asarray(getattr(result, name), np.float64)
         write_npz(self.path(job.key), **arrays)
@@ -70,9 +70,11 @@ class JobStore:
         if "seconds" in meta:                   # entries stored before the field's rename
             meta["wall_seconds"] = meta.pop("seconds")
         result = JobResult(image=data["image"], sq=data.get("sq"), cubes=data.get("cubes"),
-                           fourths=data.get("fourths"), **meta)
+                           fourths=data.get("fourths"), variance_var=data.get("variance_var"),
+                           **meta)
         size = 0
-        for array in (result.image, result.sq, result.cubes, result.fourths):
+        for array in (result.image, result.sq, result.cubes, result.fourths,
+                      result.variance_var):
             if isinstance(array, np.ndarray):
                 array.flags.writeable = False
                 size += array.nbytes

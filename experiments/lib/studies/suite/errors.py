@@ -6,7 +6,7 @@ filter: :func:`.bias_test.variance_kind` is ``pixels``) each render keeps its sa
 per-pixel second moments (the job's ``sample_moments``: ``vr_moments``,
 :mod:`integrators.moments`), which give the per-pixel variance of its mean image
 (:meth:`.jobs.Accumulator.variance_of_mean`, every sample a pass: spp - 1 degrees of freedom
-per pixel; a method that renders its own passes, :class:`.execute.MultiPass`, gives the
+per pixel; a method that renders its own passes, :class:`.multipass.MultiPass`, gives the
 spread of those instead). The expected relMSE of an unbiased render is then
 
     E = mean over pixels of  v_p,   v_p = mean over channels of  var_p / (ref_p^2 + eps)
