@@ -245,8 +245,8 @@ MUTANTS = [
            "values of each and is far too narrow",
            ("tests/test_error_tails.py",)),
     Mutant("combined-tails-unweighted", "experiments/lib/multipass.py",
-           "            variance_var = sum(w ** 4 * variance_of_variance(m1, m2, m3, m4, n)",
-           "            variance_var = sum(w ** 2 * variance_of_variance(m1, m2, m3, m4, n)",
+           "    return sum(w ** 4 * variance_of_variance(m1, m2, m3, m4, n)",
+           "    return sum(w ** 2 * variance_of_variance(m1, m2, m3, m4, n)",
            "a guided job's groups' variances of their variances weighted as the variances "
            "are (w^2), not as their squares (w^4)",
            ("tests/test_error_tails.py",)),

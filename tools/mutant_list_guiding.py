@@ -174,8 +174,8 @@ GUIDING = [
            ("tests/test_guiding.py::test_the_executor_refuses_a_rest_that_changes_the_"
             "samples",)),
     Mutant("guide-variance-from-passes", "experiments/lib/multipass.py",
-           "    sq, passes, variance_var = done * mean * mean, 1, None\n",
-           "    sq, passes, variance_var = done * mean * mean, len(spps), None\n",
+           "    sq, passes = done * mean * mean, 1\n",
+           "    sq, passes = done * mean * mean, len(spps)\n",
            "a guided job's per-pixel variance taken from the spread of its passes, as if the "
            "untrained and the trained ones were one estimator (the suite's error of "
            "guided+nee twice too high on hidden_lamp), where it states none",

@@ -66,7 +66,7 @@ import numpy as np
 
 from . import figure_pool
 from .jobs import Job, JobResult, cpu_model, derive_seed
-from .multipass import MultiPass, combined, replaced_rest
+from .multipass import MultiPass, combined, replaced_rest, stated_tails
 from .methods import Depth, Method
 from .scenes import load_scene, load_sensor, scene_hash
 from .store import JobStore
@@ -361,8 +361,9 @@ def render_passes(view: View, integrator, job: Job) -> Timed:
     variance_var = None
     if multi:
         start = time.thread_time()
-        mean, sq, passes, variance_var = combined(integrator, images, spps, done)
+        mean, sq, passes = combined(integrator, images, spps, done)
         host += time.thread_time() - start
+        variance_var = stated_tails(integrator) if passes > 1 else None
     else:
         passes = done if per_sample else len(times)
     return Timed(mean, sq, done, passes, times, cpu, kernels, host, compiled, higher,

@@ -123,7 +123,7 @@ class JobResult:
     cubes: np.ndarray | None = None     # (H, W, 3) sums of the samples' cubes and fourth
     fourths: np.ndarray | None = None   # powers (float64): ``sample_moments`` jobs only
     variance_var: np.ndarray | None = None  # (H, W, 3) how sure the variance a MultiPass
-                                            # method states is (multipass.combined), if known
+                                            # method states is (multipass.stated_tails)
 
     def metadata(self) -> dict:
         return {"spp": self.spp, "passes": self.passes, "wall_seconds": self.wall_seconds,

@@ -60,25 +60,31 @@ def replaced_rest(schedule: list, index: int, rest: list) -> list:
 
 
 def combined(integrator, images: list, spps: list, done: int) -> tuple:
-    """(image, sq, passes, variance_var) of a :class:`MultiPass` method's job from its
-    passes' images.
+    """(image, sq, passes) of a :class:`MultiPass` method's job from its passes' images.
     Its passes are not samples of one estimator (a guide's untrained and trained passes):
     one pass of the combined image, so that no per-pixel variance comes from their
     spread, unless the method states its own (``combined_variance``), written as every
     sample a pass of sq so that :meth:`.jobs.Accumulator.variance_of_mean` returns it:
-    sq = n mean^2 + V n (n - 1). Where it also states its groups' moments
-    (``combined_moments``: weight, samples and the means of x, x^2, x^3, x^4 per group of
-    independent samples), ``variance_var`` is how sure V is: the sum over the groups of
-    weight^4 x :func:`.jobs.variance_of_variance` (None otherwise)."""
+    sq = n mean^2 + V n (n - 1)."""
     mean = np.asarray(integrator.combine(images, spps), dtype=np.float64)
-    sq, passes, variance_var = done * mean * mean, 1, None
+    sq, passes = done * mean * mean, 1
     variance = getattr(integrator, "combined_variance", None)
     if variance is not None and done > 1:
         passes = done
         sq = sq + np.asarray(variance(), np.float64) * done * (done - 1)
-        moments = getattr(integrator, "combined_moments", None)
-        groups = moments() if moments is not None else []
-        if groups and all(n >= 2 for _, n, *_ in groups):
-            variance_var = sum(w ** 4 * variance_of_variance(m1, m2, m3, m4, n)
-                               for w, n, m1, m2, m3, m4 in groups)
-    return mean, sq, passes, variance_var
+    return mean, sq, passes
+
+
+def stated_tails(integrator) -> np.ndarray | None:
+    """How sure the variance that a :class:`MultiPass` method states after :func:`combined`
+    is, where it also states its groups' moments (``combined_moments``: weight, samples
+    and the means of x, x^2, x^3, x^4 per group of independent samples): the sum over the
+    groups of weight^4 x :func:`.jobs.variance_of_variance`; None otherwise. Measurement,
+    not the method's work: the executor does not count its time."""
+    moments = getattr(integrator, "combined_moments", None)
+    groups = moments() if moments is not None and hasattr(integrator, "combined_variance") \
+        else []
+    if not groups or any(n < 2 for _, n, *_ in groups):
+        return None
+    return sum(w ** 4 * variance_of_variance(m1, m2, m3, m4, n)
+               for w, n, m1, m2, m3, m4 in groups)
