@@ -59,12 +59,15 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
     would: a pixel whose pilot missed a rare bright path would keep its low pilot mean).
     The per-pixel counts are not a power of two nor equal: the ``independent`` sampler
     only, and a ``box`` filter (each sample in its own pixel); the film's developed image
-    is returned without AOVs.
+    is returned without AOVs. After a render, ``last_counts`` holds every pixel's samples
+    (pilot and final, row-major): where the budget went.
     """
 
     def __init__(self, props: mi.Properties):
         super().__init__(props)
         self.nested = moments.nested_integrator(props, "vr_adaptive")
+        #: Every pixel's samples in the last render (None before one).
+        self.last_counts = None
         if isinstance(self.nested, guided_path.GuidedPathIntegrator):
             raise ValueError("vr_adaptive: the nested integrator (vr_guided_path) learns "
                              "between its own passes, which one pass of per-pixel counts "
@@ -109,6 +112,7 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
         n = int(dr.sum(counts)[0]) if dr.width(counts) else 0
         rest, _ = self._pass(scene, sensor, sampler, _other_seed(seed), counts, n)
         image = combine(total, n_pilot, rest, mi.Float(counts))
+        self.last_counts = counts + pilot
         return mi.TensorXf(dr.ravel(image), shape=(int(size.y), int(size.x), 3))
 
     def allocate(self, mean: mi.Color3f, second: mi.Float, pilot: int, budget: int,

@@ -19,6 +19,8 @@ import pytest
 import _blocks
 import integrators  # noqa: F401  (registers vr_adaptive)
 import scenes
+from experiments.lib.methods import parse_method
+from experiments.lib.scenes import effective_depth, read_scene
 from integrators import adaptive
 
 SEEDS = 8                      # renders per side (4 per half)
@@ -229,7 +231,6 @@ def test_it_lowers_the_error_where_a_few_pixels_hold_the_variance():
 # ------------------------------------------------------------ as a method of the studies
 
 def test_the_method_grammar_nests_any_plain_method_and_refuses_the_rest():
-    from experiments.lib.methods import parse_method
     m = parse_method("bsdf+nee+adaptive")
     assert m.adaptive and m.integrator_dict() == {"type": "vr_adaptive", "nested": {
         "type": "vr_path", "strategy": "bsdf", "emitter_sampling": True}}
@@ -243,7 +244,8 @@ def test_the_method_grammar_nests_any_plain_method_and_refuses_the_rest():
 
 def test_the_suite_measures_an_adaptive_cell(tmp_path):
     """End to end: its cells rendered at both budgets, their errors from the repeats (its
-    passes keep no per-pixel moments), its bias test run."""
+    passes keep no per-pixel moments), its bias test run, and the figure of where it put
+    its samples beside the errors written and shown in the report."""
     import json
     from experiments.lib.studies.suite import study as S
     S.STUDY.main(["--quick", "--out", str(tmp_path), "--scenes", "cbox",
@@ -254,3 +256,26 @@ def test_the_suite_measures_an_adaptive_cell(tmp_path):
     assert all(c["biased"] in (False, "untestable") for c in cells), cells
     # the ceiling an oracle's allocation of bsdf+nee's samples would reach, beside it
     assert summary["scenes"][0]["adaptive_ceiling"] >= 1.0
+    figure = tmp_path / "suite" / "adaptive" / "cbox-bsdf+nee+adaptive.png"
+    assert figure.stat().st_size > 0
+    section = (tmp_path / "suite" / "section.json").read_text()
+    assert "suite/adaptive/cbox-bsdf+nee+adaptive.png" in section
+    assert "the allocation figure of" not in section   # no failure line
+
+
+def test_the_allocation_figure_reads_the_counts_the_render_used():
+    """Every pixel's samples after one render on phong_highlight (48x36, 64 spp): at least
+    the pilot and the floor each, together the budget less under one sample per pixel
+    (the counts are rounded down), and more in the highlight than in the black background,
+    where the pilot saw no deviation (its pixels get the floor)."""
+    from experiments.lib import adaptive_figures
+    info = read_scene(scenes.path("suite/phong_highlight.xml"))
+    counts = adaptive_figures.allocation(scenes.path("suite/phong_highlight.xml"), 48, 36,
+                                         parse_method("bsdf+nee+adaptive"), 64, 3,
+                                         effective_depth(info))
+    pilot = 16
+    least = int(0.25 * (64 - pilot))
+    assert counts.shape == (36, 48) and counts.min() >= pilot + least
+    assert 64 * counts.size - counts.size < counts.sum() <= 64 * counts.size
+    assert counts.max() > 4 * counts.min()
+    assert np.median(counts) == pilot + least          # most of the film is background

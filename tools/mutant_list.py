@@ -338,6 +338,12 @@ MUTANTS = [
            "a pixel's count read from a 3 x 3 mean that includes its own pilot (optional "
            "stopping: a pixel whose pilot missed a rare bright path keeps its low mean)",
            ("tests/test_adaptive.py::test_a_heavy_pixel_stays_unbiased",)),
+    Mutant("allocation-map-without-pilot", "integrators/adaptive.py",
+           "        self.last_counts = counts + pilot",
+           "        self.last_counts = counts",
+           "the report's map of where adaptive sampling put its samples leaves out the "
+           "pilot's (every pixel's count a quarter short)",
+           ("tests/test_adaptive.py",)),
     Mutant("adaptive-zero-samples", "integrators/adaptive.py",
            "        return dr.opaque(mi.UInt32, least) + mi.UInt32(dr.floor(share *",
            "        return mi.UInt32(dr.floor(share *",

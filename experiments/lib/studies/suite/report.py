@@ -234,13 +234,51 @@ def guide_blocks(cfg, plans, measured) -> dict:
     return out
 
 
+def adaptive_blocks(cfg, plans, measured, refs: dict) -> dict:
+    """Per scene and adaptive method that rendered: a figure of where it put its samples
+    (:func:`.adaptive_figures.allocation`: one untimed render at its first equal-time
+    count) beside the equal-time relMSE maps of its plain twin (the method without
+    ``+adaptive``, where it ran) and of itself (:func:`error_maps`), as report blocks;
+    ``refs``: the scenes' reference images. A figure that fails gives a line saying why."""
+    from ... import adaptive_figures
+    out = {}
+    for sp in plans:
+        failed = {} if sp.error else measured.failed_on(sp.name)
+        names = {m.name for m in cfg.methods if m.name not in sp.left_out}
+        for m in ([] if sp.error or sp.name not in refs else cfg.methods):
+            if not m.adaptive or m.name not in names or m.name in failed:
+                continue
+            twin = m.name[:-len("+adaptive")]
+            shown = [n for n in (twin, m.name) if n in names and n not in failed]
+            stem = os.path.join(cfg.out, NAME, "adaptive", f"{sp.name}-{m.name}")
+            spp = measured.final(Cell(sp.name, m.name, TIME))[0].spp
+            try:
+                counts = adaptive_figures.allocation(sp.path, sp.width, sp.height, m, spp,
+                                                     cfg.seed, sp.depth)
+                adaptive_figures.draw(stem, counts, list(zip(shown, error_maps(
+                    sp, measured, shown, refs[sp.name]))), f"{sp.name}: where {m} samples")
+            except Exception as error:      # noqa: BLE001 (a figure never stops the suite)
+                out.setdefault(sp.name, []).append(report.text(
+                    f"{sp.name}: the allocation figure of {m} failed: "
+                    f"{type(error).__name__}: {error}"))
+                continue
+            out.setdefault(sp.name, []).append(report.image(
+                f"{NAME}/adaptive/{sp.name}-{m.name}.png",
+                f"{sp.name}: where {m} puts its samples (one render at its equal-time count, "
+                f"{spp} spp on average: {counts.min():.0f} to {counts.max():.0f} per pixel), "
+                f"beside the per-pixel relMSE at equal time (mean over the repeats) of "
+                f"{' and '.join(shown)}. PDF: {NAME}/adaptive/{sp.name}-{m.name}.pdf"))
+    return out
+
+
 # ------------------------------------------------------------------ the section
 
 def write(cfg, st, plans, outcomes: list[SceneOutcome], measured, timer,
-          guides: dict | None = None) -> dict:
+          guides: dict | None = None, allocations: dict | None = None) -> dict:
     """The suite's section, tables, figures and summary.json (returned); ``measured``: the
     engine's measurements (None where no scene rendered), ``timer``: the suite's
-    :class:`~experiments.lib.clock.Timer`."""
+    :class:`~experiments.lib.clock.Timer`; ``guides``, ``allocations``: per scene, the
+    blocks of :func:`guide_blocks` and :func:`adaptive_blocks`."""
     failed = {sp.name: sp.error for sp in plans if sp.error}
     results = {o.plan.name: o.result for o in outcomes}
     scales = {sp.name: measured.scales[(sp.name, None, TIME)] for sp in plans
@@ -260,6 +298,7 @@ def write(cfg, st, plans, outcomes: list[SceneOutcome], measured, timer,
         blocks += matrix_blocks(cfg, outcomes)
     for o in outcomes:
         blocks += scene_blocks(cfg, o, measured, (guides or {}).get(o.plan.name))
+        blocks += (allocations or {}).get(o.plan.name, [])
     fails = [[n, "(scene)", e] for n, e in failed.items()]
     fails += [[n, m, e] for n, r in results.items() for m, e in r.failed.items()]
     if fails:

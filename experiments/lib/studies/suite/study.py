@@ -305,7 +305,10 @@ def run_suite(cfg: declare.Settings) -> dict:
     with timer.part("analysis"):
         outcomes = [outcome(cfg, sp, measured, refs, bias_test.cell_level(cells))
                     for sp in compared]
-    return report.write(cfg, engine.study, plans, outcomes, measured, timer, guides)
+    allocations = timer.time("allocation figures", report.adaptive_blocks, cfg, compared,
+                             measured, {o.plan.name: o.reference.image for o in outcomes})
+    return report.write(cfg, engine.study, plans, outcomes, measured, timer, guides,
+                        allocations)
 
 
 def outcome(cfg: declare.Settings, sp: declare.ScenePlan, measured, refs,
