@@ -17,7 +17,7 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from . import guide_passes, guide_quadtree, strategies
+from . import guide_passes, guide_quadtree, moments, strategies
 from .guide_record import Recorder
 from .guide_roulette import Roulette
 from .guided import GuidedStrategy
@@ -28,7 +28,8 @@ ROULETTES = ("adjoint", "throughput")
 #: The AOVs of each sample's squared radiance per channel (the passes' per-pixel variances:
 #: their weights, and the variance of the combined image).
 M2_AOVS = ("guiding_m2_r", "guiding_m2_g", "guiding_m2_b")
-#: Then those of their cubes and fourth powers (how sure each pass's variances are).
+#: Then those of their cubes and fourth powers (how sure each pass's variances are), in
+#: the order of :func:`.moments.powers`.
 MOMENT_AOVS = M2_AOVS + tuple(f"guiding_m{k}_{c}" for k in (3, 4) for c in "rgb")
 #: Samplers that compile the sample count into the kernel: each pass would recompile.
 BAKES_SPP = {"StratifiedSampler": "stratified", "MultijitterSampler": "multijitter",
@@ -229,12 +230,8 @@ class GuidedPathIntegrator(VRPathIntegrator):
         self.guide.set_recording(on)
 
     def _aovs(self, segments, shadow_rays, result=None):
-        c = mi.Color3f(0.0) if result is None else \
-            mi.Color3f(mi.unpolarized_spectrum(result))
-        c2 = c * c
-        c3, c4 = c2 * c, c2 * c2
         return VRPathIntegrator._aovs(self, segments, shadow_rays) + \
-            [c2.x, c2.y, c2.z, c3.x, c3.y, c3.z, c4.x, c4.y, c4.z]
+            moments.powers(mi.Color3f(0.0) if result is None else result)
 
     def aov_names(self):
         return VRPathIntegrator.aov_names(self) + list(MOMENT_AOVS)

@@ -59,17 +59,22 @@ class MomentsIntegrator(mi.SamplingIntegrator):
 
     def sample(self, scene, sampler, ray, medium=None, active=True):
         L, valid, aovs = self.nested.sample(scene, sampler, ray, medium, active)
-        c = mi.Color3f(mi.unpolarized_spectrum(L))
-        c2 = c * c
-        c3 = c2 * c
-        c4 = c2 * c2
-        return L, valid, list(aovs) + [c2.x, c2.y, c2.z, c3.x, c3.y, c3.z, c4.x, c4.y, c4.z]
+        return L, valid, list(aovs) + powers(L)
 
     def aov_names(self):
         return list(self.nested.aov_names()) + list(MOMENTS)
 
     def to_string(self):
         return f"MomentsIntegrator[nested={self.nested}]"
+
+
+def powers(L) -> list:
+    """The AOV values of :data:`MOMENTS` for one sample's radiance ``L``: its R, G, B
+    squared, cubed and to the fourth power."""
+    c = mi.Color3f(mi.unpolarized_spectrum(L))
+    c2 = c * c
+    c3, c4 = c2 * c, c2 * c2
+    return [c2.x, c2.y, c2.z, c3.x, c3.y, c3.z, c4.x, c4.y, c4.z]
 
 
 def nested_integrator(props: mi.Properties, plugin: str):

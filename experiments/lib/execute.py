@@ -281,7 +281,7 @@ class Timed(NamedTuple):
     higher: tuple | None = None  # (sum of x^3, sum of x^4) over the samples, (H, W, 3)
                                  # each: through ``vr_moments`` only
     variance_var: np.ndarray | None = None   # a MultiPass method's: how sure its stated
-                                             # variance is (:func:`combined`)
+                                             # variance is (:func:`.multipass.stated_tails`)
 
 
 def render_pass(view: View, integrator, job: Job, index: int, spp: int, done: int,
@@ -348,8 +348,7 @@ def render_passes(view: View, integrator, job: Job) -> Timed:
             image = np.array(image, dtype=np.float64)
             m2, m3, m4 = np.split(image[..., -len(moments.MOMENTS):], 3, axis=-1)
             image = image[..., :3]
-            higher[0][...] += k * m3
-            higher[1][...] += k * m4
+            higher = (higher[0] + k * m3, higher[1] + k * m4)
         mean += image * k
         sq += k * (m2 if per_sample else image * image)
         done += k
