@@ -53,6 +53,20 @@ SMOOTH = False
 #: last iteration's alone (PPG): the earlier records are fewer and from worse guides, but
 #: weighted by their own densities they estimate the same radiance (docs/guiding.md).
 POOLED = True
+#: Learn incident radiance times |cos| to the unit's normal-class axis (the product a
+#: diffuse surface needs), not the radiance alone (PPG's): docs/guiding.md.
+COSINE_PRODUCT = True
+
+
+def class_cosines(res: int) -> np.ndarray:
+    """(CLASSES, res^2): |cos| between each normal class's axis (+x, -x, +y, -y, +z, -z,
+    :meth:`SDTree.lookup`'s order) and the direction through each bin's centre."""
+    i = np.arange(res * res)
+    cos_t = ((i // res) + 0.5) * (2.0 / res) - 1.0
+    phi = ((i % res) + 0.5) * (2.0 * np.pi / res)
+    sin_t = np.sqrt(np.maximum(1.0 - cos_t * cos_t, 0.0))
+    d = np.stack([sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t])
+    return np.abs(np.repeat(d, 2, axis=0))
 
 
 def blur(energy: np.ndarray, res: int) -> np.ndarray:
@@ -293,6 +307,9 @@ class SDTree:
         fresh = np.zeros(self.max_units, bool)
         fresh[:rows] = (pooled >= MIN_RECORDS) & (total > 0)
         learned = energy[fresh[:rows]]
+        if COSINE_PRODUCT:
+            units = np.flatnonzero(fresh[:rows])
+            learned = learned * class_cosines(self.res)[units % CLASSES]
         learned = blur(learned, self.res) if SMOOTH else learned
         if self.split_share > 0:
             learned = guide_quadtree.density(learned, self.res, self.split_share)

@@ -148,8 +148,9 @@ def test_guide_density_integrates_to_one():
 def test_learning_recovers_a_known_field(monkeypatch):
     """Records of a known radiance field L(w) = 1 + 9 max(0, w.a)^4 from directions drawn
     uniformly (value L / pdf): the learned histogram's samples pass a chi-square against
-    the field's own bin probabilities; a field learned without dividing by the pdf of a
-    non-uniform sampling would not."""
+    the field's own bin probabilities times each bin's cosine to the unit's normal class
+    (unit 0: +x, :data:`sdtree.COSINE_PRODUCT`); a field learned without dividing by the
+    pdf of a non-uniform sampling would not."""
     monkeypatch.setattr(sdtree, "SMOOTH", False)    # the raw records' shares
     rng = np.random.default_rng(1)
     n = 1_000_000
@@ -171,6 +172,8 @@ def test_learning_recovers_a_known_field(monkeypatch):
     pp = np.tile((np.arange(m * RES) + 0.5) / (m * RES) * 2 * np.pi, m * RES)
     q = np.stack([np.sqrt(1 - zz ** 2) * np.cos(pp), np.sqrt(1 - zz ** 2) * np.sin(pp), zz], 1)
     truth = np.bincount(guide_warps.direction_to_bin_np(q, RES), field(q), RES * RES)
+    if sdtree.COSINE_PRODUCT:
+        truth *= sdtree.class_cosines(RES)[0]
     truth /= truth.sum()
     draws = 40_000
     u = rng.random((draws, 3))
@@ -220,9 +223,12 @@ def plane_under_sky():
 
 
 def sky_band_shares():
-    """The share of each cos(theta) band of the upper hemisphere in what the floor should
-    learn without NEE: uniform."""
-    return np.full(RES // 2, 1.0 / (RES // 2))
+    """The share of each cos(theta) band of the upper hemisphere in what the floor (class
+    +z) should learn without NEE: a uniform radiance times the cosine to its normal (the
+    bands' centre cos theta, :data:`sdtree.COSINE_PRODUCT`), uniform without it."""
+    centre = (np.arange(RES // 2, RES) + 0.5) * 2 / RES - 1
+    share = centre if sdtree.COSINE_PRODUCT else np.ones(RES // 2)
+    return share / share.sum()
 
 
 def trained_under_sky(nee):
