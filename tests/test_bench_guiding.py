@@ -15,5 +15,6 @@ def test_quick_measure_gives_rows_and_a_note():
     assert [r[0].split(",")[0] for r in rows] == [
         "7. guided+nee / path", "7. guided+nee time per sample after training / path's",
         "7. guided+nee training's share of its time", "7. bsdf+nee / path"]
-    assert rows[0][2] == ">= 3" and rows[0][3] in ("yes", "no") and rows[3][3] == ""
+    assert rows[0][2] == ">= 6, lower end >= 5" and rows[0][3] in ("yes", "no")
+    assert rows[2][2] == "<= 20%" and rows[2][3] in ("yes", "no") and rows[3][3] == ""
     assert "door_room.xml at 64x48" in guiding.note(res).replace("`", "")
