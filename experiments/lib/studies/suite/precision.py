@@ -29,8 +29,9 @@ from . import analysis, bias_test, errors
 #: and the timed pair that the equal-time budget of a scene aims for: two such errors give
 #: an A/A efficiency interval of hi/lo ~1.2 before the costs' spread.
 PRECISION = 0.035
-#: Largest factor of ``--time-budget`` the rule may give a scene.
-MAX_PRECISION_SCALE = 32
+#: Largest factor of ``--time-budget`` the rule may give a scene (the 5-minute make run:
+#: docs/methodology.md).
+MAX_PRECISION_SCALE = 16
 
 
 def scale_for(error: float, precision: float = PRECISION,

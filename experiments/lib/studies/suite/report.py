@@ -15,6 +15,7 @@ import numpy as np
 
 from ... import figures, files, metrics, references, report, stats
 from ...declaration import Cell
+from ...methods import ADAPTIVE
 from . import analysis, bias_report, bias_test, declare, words
 from .bias_report import BLOCK_HEADER, bias_words, block_bias_rows
 from .declare import NAME, ORDER, TIME, TITLE
@@ -243,13 +244,14 @@ def adaptive_blocks(cfg, plans, measured, refs: dict) -> dict:
     from ... import adaptive_figures
     out = {}
     for sp in plans:
-        failed = {} if sp.error else measured.failed_on(sp.name)
-        names = {m.name for m in cfg.methods if m.name not in sp.left_out}
-        for m in ([] if sp.error or sp.name not in refs else cfg.methods):
-            if not m.adaptive or m.name not in names or m.name in failed:
+        if sp.error or sp.name not in refs:
+            continue
+        failed = measured.failed_on(sp.name)
+        ran = [m.name for m in cfg.methods if m.name not in sp.left_out and m.name not in failed]
+        for m in cfg.methods:
+            if not m.adaptive or m.name not in ran:
                 continue
-            twin = m.name[:-len("+adaptive")]
-            shown = [n for n in (twin, m.name) if n in names and n not in failed]
+            shown = [n for n in (m.name[:-len("+" + ADAPTIVE)], m.name) if n in ran]
             stem = os.path.join(cfg.out, NAME, "adaptive", f"{sp.name}-{m.name}")
             spp = measured.final(Cell(sp.name, m.name, TIME))[0].spp
             try:

@@ -203,10 +203,11 @@ def intro(cfg, plans, scales: dict) -> str:
 
 #: How the cells of the independent sampler under a box filter are measured (:mod:`.errors`).
 PRECISE = """Where a method uses the independent sampler and the scene's filter is a box,
-    each render keeps its samples' second moments per pixel and its relMSE is the expected
-    one from their variance (the variance part; the bias is tested apart), pooled
-    over the repeats with each pixel's variance across them (a normal quantile, no reference
-    floor to subtract); the efficiency of two such methods pairs their renders' costs per
+    each render keeps its samples' moments per pixel and its relMSE is the expected one
+    from their variance (the variance part; the bias is tested apart), pooled over the
+    repeats with each pixel's variance across them or, where larger, each render's own from
+    its samples' fourth moments (a normal quantile, no reference floor to subtract); the
+    efficiency of two such methods pairs their renders' costs per
     sample (same repeat and budget, rendered in turn), each budget's renders against the
     method's mean at that budget, weighted by the budget's share of the seconds. Other
     cells use the repeats."""
