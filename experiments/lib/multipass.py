@@ -2,8 +2,9 @@
 
 :class:`MultiPass` is the protocol (a method that learns between passes, or combines
 them: ``vr_guided_path``); :func:`replaced_rest` checks the passes a method's hook
-returns; :func:`combined` turns its passes into the job's image, its per-pixel variance
-and how sure that variance is. The executor (:mod:`.execute`) renders the passes.
+returns; :func:`combined` turns its passes into the job's image and its per-pixel
+variance, :func:`stated_tails` says how sure that variance is (measurement, untimed). The
+executor (:mod:`.execute`) renders the passes.
 """
 from __future__ import annotations
 
@@ -36,7 +37,7 @@ class MultiPass(Protocol):
       pass: its errors come from its repeats against the reference);
     * optionally ``combined_moments()``: per group of independent samples that ``combine``
       weighted, (weight, samples per pixel, the per-pixel means of x, x^2, x^3, x^4), from
-      which :func:`combined` says how sure that variance is.
+      which :func:`stated_tails` says how sure that variance is.
 
     Passes are rendered with seeds ``derive_seed(job.seed, index)`` (a pass split for
     memory: ``derive_seed(job.seed, index, part)`` after its first render)."""
