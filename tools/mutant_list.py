@@ -217,6 +217,20 @@ MUTANTS = [
            "on environment untestable for heavy tails they do not have",
            ("tests/test_suite_bias.py::test_blocks_of_few_varying_pixels_do_not_read_as_"
             "heavy_tails",)),
+    Mutant("image-gate-off", "experiments/lib/bias_image.py",
+           "        return self.top <= MAX_TERM_SHARE and bool(np.isfinite(self.detectable))\n",
+           "        return bool(np.isfinite(self.detectable))\n",
+           "the image test run whatever share of its variance one term holds: an image of "
+           "infinite variance (rough glass sampled uniformly) reads low and is called biased",
+           ("tests/test_suite_bias.py::test_an_image_ruled_by_infinite_variance_is_"
+            "untestable_not_flagged",)),
+    Mutant("image-variance-one-side", "experiments/lib/bias_image.py",
+           "    se2 = a.var + b.var + np.square(rounding * b.total)\n",
+           "    se2 = b.var + np.square(rounding * b.total)\n",
+           "the image test's variance without the method's share (heavy-tailed right "
+           "methods called biased)",
+           ("tests/test_suite_bias.py::test_heavy_tailed_blocks_are_tested_by_the_image_sum_"
+            "with_its_size_and_power",)),
     Mutant("bias-sidak-missing", "experiments/lib/studies/suite/bias_test.py",
            "    return bias.sidak(1.0 - LEVEL, max(1, cells))",
            "    return 1.0 - LEVEL",

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from collections import Counter
 
-from ... import prose
+from ... import bias_image, prose
 from . import analysis, bias_test
 from .declare import NAME
 
@@ -23,13 +23,17 @@ UNTESTABLE = {"deterministic": "a deterministic sampler (no independent renders)
               "too_few_renders": "too few renders (fewer than 2 per budget)",
               "unequal_counts": "renders of unequal sample counts within a budget",
               "heavy_tails": "heavy tails (one sample rules the variance of many "
-                             "blocks: the test's size is void)",
+                             "blocks, and one pixel of one render holds more than "
+                             f"{bias_image.MAX_TERM_SHARE:.0%} of the image sum's: the "
+                             "test's size is void)",
               "calibration": "its calibration failed (the method that renders the reference "
                              "did not pass its own test on this scene)"}
 BIAS_FINDING = (
     "Bias test (every cell against its scene's reference, per {{ block }}x{{ block }} block "
     "and channel and pooled over the image, Welch, {{ level | pct }} family-wise over the run): "
     "{% if flagged %}BIASED: {{ flagged | join('; ') }}{% else %}no method flagged{% endif %}"
+    "{% if image %}; {{ image }} cells with heavy-tailed blocks tested by their image sums "
+    "alone{% endif %}"
     "{% if untestable %}; untestable: {{ untestable }} (each cell in "
     "{{ table }}){% endif %}"
     "{% if powers %}; smallest bias detected 90% of the time: {{ powers | join(', ') }}"
@@ -63,14 +67,23 @@ def power_indicative(r: analysis.SceneResult) -> bool:
     return b is not None and b.status == "untestable" and b.reason == "heavy_tails"
 
 
+def difference(b: bias_test.CellBias) -> str:
+    """What a flagged cell's test saw: its pooled difference and flagged blocks, or its
+    image sum's difference."""
+    worst = max(b.delta, key=abs)
+    if b.scope == "image":
+        return f"image sum {worst:+.2%}"
+    return f"pooled difference {worst:+.2%}, {b.flagged_blocks} blocks"
+
+
 def bias_finding(results: list) -> str:
     """The findings box's bias-test sentence ('' where no cell was tested)."""
     tested = [(r.name, m, c.block_bias) for r in results for m, c in r.cells.items()
               if c.block_bias is not None]
     if not tested:
         return ""
-    flagged = [f"{m} on {n} (pooled difference {max(b.delta, key=abs):+.2%}, "
-               f"{b.flagged_blocks} blocks)" for n, m, b in tested if b.status == "biased"]
+    flagged = [f"{m} on {n} ({difference(b)})" for n, m, b in tested if b.status == "biased"]
+    image = sum(b.scope == "image" and b.status != "untestable" for _, _, b in tested)
     reasons = Counter(b.reason for _, _, b in tested if b.status == "untestable")
     untestable = (f"{sum(reasons.values())} of {len(tested)} cells: " + "; ".join(
         f"{UNTESTABLE[reason]}: {count}" for reason, count in reasons.most_common())
@@ -79,15 +92,38 @@ def bias_finding(results: list) -> str:
                                              if power_indicative(r) else "")
               for r in results if r.power is not None]
     return prose.say(BIAS_FINDING, block=tested[0][2].block, level=bias_test.LEVEL,
-                     flagged=flagged, untestable=untestable, powers=powers,
+                     flagged=flagged, image=image, untestable=untestable, powers=powers,
                      table=BIAS_TABLE)
 
 
 #: The bias test's table of every cell (under the output folder), which the findings name.
 BIAS_TABLE = f"{NAME}/bias_test.csv"
-BLOCK_HEADER = ["scene", "method", "biased", "why untestable", "variance",
+BLOCK_HEADER = ["scene", "method", "biased", "why untestable", "tested", "variance",
                 "detectable bias", "pooled difference", "smallest block p", "block level",
-                "pooled p", "pooled level", "flagged blocks", "ruled by one sample"]
+                "pooled p", "pooled level", "flagged blocks", "ruled by one sample",
+                "image variance in one term"]
+SCOPES = {"blocks": "blocks and pooled", "image": "image sum"}
+#: The caption of :data:`BIAS_TABLE` in the report.
+TABLE_CAPTION = (
+    f"Bias test of every cell: its renders at both budgets against the reference's "
+    f"chunks, Welch's t per block and channel and a pooled test per channel, "
+    f"levels {bias_test.LEVEL:.0%} family-wise over the run (Sidak); variance "
+    f"from the pixels (independent sampler, box filter) or the renders; "
+    f"'detectable bias': the smallest uniform bias found about 90% of the time; "
+    f"'ruled by one sample': the share of blocks whose variance one pixel of one "
+    f"render holds the most of (above {bias_test.TAILS_SHARE:.0%}: heavy tails, "
+    f"the cell tested by its image sum alone, the 'image sum' of 'tested'); "
+    f"'image variance in one term': the largest share of the image sum's variance "
+    f"that one pixel of one render holds (above "
+    f"{bias_image.MAX_TERM_SHARE:.0%}: untestable)")
+
+
+def number(x: float) -> str:
+    return "-" if math.isnan(x) else f"{x:.2g}"
+
+
+def share(x: float) -> str:
+    return "-" if math.isnan(x) else f"{x:.1%}"
 
 
 def block_bias_rows(results: dict) -> list[list]:
@@ -100,10 +136,10 @@ def block_bias_rows(results: dict) -> list[list]:
                 continue
             finite = b.status != "untestable" or b.reason == "heavy_tails"
             rows.append([name, m, {True: "YES", False: "no"}.get(b.biased, "untestable"),
-                         b.reason, b.variance, pct2(b.detectable) if finite else "-",
+                         b.reason, SCOPES[b.scope], b.variance,
+                         pct2(b.detectable) if finite else "-",
                          (f"{max(b.delta, key=abs):+.3%}" if b.delta else "-"),
-                         f"{b.p_blocks:.2g}" if finite else "-", f"{b.alpha_blocks:.2g}",
-                         f"{b.p_pooled:.2g}" if finite else "-", f"{b.alpha_pooled:.2g}",
-                         b.flagged_blocks, "-" if math.isnan(b.tail_share) else
-                         f"{b.tail_share:.1%}"])
+                         number(b.p_blocks if finite else math.nan), number(b.alpha_blocks),
+                         number(b.p_pooled if finite else math.nan), number(b.alpha_pooled),
+                         b.flagged_blocks, share(b.tail_share), share(b.term_share)])
     return rows

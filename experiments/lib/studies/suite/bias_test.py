@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ... import bias, samplers, scenes
+from ... import bias, bias_image, samplers, scenes
 
 #: Family-wise level of one run's bias tests (every cell of every scene).
 LEVEL = 0.99
@@ -58,6 +58,10 @@ class CellBias:
     flagged_blocks: int = 0
     tail_share: float = float("nan")
     block: int = bias.BLOCK
+    #: what was tested: ``blocks`` (per block and pooled) or ``image`` (the image's sum
+    #: alone, where the blocks' tails are heavy: :mod:`.bias_image`)
+    scope: str = "blocks"
+    term_share: float = float("nan")   # image scope: the largest term's share of its variance
 
     @property
     def biased(self):
@@ -70,7 +74,8 @@ class CellBias:
                 "bias_delta": list(self.delta), "bias_p_blocks": self.p_blocks,
                 "bias_p_pooled": self.p_pooled, "bias_alpha_blocks": self.alpha_blocks,
                 "bias_alpha_pooled": self.alpha_pooled, "bias_flagged_blocks":
-                    self.flagged_blocks, "bias_tail_share": self.tail_share}
+                    self.flagged_blocks, "bias_tail_share": self.tail_share,
+                "bias_scope": self.scope, "bias_term_share": self.term_share}
 
 
 def cell_level(cells: int) -> float:
@@ -141,8 +146,8 @@ def check_cell(method, budgets: list, chunks: np.ndarray | None, box: bool, ref_
     ref = bias.padded(chunks)
     varying = bias.varying_pixels(bias.Renders(np.concatenate(halves)), bias.Renders(ref))
     side = bias.side_of_halves(halves, samples, varying, variance=kind)
-    return _test(side, halves, varying, kind, ref, variance_kind(reference_method, ref_box),
-                 alpha)
+    return _test(side, halves, samples, varying, kind, ref,
+                 variance_kind(reference_method, ref_box), alpha)
 
 
 def check_reference(chunks: np.ndarray, against: np.ndarray, method, against_method,
@@ -160,14 +165,15 @@ def check_reference(chunks: np.ndarray, against: np.ndarray, method, against_met
     varying = bias.varying_pixels(bias.Renders(mine), bias.Renders(ref))
     side = bias.side_of_renders(mine, varying, variance=kind)
     even = np.arange(len(mine)) % 2 == 0
-    return _test(side, [mine[even], mine[~even]], varying, kind, ref,
-                 variance_kind(against_method, box), alpha)
+    return _test(side, [mine[even], mine[~even]], [even.sum(), (~even).sum()], varying,
+                 kind, ref, variance_kind(against_method, box), alpha)
 
 
-def _test(side, halves: list, varying: np.ndarray, kind: str, ref: np.ndarray,
+def _test(side, halves: list, samples: list, varying: np.ndarray, kind: str, ref: np.ndarray,
           ref_kind: str, alpha: float) -> CellBias:
-    """Both tests of ``side`` (its renders in ``halves``, variance ``kind``) against the
-    renders ``ref`` (variance ``ref_kind``) at level ``alpha``, and the heavy-tail check."""
+    """Both tests of ``side`` (its renders in ``halves`` of ``samples`` per pixel in all,
+    variance ``kind``) against the renders ``ref`` (variance ``ref_kind``) at level
+    ``alpha``; where the blocks' tails are heavy, the image test in their place."""
     other = bias.side_of_renders(ref, varying, variance=ref_kind)
     blocks_y, blocks_x, channels = side.full.mean.shape
     alpha_blocks = bias.sidak(alpha / 2, blocks_y * blocks_x * channels)
@@ -180,9 +186,19 @@ def _test(side, halves: list, varying: np.ndarray, kind: str, ref: np.ndarray,
                 p_pooled=float(agreement.p_pooled.min()), alpha_blocks=alpha_blocks,
                 alpha_pooled=alpha_pooled, flagged=agreement.flagged,
                 flagged_blocks=int(agreement.flagged.sum()), tail_share=tails)
-    if tails > TAILS_SHARE:
+    if tails <= TAILS_SHARE:
+        return CellBias("unbiased" if agreement.passed else "biased", **base)
+    image = bias_image.compare(
+        bias_image.side_sums(halves, samples, varying, kind),
+        bias_image.side_sums([ref], [1], varying, ref_kind), bias.sidak(alpha, channels))
+    base.update(detectable=float(image.detectable), delta=tuple(float(x) for x in image.delta),
+                p_pooled=float(image.p.min()), alpha_pooled=image.alpha,
+                p_blocks=float("nan"), alpha_blocks=float("nan"),
+                flagged=np.zeros_like(agreement.flagged), flagged_blocks=0,
+                scope="image", term_share=image.top)
+    if not image.testable:
         return CellBias("untestable", "heavy_tails", **base)
-    return CellBias("unbiased" if agreement.passed else "biased", **base)
+    return CellBias("unbiased" if image.passed else "biased", **base)
 
 
 def calibrated(cells: dict, reference_method: str) -> dict:

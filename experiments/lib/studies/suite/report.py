@@ -362,14 +362,7 @@ def matrix_blocks(cfg, outcomes: list[SceneOutcome]) -> list[dict]:
     if tested:
         blocks.append(report.write_table(
             out, f"{NAME}/bias_test", BLOCK_HEADER, tested,
-            f"Bias test of every cell: its renders at both budgets against the reference's "
-            f"chunks, Welch's t per block and channel and a pooled test per channel, "
-            f"levels {bias_test.LEVEL:.0%} family-wise over the run (Sidak); variance "
-            f"from the pixels (independent sampler, box filter) or the renders; "
-            f"'detectable bias': the smallest uniform bias found about 90% of the time; "
-            f"'ruled by one sample': the share of blocks whose variance one pixel of one "
-            f"render holds the most of (above {bias_test.TAILS_SHARE:.0%}: heavy tails, "
-            f"untestable)"))
+            bias_report.TABLE_CAPTION))
     rows, _ = cell_rows(results)
     blocks.append(report.write_table(out, f"{NAME}/cells", CELL_HEADER, rows,
                                      "Every cell at both budgets, with intervals",
