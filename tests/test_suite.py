@@ -344,6 +344,20 @@ def test_an_error_below_the_references_noise_is_a_bound_not_nan():
     assert r.cells["bsdf+nee"].relative["equal_time"].side == "" and r.reference_adequate
 
 
+def test_a_cheap_reference_is_extended_past_its_cap_as_far_as_its_seconds_go():
+    """counts.reference_cap: the cap of the floor's extension is --reference-max-spp, or
+    where the reference costs little the largest power of two times its samples whose
+    render stays within the seconds allowed (veach_mis' path at 48x36: 256 spp in 0.039 s,
+    2.5 s allow 64 times: 16384 spp); an expensive one keeps its cap (negative control),
+    and no seconds (0, --reference-max-spp given) none beyond it."""
+    assert counts.reference_cap(256, 0.039, 4096, 2.5) == 16384
+    assert counts.reference_cap(256, 0.039, 32768, 2.5) == 32768     # the larger of both
+    assert counts.reference_cap(256, 2.0, 4096, 2.5) == 4096         # expensive: the cap
+    assert counts.reference_cap(256, 0.039, 4096, 0.0) == 4096       # none allowed
+    assert counts.reference_cap(256, 0.0, 4096, 2.5) == 4096         # no time measured
+    assert counts.reference_cap(8192, 0.039, 4096, 0.0) == 8192      # never below spp
+
+
 def test_relmse_rejected_against_a_hand_computed_case():
     ref = np.ones((25, 40, 3))                      # 1000 pixels: the top 1 is rejected
     image = ref + 0.1

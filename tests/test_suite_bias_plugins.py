@@ -150,7 +150,7 @@ BUDGET = ["--max-size", "48", "--spp", "16", "--time-budget", "0.02", "--referen
 #: are ruled by heavy tails (a narrow lobe lit by a small light: every method's, path's
 #: included): its cells are tested by their image sums (experiments/lib/bias_image.py).
 #: Not veach_mis and rough_glass: there the image sums' tails are heavy too (one pixel of
-#: one render holds over 10% of their variance in most cells, and the wrong density's
+#: one render holds over 15% of their variance in many cells, and the wrong density's
 #: -2.8% on veach_mis is under the image test's power, about 8%). Not the furnace: a
 #: constant integrand, the correlated sampler's (u, u) changes nothing there. Not the
 #: guiding scenes: their methods are fixed (bsdf+nee, guided+nee, path).

@@ -231,6 +231,13 @@ MUTANTS = [
            "methods called biased)",
            ("tests/test_suite_bias.py::test_heavy_tailed_blocks_are_tested_by_the_image_sum_"
             "with_its_size_and_power",)),
+    Mutant("reference-cap-seconds-inverted", "experiments/lib/counts.py",
+           "        affordable = max_seconds / seconds\n",
+           "        affordable = seconds / max_seconds\n",
+           "the reference's time allowance read upside down: a cheap reference never goes "
+           "past its cap, an expensive one would",
+           ("tests/test_suite.py::test_a_cheap_reference_is_extended_past_its_cap_as_far_"
+            "as_its_seconds_go",)),
     Mutant("bias-sidak-missing", "experiments/lib/studies/suite/bias_test.py",
            "    return bias.sidak(1.0 - LEVEL, max(1, cells))",
            "    return 1.0 - LEVEL",

@@ -34,7 +34,7 @@ from . import bias
 
 #: Largest share of the statistic's variance one term may hold (:attr:`ImageTest.top`):
 #: above it the image test's size is not known and the cell is untestable.
-MAX_TERM_SHARE = 0.1
+MAX_TERM_SHARE = 0.15
 
 
 @dataclass(frozen=True)

@@ -44,6 +44,19 @@ def floor_share(floor: float, errors) -> float:
     return floor / smallest if math.isfinite(smallest) else 0.0
 
 
+def reference_cap(spp: int, seconds: float, max_spp: int, max_seconds: float) -> int:
+    """The most samples a reference of ``spp`` samples that took ``seconds`` is extended to:
+    ``max_spp``, or more where the whole then costs at most ``max_seconds`` at its time per
+    sample (a cheap scene's heavy tails need more samples than its budget's share gives
+    them); a power of two times ``spp``."""
+    cap = max(max_spp, spp)
+    if max_seconds > 0 and seconds > 0:
+        affordable = max_seconds / seconds
+        if affordable >= 2:
+            cap = max(cap, spp * 2 ** int(math.floor(math.log2(affordable))))
+    return cap
+
+
 def reference_spp(share: float, wanted: float, spp: int, cap: int) -> int:
     """Reference spp for a reference whose floor is ``share`` of the smallest error measured
     against it, to bring that share to ``wanted / 2`` (so that the spread of the next

@@ -111,9 +111,12 @@ class ReferenceFloor:
     """A reference whose own expected relMSE (its floor) is over ``share`` of the smallest
     relMSE measured against it, raw, at any budget, is extended once, after the scene's
     budgets rendered, to the samples that bring the share to half of ``share`` by the
-    floor's 1/spp law, at most ``max_spp`` (:func:`.counts.reference_spp`)."""
+    floor's 1/spp law, at most ``max_spp``, or where the reference is cheap the most that
+    costs ``max_seconds`` at its first render's time per sample
+    (:func:`.counts.reference_cap`, :func:`.counts.reference_spp`)."""
     share: float
     max_spp: int
+    max_seconds: float = 0.0
 
 
 def default_key(declaration: "Declaration", cell: Cell) -> str:

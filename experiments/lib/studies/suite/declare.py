@@ -68,6 +68,9 @@ class Settings:
     #: a method whose reference stands in for reference_method's where it is proven
     #: (:mod:`.reference_choice`); None: reference_method's everywhere
     precise_reference: Method | None = None
+    #: beyond reference_max_spp, a cheap reference is extended as far as this many seconds
+    #: of its rendering go (:func:`.counts.reference_cap`; 0: never)
+    reference_max_seconds: float = 0.0
 
 
 # ------------------------------------------------------------------ the scenes
@@ -193,7 +196,8 @@ def declaration(cfg: Settings, plans: list[ScenePlan]) -> Declaration:
         reference_typical_spp=cfg.reference_typical_spp,
         sample_moments=lambda method, scene: precision.precise(method, scene.name in boxes),
         lead=(cfg.baseline.name,) + analysis.TIMED_PAIR, isolate_failures=True,
-        reference_floor=ReferenceFloor(analysis.FLOOR_SHARE, cfg.reference_max_spp))
+        reference_floor=ReferenceFloor(analysis.FLOOR_SHARE, cfg.reference_max_spp,
+                                       cfg.reference_max_seconds))
 
 
 def reference_of(refs: references.ReferenceStore, sp: ScenePlan) -> references.Reference:

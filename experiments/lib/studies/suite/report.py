@@ -443,7 +443,9 @@ def settings_of(cfg, st, plans, measured) -> dict:
             "reference": f"{cfg.reference_method}" + (
                 f" (or {cfg.precise_reference} where proven)" if cfg.precise_reference
                 else "") + f", >= {cfg.reference_spp} spp (cap "
-                         f"{cfg.reference_max_spp}), chunks of " + (
+                         f"{cfg.reference_max_spp}" + (
+                f", or {cfg.reference_max_seconds:g} s" if cfg.reference_max_seconds
+                else "") + "), chunks of " + (
                 ", ".join(sorted({f"{sp.ref.chunk} spp" for sp in plans if sp.ref})) or "-"),
             "reference store": cfg.reference_root, "variant": cfg.variant,
             "seed": cfg.seed, "intervals": f"{stats.LEVEL:.0%}, {stats.METHOD}",

@@ -54,6 +54,11 @@ NAME, ORDER, TITLE = declare.NAME, declare.ORDER, declare.TITLE
 MAX_SIZE = 48
 #: The reference's automatic extension stops at this many times --reference-spp.
 REFERENCE_GROWTH = 16
+#: Without --reference-max-spp (and --quick), a reference whose extension costs little goes
+#: past that cap as far as this many seconds of rendering go
+#: (:func:`experiments.lib.counts.reference_cap`: veach_mis' heavy-tailed path at 48x36,
+#: 0.27 s per 4096 spp, to 32768 spp).
+REFERENCE_SECONDS = 2.5
 QUICK_DEFAULTS = {"spp": 4, "time_budget": 0.02, "reference_spp": 32, "max_size": 12,
                   "scenes": "furnace,veach_mis", "methods": "bsdf,bsdf+nee,path"}
 FLIP_MODES = ("first", "all")
@@ -166,7 +171,8 @@ def build_parser() -> cli.Parser:
                         "table) at the depth nearest the scenes' median max_depth")
     p.add_argument("--reference-max-spp", type=cli.positive_int, default=None,
                    help=f"cap of the automatic extension of a reference too noisy for the "
-                        f"comparison (default {REFERENCE_GROWTH} x --reference-spp)")
+                        f"comparison (default {REFERENCE_GROWTH} x --reference-spp, or "
+                        f"more where it costs at most {REFERENCE_SECONDS} s)")
     p.add_argument("--flip", type=flip_mode, default="first",
                    help="FLIP of the first repeat at equal time only (the images shown), or "
                         "of every repeat at both budgets (an interval; HDR-FLIP costs 0.1-1 s "
@@ -276,7 +282,9 @@ def settings(args) -> declare.Settings:
         reference_method=args.reference_method,
         reference_root=args.reference_cache or os.path.join(args.out, references.REFERENCES_DIR),
         user_references=dict(args.user_references), flip=args.flip, best_note=args.best_note,
-        precise_reference=args.precise_reference)
+        precise_reference=args.precise_reference,
+        reference_max_seconds=0.0 if args.reference_max_spp or args.quick else
+        REFERENCE_SECONDS)
 
 
 # ------------------------------------------------------------------ the study

@@ -187,7 +187,9 @@ def intro(cfg, plans, scales: dict) -> str:
            f"{cfg.reference_method}'s reference on the scene (which every cell's bias test "
            f"reads)" if cfg.precise_reference else "")
         + f", at least "
-        f"{cfg.reference_spp} spp, extended up to {cfg.reference_max_spp} spp where its own "
+        f"{cfg.reference_spp} spp, extended up to {cfg.reference_max_spp} spp"
+        + (f" (or as far as {cfg.reference_max_seconds:g} s of its rendering go)"
+           if cfg.reference_max_seconds else "") + " where its own "
         f"relMSE exceeds {analysis.FLOOR_SHARE:.0%} of the smallest error measured "
         f"against it), "
         f"cached in {cfg.reference_root} and shared by every run, its own expected error "
