@@ -349,13 +349,19 @@ def test_a_cheap_reference_is_extended_past_its_cap_as_far_as_its_seconds_go():
     where the reference costs little the largest power of two times its samples whose
     render stays within the seconds allowed (veach_mis' path at 48x36: 256 spp in 0.039 s,
     2.5 s allow 64 times: 16384 spp); an expensive one keeps its cap (negative control),
-    and no seconds (0, --reference-max-spp given) none beyond it."""
+    and no seconds (0, --reference-max-spp given) none beyond it; nor where the cap already
+    brings the floor's share to the wanted one."""
     assert counts.reference_cap(256, 0.039, 4096, 2.5) == 16384
     assert counts.reference_cap(256, 0.039, 32768, 2.5) == 32768     # the larger of both
     assert counts.reference_cap(256, 2.0, 4096, 2.5) == 4096         # expensive: the cap
     assert counts.reference_cap(256, 0.039, 4096, 0.0) == 4096       # none allowed
     assert counts.reference_cap(256, 0.0, 4096, 2.5) == 4096         # no time measured
     assert counts.reference_cap(8192, 0.039, 4096, 0.0) == 8192      # never below spp
+    # only where the floor's share would still be over the wanted one at the cap: a share
+    # of 0.5 at 256 spp is 1/17 at 4096 (adequate at 0.1: the cap stands), 0.9 is 0.36
+    assert counts.share_at(0.5, 256, 4096) == pytest.approx(1 / 17)
+    assert counts.reference_cap(256, 0.039, 4096, 2.5, 0.5, 0.1) == 4096
+    assert counts.reference_cap(256, 0.039, 4096, 2.5, 0.9, 0.1) == 16384
 
 
 def test_relmse_rejected_against_a_hand_computed_case():

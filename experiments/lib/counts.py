@@ -44,13 +44,24 @@ def floor_share(floor: float, errors) -> float:
     return floor / smallest if math.isfinite(smallest) else 0.0
 
 
-def reference_cap(spp: int, seconds: float, max_spp: int, max_seconds: float) -> int:
+def share_at(share: float, spp: int, more: int) -> float:
+    """The floor share ``share`` of a reference of ``spp`` samples at ``more`` samples (the
+    floor falls as 1/spp, the measured error's own part stays)."""
+    if share >= 1:
+        return 1.0
+    ratio = share / (1 - share) * spp / more
+    return ratio / (1 + ratio)
+
+
+def reference_cap(spp: int, seconds: float, max_spp: int, max_seconds: float,
+                  share: float = 1.0, wanted: float = 0.0) -> int:
     """The most samples a reference of ``spp`` samples that took ``seconds`` is extended to:
-    ``max_spp``, or more where the whole then costs at most ``max_seconds`` at its time per
-    sample (a cheap scene's heavy tails need more samples than its budget's share gives
-    them); a power of two times ``spp``."""
+    ``max_spp``, or where its floor ``share`` would still be over ``wanted`` there, more,
+    as far as the whole then costs at most ``max_seconds`` at its time per sample (a cheap
+    scene's heavy tails need more samples than its budget's share gives them); a power of
+    two times ``spp``."""
     cap = max(max_spp, spp)
-    if max_seconds > 0 and seconds > 0:
+    if max_seconds > 0 and seconds > 0 and share_at(share, spp, cap) > wanted:
         affordable = max_seconds / seconds
         if affordable >= 2:
             cap = max(cap, spp * 2 ** int(math.floor(math.log2(affordable))))

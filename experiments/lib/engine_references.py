@@ -71,7 +71,7 @@ def extend(study, declaration: Declaration, chunks: dict, refs: dict, measured) 
                   for c in measured.runs if measured.reference_key(c) == key]
         share = counts.floor_share(meta["relmse_floor"], errors)
         spp = counts.reference_spp(share, rule.share, meta["spp"], counts.reference_cap(
-            meta["spp"], meta["seconds"], rule.max_spp, rule.max_seconds))
+            meta["spp"], meta["seconds"], rule.max_spp, rule.max_seconds, share, rule.share))
         if meta["floor_known"] and spp > meta["spp"]:
             wanted[key] = spp
     if not wanted:
