@@ -9,6 +9,7 @@ giving the same image as a cold render of the same seed.
 """
 from __future__ import annotations
 
+import dataclasses
 import os
 
 import numpy as np
@@ -100,3 +101,25 @@ def test_the_warm_up_count_compiles_the_kernel_of_the_timed_count(mitsuba, rfilt
         assert E.warm_spp(n) <= n
     if rfilter == "gaussian":
         assert kernels[1] != kernels[16]
+
+
+def test_a_job_of_a_power_of_two_past_the_lane_cap_renders_warm_in_passes_of_one(mitsuba):
+    """A film's lane cap is rarely a power of two (48x36: 2427 spp per render); a job of a
+    power of two past it (the suite's 4096 spp at equal time) renders in passes of a power
+    of two (2048 + 2048), the kernel class its warm-up compiled (warm_spp), so its timed
+    render compiles nothing and is kept: after a 16-spp job of the same cell, no try is
+    discarded. Negative control: a job of another count keeps passes of the lane cap
+    (5000: 2427 + 2427 + 146), whose first render compiles the other class and is
+    rendered again."""
+    import drjit as dr
+    dr.flush_kernel_cache()
+    E.clear_cache()
+    info = read_scene(SCENE)
+    m = parse_method("bsdf+nee")
+    small, = P.ladder("timing/lanes", info, m, 48, 36, [16], 7, Depth(2), VARIANT)
+    big, other = (dataclasses.replace(small, key=f"{small.key}-{n}", spp=n, seed=8 + n)
+                  for n in (4096, 5000))
+    assert big.lane_cap == 2427 and big.passes() == [2048, 2048]
+    assert other.passes() == [2427, 2427, 146]
+    results = [E.run_job(j, VARIANT) for j in (small, big, other)]
+    assert [r.recompiled for r in results] == [0, 0, 1], [r.recompiled for r in results]

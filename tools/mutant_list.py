@@ -238,6 +238,14 @@ MUTANTS = [
            "past its cap, an expensive one would",
            ("tests/test_suite.py::test_a_cheap_reference_is_extended_past_its_cap_as_far_"
             "as_its_seconds_go",)),
+    Mutant("passes-of-the-lane-cap", "experiments/lib/jobs.py",
+           "        if getattr(self.method, \"continues_sequence\", False) or power_of_two:\n",
+           "        if getattr(self.method, \"continues_sequence\", False):\n",
+           "a job of a power of two past the lane cap split at the cap (2427 + 1669): its "
+           "timed render compiles Mitsuba's other kernel class, is discarded and rendered "
+           "again (2.5 s per such cell of a cold make run)",
+           ("tests/test_timing.py::test_a_job_of_a_power_of_two_past_the_lane_cap_renders_"
+            "warm_in_passes_of_one",)),
     Mutant("bias-sidak-missing", "experiments/lib/studies/suite/bias_test.py",
            "    return bias.sidak(1.0 - LEVEL, max(1, cells))",
            "    return 1.0 - LEVEL",

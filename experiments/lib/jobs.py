@@ -85,9 +85,14 @@ class Job:
         """The spp of each pass of this job. A sampler that continues one sequence over the
         passes gets passes of a power of two (but the last): zsobol rounds a render's count
         up to one (a Sobol' net), so a pass of another count would take more of the
-        sequence than the job has."""
+        sequence than the job has. A job of a power of two gets passes of a power of two
+        too: Mitsuba compiles another kernel for other counts (:func:`.execute.warm_spp`),
+        so that a pass of 2427 spp (the lane cap of a 48x36 film) would compile during the
+        timed render, which is then discarded and rendered again (2.5 s per such job on the
+        guiding scenes in a cold run)."""
         cap = min(self.lane_cap, self.pass_spp) if self.pass_spp else self.lane_cap
-        if getattr(self.method, "continues_sequence", False):
+        power_of_two = self.spp & (self.spp - 1) == 0
+        if getattr(self.method, "continues_sequence", False) or power_of_two:
             cap = 1 << (cap.bit_length() - 1)
         return [min(cap, self.spp - s) for s in range(0, self.spp, cap)]
 
