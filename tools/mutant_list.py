@@ -246,6 +246,14 @@ MUTANTS = [
            "again (2.5 s per such cell of a cold make run)",
            ("tests/test_timing.py::test_a_job_of_a_power_of_two_past_the_lane_cap_renders_"
             "warm_in_passes_of_one",)),
+    Mutant("view-warmed-every-time", "experiments/lib/execute.py",
+           "    if warmed in _warmed:\n        return view\n",
+           "",
+           "every view warmed up again each time its scene is loaded again: a trained "
+           "guide's whole job rendered untimed once more per scene and budget (2.6-5.3 s "
+           "per guiding scene of a cold make run)",
+           ("tests/test_timing.py::test_a_view_made_again_is_not_warmed_again_but_for_a_"
+            "new_kind_of_job",)),
     Mutant("bias-sidak-missing", "experiments/lib/studies/suite/bias_test.py",
            "    return bias.sidak(1.0 - LEVEL, max(1, cells))",
            "    return 1.0 - LEVEL",

@@ -94,12 +94,16 @@ class View(NamedTuple):
 
 _scenes: OrderedDict = OrderedDict()
 _views: OrderedDict = OrderedDict()
+#: Views warmed up once in this process (their keys): a view made again (its scene loaded
+#: again after another) finds its kernels in Dr.Jit's cache and is not warmed up again.
+_warmed: set = set()
 
 
 def clear_cache() -> None:
     """Forget every loaded scene and method of this process."""
     _views.clear()
     _scenes.clear()
+    _warmed.clear()
 
 
 def job_depth(job: Job) -> Depth:
@@ -173,30 +177,46 @@ def warm_spp(spp: int) -> int:
 
 
 def _view(job: Job, variant: str) -> View:
-    """The warmed-up :class:`View` of ``job`` (cached per process): the first time, the
-    whole job is rendered once, untimed, with an integrator of its own (thrown away), so
-    that the kernels of every pass are compiled before a timed render."""
+    """The warmed-up :class:`View` of ``job`` (cached per process): the first time a kind
+    of job meets it (a count's kernel class, :func:`warm_spp`; a method rendering in passes
+    of its own: whether it trains), the whole job is rendered once, untimed, with an
+    integrator of its own (thrown away), so that the kernels of every pass are compiled
+    before a timed render. A view made again
+    in this process (its scene was loaded again after another: the suite's budgets visit
+    every scene in turn) is not warmed up again: its scene, loaded alone, gives the same
+    kernels, already in Dr.Jit's cache, and a timed render that still compiles is rendered
+    again (:func:`run_job`). Warming it again cost a whole job of a method that renders in
+    passes of its own (a trained guide: 2.6-5.3 s per guiding scene of a cold make run).
+    Such a method's job warms those that train as it does (:meth:`.methods.Method.trains`):
+    an untrained 16-spp job does not warm a pilot's kernels of training."""
     scene = _scene(job, variant)
     key = ((variant, job.scene, job.scene_sha256), job.method, job.width, job.height,
            job_depth(job))
-    if key in _views:
-        _views.move_to_end(key)
-        return _views[key]
     method: Method = job.method
     spp = job.passes()[0] if method.sampler_spec.bakes_spp else warm_spp(job.passes()[0])
-    view = View(scene, load_sensor(job.scene, job.width, job.height, method, spp))
+    if key in _views:
+        _views.move_to_end(key)
+        view = _views[key]
+    else:
+        view = View(scene, load_sensor(job.scene, job.width, job.height, method, spp))
+        _views[key] = view
+        while len(_views) > VIEW_CACHE:
+            _views.popitem(last=False)
     # the first compile, at a count of the first pass's kernel (a sampler that bakes its
     # count into the kernel: that count), so that the timed render does not compile again
     warm = fresh_integrator(job)
-    if isinstance(warm, MultiPass):
+    multi = isinstance(warm, MultiPass)
+    # a whole job warms the kernels of every job that trains as it does (or does not)
+    warmed = (key, method.trains(job.spp, job.width * job.height) if multi else spp)
+    if warmed in _warmed:
+        return view
+    if multi:
         render_passes(view, warm, job)
     else:
         with warnings.catch_warnings():     # a sampler's note on this count is not the job's
             warnings.simplefilter("ignore")
             _render(view, warm, spp, 0x5EED, sequence_state(job, 0))
-    _views[key] = view
-    while len(_views) > VIEW_CACHE:
-        _views.popitem(last=False)
+    _warmed.add(warmed)
     return view
 
 
