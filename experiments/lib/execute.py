@@ -188,7 +188,9 @@ def _view(job: Job, variant: str) -> View:
     again (:func:`run_job`). Warming it again cost a whole job of a method that renders in
     passes of its own (a trained guide: 2.6-5.3 s per guiding scene of a cold make run).
     Such a method's job warms those that train as it does (:meth:`.methods.Method.trains`):
-    an untrained 16-spp job does not warm a pilot's kernels of training."""
+    an untrained 16-spp job does not warm a trained one's kernels. A pilot is not warmed
+    up (it renders once, its cost the kernels' execution, :func:`run_job`): its render
+    warms the jobs after it."""
     scene = _scene(job, variant)
     key = ((variant, job.scene, job.scene_sha256), job.method, job.width, job.height,
            job_depth(job))
@@ -208,7 +210,8 @@ def _view(job: Job, variant: str) -> View:
     multi = isinstance(warm, MultiPass)
     # a whole job warms the kernels of every job that trains as it does (or does not)
     warmed = (key, method.trains(job.spp, job.width * job.height) if multi else spp)
-    if warmed in _warmed:
+    if warmed in _warmed or job.pilot:      # a pilot renders once, cold: it warms the rest
+        _warmed.add(warmed)
         return view
     if multi:
         render_passes(view, warm, job)
