@@ -174,3 +174,32 @@ def test_a_view_made_again_is_not_warmed_again_but_for_a_new_kind_of_job(mitsuba
     assert counts == [2, 2, 1, 1], counts
     assert last.recompiled == 0 and last.compiled_passes == 0
     assert not E.run_job(trained, VARIANT).recompiled
+
+
+def test_a_pilot_is_rendered_once_and_warms_the_jobs_after_it(mitsuba, monkeypatch):
+    """A pilot (the engine's render that measures a trained method's cost) renders once,
+    not warmed up first (its cost is its kernels' execution): the trained jobs after it
+    find their kernels compiled by it and render once, warm. (Warming the pilot up cost
+    the suite a pilot-sized render per guiding scene.)"""
+    import drjit as dr
+    dr.flush_kernel_cache()
+    E.clear_cache()
+    calls = []
+    real = E.render_passes
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return real(*args, **kwargs)
+    monkeypatch.setattr(E, "render_passes", counted)
+    guided = parse_method("guided+nee")
+    info = read_scene(SCENE)
+    untrained, = P.ladder("timing/pilot/u", info, guided, 64, 64, [16], 7, Depth(2), VARIANT)
+    trained, = P.ladder("timing/pilot/t", info, guided, 64, 64, [256], 7, Depth(2), VARIANT)
+    pilot = dataclasses.replace(trained, key=f"{trained.key}-pilot", seed=99, pilot=True)
+    counts = []
+    for job in (untrained, pilot, trained):
+        calls.clear()
+        result = E.run_job(job, VARIANT)
+        counts.append(len(calls))
+    assert counts == [2, 1, 1], counts
+    assert result.recompiled == 0 and result.compiled_passes == 0

@@ -254,6 +254,12 @@ MUTANTS = [
            "per guiding scene of a cold make run)",
            ("tests/test_timing.py::test_a_view_made_again_is_not_warmed_again_but_for_a_"
             "new_kind_of_job",)),
+    Mutant("pilot-warmed-up", "experiments/lib/execute.py",
+           "    if warmed in _warmed or job.pilot:",
+           "    if warmed in _warmed:",
+           "a pilot warmed up before its one render: a pilot-sized render more per guiding "
+           "scene of the default run",
+           ("tests/test_timing.py::test_a_pilot_is_rendered_once_and_warms_the_jobs_after_it",)),
     Mutant("bias-sidak-missing", "experiments/lib/studies/suite/bias_test.py",
            "    return bias.sidak(1.0 - LEVEL, max(1, cells))",
            "    return 1.0 - LEVEL",
