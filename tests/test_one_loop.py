@@ -3,7 +3,7 @@
 The convergence study's ladder and the scene suite's equal-spp budget both go through
 :meth:`experiments.lib.engine.Engine.run`. On the bundled door_room (48x36, 1024 spp, three
 repeats), where the guide pays most, both must measure the same gain of ``guided+nee`` over
-``bsdf+nee`` (relMSE at 1024 spp, the reference's floor subtracted): their 95% intervals
+``path`` (relMSE at 1024 spp, the reference's floor subtracted): their 95% intervals
 overlap, and both exclude 1. Negative control: the ladder as it was (the learning method's
 rungs as a sum of stretches of 1, 1, 2, ..., 512 spp, each too short to train) gives a gain
 whose interval lies below the suite's, near 1: the two studies would disagree.
@@ -28,7 +28,7 @@ from experiments.lib.studies.suite import study as suite
 
 DOOR = scenes.path("suite/door_room.xml")
 SPP, REPEATS, FILM, REFERENCE_SPP = 1024, 3, "48x36", 16384
-METHODS = "guided+nee,bsdf+nee"
+METHODS = "guided+nee,path"
 
 
 def _convergence(out):
@@ -44,7 +44,7 @@ def _convergence(out):
 def _suite(out):
     cfg = suite.settings(suite.parse([
         "--scenes", DOOR, "--resolution", FILM, "--spp", str(SPP), "--repeats", str(REPEATS),
-        "--methods", "path," + METHODS, "--out", str(out)]))
+        "--methods", METHODS, "--out", str(out)]))
     decl = declare.declaration(cfg, declare.plan_scenes(cfg))
     chosen = tuple(m for m in decl.methods if m.name in METHODS.split(","))
     return Engine(Study(cfg)), dataclasses.replace(decl, methods=chosen,
@@ -52,12 +52,12 @@ def _suite(out):
 
 
 def _gain(measured, scene: str, budget: str) -> stats.Estimate:
-    """relMSE of bsdf+nee over guided+nee at the cell's last rung, per repeat, the
+    """relMSE of path over guided+nee at the cell's last rung, per repeat, the
     reference's floor subtracted."""
     def excess(method):
         cell = Cell(scene, method, budget)
         return [r.relmse - measured.floor(cell) for r in measured.final(cell)]
-    return stats.ratio_interval([excess("bsdf+nee")], [excess("guided+nee")])
+    return stats.ratio_interval([excess("path")], [excess("guided+nee")])
 
 
 @pytest.fixture(scope="module")
