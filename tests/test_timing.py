@@ -139,6 +139,19 @@ def test_a_job_of_a_power_of_two_past_the_lane_cap_renders_warm_in_passes_of_one
     assert compiled[0] == 0 and compiled[1] > 0, compiled
 
 
+def counted_passes(monkeypatch) -> list:
+    """A list that grows by one at every call of execute.render_passes (a job's passes,
+    warm-up or timed), emptied by the caller between jobs."""
+    calls = []
+    real = E.render_passes
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return real(*args, **kwargs)
+    monkeypatch.setattr(E, "render_passes", counted)
+    return calls
+
+
 def test_a_view_made_again_is_not_warmed_again_but_for_a_new_kind_of_job(mitsuba, monkeypatch):
     """The suite visits every scene once per budget, and a scene loaded again makes its
     views again; their kernels are in Dr.Jit's cache, so a view made again is not warmed
@@ -151,13 +164,7 @@ def test_a_view_made_again_is_not_warmed_again_but_for_a_new_kind_of_job(mitsuba
     import drjit as dr
     dr.flush_kernel_cache()
     E.clear_cache()
-    calls = []
-    real = E.render_passes
-
-    def counted(*args, **kwargs):
-        calls.append(1)
-        return real(*args, **kwargs)
-    monkeypatch.setattr(E, "render_passes", counted)
+    calls = counted_passes(monkeypatch)
     guided = parse_method("guided+nee")
     info = read_scene(SCENE)
     other = read_scene(os.path.join(os.path.dirname(SCENE), "suite", "furnace.xml"))
@@ -184,13 +191,7 @@ def test_a_pilot_is_rendered_once_and_warms_the_jobs_after_it(mitsuba, monkeypat
     import drjit as dr
     dr.flush_kernel_cache()
     E.clear_cache()
-    calls = []
-    real = E.render_passes
-
-    def counted(*args, **kwargs):
-        calls.append(1)
-        return real(*args, **kwargs)
-    monkeypatch.setattr(E, "render_passes", counted)
+    calls = counted_passes(monkeypatch)
     guided = parse_method("guided+nee")
     info = read_scene(SCENE)
     untrained, = P.ladder("timing/pilot/u", info, guided, 64, 64, [16], 7, Depth(2), VARIANT)
