@@ -181,11 +181,10 @@ def _view(job: Job, variant: str) -> View:
     of job meets it (a count's kernel class, :func:`warm_spp`; a method rendering in passes
     of its own: whether it trains), the whole job is rendered once, untimed, with an
     integrator of its own (thrown away), so that the kernels of every pass are compiled
-    before a timed render. A view made again
-    in this process (its scene was loaded again after another: the suite's budgets visit
-    every scene in turn) is not warmed up again: its scene, loaded alone, gives the same
-    kernels, already in Dr.Jit's cache, and a timed render that still compiles is rendered
-    again (:func:`run_job`). Warming it again cost a whole job of a method that renders in
+    before a timed render. A view made again in this process (its scene was loaded again
+    after another) is not warmed up again: its scene, loaded alone, gives the same kernels,
+    already in Dr.Jit's cache, and a timed render that still compiles is rendered again
+    (:func:`run_job`). Warming it again cost a whole job of a method that renders in
     passes of its own (a trained guide: 2.6-5.3 s per guiding scene of a cold make run).
     Such a method's job warms those that train as it does (:meth:`.methods.Method.trains`):
     an untrained 16-spp job does not warm a trained one's kernels. A pilot is not warmed
