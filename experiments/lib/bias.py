@@ -265,12 +265,13 @@ def _unbiased(a: Side, b: Side, rounding: float):
             Side(full[1], tuple(h[1] for h in halves), b.samples))
 
 
-def _detectable(test, a: Side, b: Side, alpha: float) -> float:
+def detectable(test, a, b, alpha: float) -> float:
     """Smallest x such that ``a`` scaled by 1 + x and by 1 - x both make the expected
     statistic of some comparison of ``test`` reach its critical value (at the measured
     degrees of freedom) plus POWER_Z; inf if none does up to x = 1. ``a`` and ``b`` have
     the common means (no bias): scaling ``a`` scales its means and variances as a
-    uniform relative bias would."""
+    uniform relative bias would. ``test(a, b)`` gives (statistics, degrees of freedom);
+    ``a.scaled(factor)`` the scaled side (:class:`Side`, or :class:`.bias_image.Sums`)."""
     crit = _crit(alpha, test(a, b)[1]) + POWER_Z
 
     def margin(factor):
@@ -439,6 +440,6 @@ def compare(a: Side, b: Side, varying: np.ndarray, alpha_blocks: float, alpha_po
         return _pooled_test(x, y, rounding)[1:]
 
     return Agreement(t, _p(t, dof), delta, z, _p(z, zdof), alpha_blocks, alpha_pooled,
-                     _detectable(blocks, ua, ub, alpha_blocks),
-                     _detectable(pooled, ua, ub, alpha_pooled),
+                     detectable(blocks, ua, ub, alpha_blocks),
+                     detectable(pooled, ua, ub, alpha_pooled),
                      int(varying.sum(axis=(0, 1)).max()))

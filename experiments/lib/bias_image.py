@@ -108,34 +108,14 @@ def _statistic(a: Sums, b: Sums, rounding: float):
     return t, np.maximum(dof, 1.0), se2
 
 
-def _detectable(a: Sums, b: Sums, alpha: float, rounding: float) -> float:
-    """Smallest x such that ``a`` scaled by 1 + x and by 1 - x (its sum set to ``b``'s
-    first: no bias) both give an expected |t| of the critical value plus
-    :data:`.bias.POWER_Z` in some channel; inf if none does up to x = 1."""
-    common = Sums(b.total, a.var, a.dof_part, a.top, a.terms)
-    _, dof, _ = _statistic(common, b, rounding)
-    crit = stats.t.isf(alpha / 2, dof) + bias.POWER_Z
-
-    def reaches(factor):
-        t, _, _ = _statistic(common.scaled(factor), b, rounding)
-        return bool(np.any(np.abs(t) >= crit))
-
-    out = []
-    for sign in (1.0, -1.0):
-        if not reaches(1.0 + sign * (1.0 - 1e-9)):
-            return np.inf
-        lo, hi = 0.0, 1.0 - 1e-9
-        for _ in range(24):
-            mid = 0.5 * (lo + hi)
-            lo, hi = (lo, mid) if reaches(1.0 + sign * mid) else (mid, hi)
-        out.append(hi)
-    return max(out)
-
-
 def compare(a: Sums, b: Sums, alpha: float, rounding: float = bias.ROUNDING) -> ImageTest:
     """The image test of side ``a`` against side ``b`` at per-channel level ``alpha``."""
     t, dof, se2 = _statistic(a, b, rounding)
     top = float(np.max(np.maximum(a.top, b.top) / np.maximum(a.terms + b.terms, 1e-300)))
     delta = (a.total - b.total) / np.where(b.total != 0, b.total, np.inf)
+    common = Sums(b.total, a.var, a.dof_part, a.top, a.terms)     # no bias: a's sum is b's
+
+    def test(x, y):
+        return _statistic(x, y, rounding)[:2]
     return ImageTest(delta, t, dof, 2.0 * stats.t.sf(np.abs(t), dof), alpha, top,
-                     _detectable(a, b, alpha, rounding))
+                     bias.detectable(test, common, b, alpha))

@@ -174,31 +174,29 @@ def _test(side, halves: list, samples: list, varying: np.ndarray, kind: str, ref
     """Both tests of ``side`` (its renders in ``halves`` of ``samples`` per pixel in all,
     variance ``kind``) against the renders ``ref`` (variance ``ref_kind``) at level
     ``alpha``; where the blocks' tails are heavy, the image test in their place."""
-    other = bias.side_of_renders(ref, varying, variance=ref_kind)
     blocks_y, blocks_x, channels = side.full.mean.shape
-    alpha_blocks = bias.sidak(alpha / 2, blocks_y * blocks_x * channels)
-    alpha_pooled = bias.sidak(alpha / 2, channels)
     tails = bias.tail_share(halves, varying)
-    agreement = bias.compare(side, other, varying, alpha_blocks, alpha_pooled)
-    base = dict(variance=kind, detectable=float(agreement.detectable),
-                delta=tuple(float(x) for x in agreement.delta),
-                p_blocks=float(agreement.p_blocks.min()),
-                p_pooled=float(agreement.p_pooled.min()), alpha_blocks=alpha_blocks,
-                alpha_pooled=alpha_pooled, flagged=agreement.flagged,
-                flagged_blocks=int(agreement.flagged.sum()), tail_share=tails)
     if tails <= TAILS_SHARE:
-        return CellBias("unbiased" if agreement.passed else "biased", **base)
+        other = bias.side_of_renders(ref, varying, variance=ref_kind)
+        alpha_blocks = bias.sidak(alpha / 2, blocks_y * blocks_x * channels)
+        alpha_pooled = bias.sidak(alpha / 2, channels)
+        agreement = bias.compare(side, other, varying, alpha_blocks, alpha_pooled)
+        return CellBias("unbiased" if agreement.passed else "biased", variance=kind,
+                        detectable=float(agreement.detectable),
+                        delta=tuple(float(x) for x in agreement.delta),
+                        p_blocks=float(agreement.p_blocks.min()),
+                        p_pooled=float(agreement.p_pooled.min()), alpha_blocks=alpha_blocks,
+                        alpha_pooled=alpha_pooled, flagged=agreement.flagged,
+                        flagged_blocks=int(agreement.flagged.sum()), tail_share=tails)
     image = bias_image.compare(
         bias_image.side_sums(halves, samples, varying, kind),
         bias_image.side_sums([ref], [1], varying, ref_kind), bias.sidak(alpha, channels))
-    base.update(detectable=float(image.detectable), delta=tuple(float(x) for x in image.delta),
-                p_pooled=float(image.p.min()), alpha_pooled=image.alpha,
-                p_blocks=float("nan"), alpha_blocks=float("nan"),
-                flagged=np.zeros_like(agreement.flagged), flagged_blocks=0,
-                scope="image", term_share=image.top)
-    if not image.testable:
-        return CellBias("untestable", "heavy_tails", **base)
-    return CellBias("unbiased" if image.passed else "biased", **base)
+    status = ("unbiased" if image.passed else "biased") if image.testable else "untestable"
+    return CellBias(status, "" if image.testable else "heavy_tails", variance=kind,
+                    detectable=float(image.detectable),
+                    delta=tuple(float(x) for x in image.delta), p_pooled=float(image.p.min()),
+                    alpha_pooled=image.alpha, flagged=np.zeros((blocks_y, blocks_x), bool),
+                    tail_share=tails, scope="image", term_share=image.top)
 
 
 def calibrated(cells: dict, reference_method: str) -> dict:
