@@ -218,12 +218,42 @@ MUTANTS = [
            ("tests/test_suite_bias.py::test_blocks_of_few_varying_pixels_do_not_read_as_"
             "heavy_tails",)),
     Mutant("image-gate-off", "experiments/lib/bias_image.py",
-           "        return self.top <= MAX_TERM_SHARE and bool(np.isfinite(self.detectable))\n",
-           "        return bool(np.isfinite(self.detectable))\n",
+           "        return self.top <= MAX_TERM_SHARE and self.own_dof >= MIN_DOF \\\n",
+           "        return self.own_dof >= MIN_DOF \\\n",
            "the image test run whatever share of its variance one term holds: an image of "
            "infinite variance (rough glass sampled uniformly) reads low and is called biased",
            ("tests/test_suite_bias.py::test_an_image_ruled_by_infinite_variance_is_"
             "untestable_not_flagged",)),
+    Mutant("own-dof-gate-off", "experiments/lib/bias_image.py",
+           "        return self.top <= MAX_TERM_SHARE and self.own_dof >= MIN_DOF \\\n",
+           "        return self.top <= MAX_TERM_SHARE \\\n",
+           "the image test run on the renders' own variances however few degrees of freedom "
+           "they have: samples of infinite variance read low and are called biased",
+           ("tests/test_suite_bias_moments.py::test_infinite_variance_is_untestable_by_its_"
+            "own_moments_too",)),
+    Mutant("own-variance-over-k", "experiments/lib/bias_image.py",
+           "        c = share * share / images.shape[0] ** 2\n",
+           "        c = share * share / images.shape[0]\n",
+           "the variance of a mean of k renders taken as one render's over k, not k^2: "
+           "the image test's variance k times too large, its power lost",
+           ("tests/test_suite_bias_moments.py::test_bright_pixels_of_light_tails_are_tested_"
+            "by_their_own_variances",)),
+    Mutant("own-tails-ignored", "experiments/lib/studies/suite/bias_test.py",
+           "        tails = max(tails, bias_image.own_tail_share(own, samples, varying))\n",
+           "        tails = tails\n",
+           "blocks whose renders' own samples say their variance rests on a few samples "
+           "tested per block as long as no render rules their spread (environment's "
+           "uniform+nee flagged by its pooled test in 2 of 20 draws)",
+           ("tests/test_suite_bias_moments.py::test_blocks_whose_renders_all_caught_one_rare_"
+            "sample_are_heavy_tailed",)),
+    Mutant("suite-drops-own-variances", "experiments/lib/studies/suite/measure.py",
+           "            renders = [[(x.image, x.spp, x.variance, x.variance_var) for x in "
+           "finals[budget]]\n",
+           "            renders = [[(x.image, x.spp) for x in finals[budget]]\n",
+           "the suite hands the bias test its renders' images without their own variances: "
+           "veach_mis' cells untestable again",
+           ("tests/test_suite_bias_plugins.py::test_the_wrong_plugins_are_flagged_on_real_"
+            "scenes_and_their_twins_are_not",)),
     Mutant("image-variance-one-side", "experiments/lib/bias_image.py",
            "    se2 = a.var + b.var + np.square(rounding * b.total)\n",
            "    se2 = b.var + np.square(rounding * b.total)\n",
@@ -267,7 +297,7 @@ MUTANTS = [
            "applied (about one false 'biased' per 100 cells)",
            ("tests/test_suite_bias.py",)),
     Mutant("bias-learned-pixels", "experiments/lib/studies/suite/bias_test.py",
-           "    return any(method.trains(spp, pixels) for b in budgets for _, spp in b)\n",
+           "    return any(method.trains(r[1], pixels) for b in budgets for r in b)\n",
            "    return False\n",
            "a method that learns from its own samples tested on its pixels' spread where its "
            "renders trained (they share the learned guide: its blocks' variances too small, "

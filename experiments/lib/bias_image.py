@@ -10,21 +10,34 @@ size as long as no single pixel-render holds much of its variance.
 
 The statistic, per channel: t = (S_a - S_b) / sqrt(V_a + V_b), S the sum over the varying
 pixels of a side's mean (a side's sets of renders combined by their samples, as in
-:func:`.bias.side_of_halves`), V its variance (``pixels``: the pixels' spread over each
-set's renders; ``renders``: the spread of each set's image sums over its renders), with
-Welch-Satterthwaite degrees of freedom over the terms. Every pixel weighs the same (weights
-from either side's variances would follow its tails). Its size holds where the sums are
-close to normal: where no single pixel of one render holds more than
-:data:`MAX_TERM_SHARE` of the pixels' variance of V_a + V_b (:attr:`ImageTest.top`; read
-from the pixels also where V is the renders', whose few terms say nothing of the tails);
-above that, or where not even a bias of 100% would be detected, the cell is untestable.
-Measured size and power: docs/methodology.md.
+:func:`.bias.side_of_halves`), V its variance, with Welch-Satterthwaite degrees of freedom
+over its terms. V is read, by the side's variance kind:
+
+* ``moments``: from each render's own per-pixel variance, which its samples' moments
+  state (thousands of samples per pixel where a few renders' spread has two degrees of
+  freedom), the degrees of freedom from how sure each is (their fourth moments:
+  :func:`.jobs.variance_of_variance`);
+* ``pixels``: from the pixels' spread over each set's renders;
+* ``renders``: from the spread of each set's image sums over its renders.
+
+Every pixel weighs the same (weights from either side's variances would follow its tails).
+Its size holds where the sums are close to normal and their variance is known. A side of
+spread terms (``pixels``, ``renders``) says neither where one pixel of one render holds
+more than :data:`MAX_TERM_SHARE` of the pixels' variance of V_a + V_b
+(:attr:`ImageTest.top`; read from the pixels also where V is the renders', whose few terms
+say nothing of the tails); a side of ``moments`` where its variance has fewer than
+:data:`MIN_DOF` degrees of freedom (rare large samples rule a pixel's moments: its
+fourth moment makes its variance unsure, and the sum is far from normal). There, or where
+not even a bias of 100% would be detected, the cell is untestable. Measured size and
+power: docs/methodology.md.
 
 What it cannot see: a bias that keeps the image's sum (energy moved between pixels), and a
 tail that no render of the cell sampled.
 """
 from __future__ import annotations
 
+import dataclasses
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -35,6 +48,9 @@ from . import bias
 #: Largest share of the statistic's variance one term may hold (:attr:`ImageTest.top`):
 #: above it the image test's size is not known and the cell is untestable.
 MAX_TERM_SHARE = 0.15
+#: Fewest Welch-Satterthwaite degrees of freedom of a ``moments`` side's variance: below
+#: them the image test's size is not known and the cell is untestable.
+MIN_DOF = 30
 
 
 @dataclass(frozen=True)
@@ -45,19 +61,29 @@ class Sums:
     var: np.ndarray
     dof_part: np.ndarray
     top: np.ndarray      # the largest pixel-render term
-    terms: np.ndarray    # the sum of the pixel-render terms (``var`` where ``pixels``)
+    terms: np.ndarray    # the sum of the pixel-render terms (``var`` but for ``renders``)
+    spread: bool = True  # the terms are spreads over renders (else each render's own)
 
     def scaled(self, factor: float) -> "Sums":
         f2 = factor * factor
         return Sums(self.total * factor, self.var * f2, self.dof_part * f2 * f2,
-                    self.top * f2, self.terms * f2)
+                    self.top * f2, self.terms * f2, self.spread)
+
+    @property
+    def dof(self) -> np.ndarray:
+        """Welch-Satterthwaite degrees of freedom of ``var``, per channel."""
+        return np.square(self.var) / np.maximum(self.dof_part, 1e-300)
 
 
-def side_sums(sets, samples, varying: np.ndarray, variance: str) -> Sums:
+def side_sums(sets, samples, varying: np.ndarray, variance: str, own=None) -> Sums:
     """:class:`Sums` of a side made of independent ``sets`` of renders ((k >= 2, H, W, C)
-    each), combined by ``samples`` (each set's samples per pixel in all)."""
+    each), combined by ``samples`` (each set's samples per pixel in all); ``variance``
+    ``moments`` reads ``own``: per set, (the variance of each render's pixel means, how
+    sure each is), (k, H, W, C) each."""
     shares = np.asarray(samples, np.float64)
     shares = shares / shares.sum()
+    if variance == "moments":
+        return _own_sums(sets, shares, varying, own)
     total = var = dof_part = top = spread_sum = 0.0
     for share, images in zip(shares, sets):
         images = np.where(varying, np.asarray(images, np.float64), 0.0)
@@ -79,6 +105,47 @@ def side_sums(sets, samples, varying: np.ndarray, variance: str) -> Sums:
     return Sums(total, var, dof_part, top, spread_sum)
 
 
+def _own_sums(sets, shares, varying: np.ndarray, own) -> Sums:
+    """:func:`side_sums` from each render's own pixel variances ``v`` and their variances
+    ``vv``: a render's term is c v with c = share^2 / k^2, its Welch-Satterthwaite part
+    (c v)^2 / nu = c^2 vv / 2 (Var(v) = 2 v^2 / nu)."""
+    total = var = dof_part = top = 0.0
+    for share, images, (v, vv) in zip(shares, sets, own):
+        images, v, vv = (np.where(varying, np.asarray(a, np.float64), 0.0)
+                         for a in (images, v, vv))
+        c = share * share / images.shape[0] ** 2
+        var = var + c * v.sum(axis=(0, 1, 2))
+        dof_part = dof_part + 0.5 * c * c * vv.sum(axis=(0, 1, 2))
+        top = np.maximum(top, c * v.max(axis=(0, 1, 2)))
+        total = total + share * images.mean(axis=0).sum(axis=(0, 1))
+    return Sums(total, var, dof_part, top, var, spread=False)
+
+
+def own_tail_share(own, samples, varying: np.ndarray, block: int = bias.BLOCK) -> float:
+    """Share of the blocks with varying pixels whose variance, read from the renders' own
+    samples (``own`` and ``samples`` as in :func:`side_sums`; the images padded to
+    ``block``), has fewer than :data:`MIN_DOF` Welch-Satterthwaite degrees of freedom in
+    some channel: blocks where rare large samples rule the pixels' moments. It sees the
+    tails that the spread of a few renders misses (:func:`.bias.tail_share`: its block
+    ruled by one pixel of one render): a block whose renders all missed them, or all
+    caught one."""
+    shares = np.asarray(samples, np.float64) / np.sum(samples)
+    var = dof_part = 0.0
+    for share, (v, vv) in zip(shares, own):
+        v, vv = (np.where(varying, np.asarray(a, np.float64), 0.0) for a in (v, vv))
+        c = share * share / v.shape[0] ** 2
+        k, h, w, ch = v.shape
+        var = var + c * v.reshape(k, h // block, block, w // block, block, ch).sum(
+            axis=(0, 2, 4))
+        dof_part = dof_part + 0.5 * c * c * vv.reshape(
+            k, h // block, block, w // block, block, ch).sum(axis=(0, 2, 4))
+    used = np.any(var > 0, axis=-1)
+    if not used.any():
+        return 0.0
+    few = np.square(var) < MIN_DOF * np.maximum(dof_part, 1e-300)
+    return float(np.sum(np.any(few & (var > 0), axis=-1) & used) / np.sum(used))
+
+
 @dataclass(frozen=True)
 class ImageTest:
     """Result of :func:`compare`, per channel."""
@@ -87,14 +154,17 @@ class ImageTest:
     dof: np.ndarray
     p: np.ndarray
     alpha: float
-    top: float             # largest single term's share of the variance (any channel)
+    top: float             # largest single term of a side of spreads, as a share of the
+                           # variance (any channel; 0 where neither side is of spreads)
     detectable: float      # smallest uniform relative bias found about 90% of the time
+    own_dof: float = math.inf   # fewest degrees of freedom of a side of ``moments``
 
     @property
     def testable(self) -> bool:
-        """Whether its size holds (:data:`MAX_TERM_SHARE`) and it has power at all (a
-        bias of 100% detected)."""
-        return self.top <= MAX_TERM_SHARE and bool(np.isfinite(self.detectable))
+        """Whether its size holds (:data:`MAX_TERM_SHARE`, :data:`MIN_DOF`) and it has
+        power at all (a bias of 100% detected)."""
+        return self.top <= MAX_TERM_SHARE and self.own_dof >= MIN_DOF \
+            and bool(np.isfinite(self.detectable))
 
     @property
     def passed(self) -> bool:
@@ -111,11 +181,14 @@ def _statistic(a: Sums, b: Sums, rounding: float):
 def compare(a: Sums, b: Sums, alpha: float, rounding: float = bias.ROUNDING) -> ImageTest:
     """The image test of side ``a`` against side ``b`` at per-channel level ``alpha``."""
     t, dof, se2 = _statistic(a, b, rounding)
-    top = float(np.max(np.maximum(a.top, b.top) / np.maximum(a.terms + b.terms, 1e-300)))
+    spread = [x.top for x in (a, b) if x.spread]
+    top = float(np.max(np.max(spread, axis=0) / np.maximum(a.terms + b.terms, 1e-300))) \
+        if spread else 0.0
+    own_dof = min([float(x.dof.min()) for x in (a, b) if not x.spread], default=math.inf)
     delta = (a.total - b.total) / np.where(b.total != 0, b.total, np.inf)
-    common = Sums(b.total, a.var, a.dof_part, a.top, a.terms)     # no bias: a's sum is b's
+    common = dataclasses.replace(a, total=b.total)     # no bias: a's sum is b's
 
     def test(x, y):
         return _statistic(x, y, rounding)[:2]
     return ImageTest(delta, t, dof, 2.0 * stats.t.sf(np.abs(t), dof), alpha, top,
-                     bias.detectable(test, common, b, alpha))
+                     bias.detectable(test, common, b, alpha), own_dof)

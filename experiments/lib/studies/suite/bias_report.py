@@ -23,9 +23,11 @@ UNTESTABLE = {"deterministic": "a deterministic sampler (no independent renders)
               "too_few_renders": "too few renders (fewer than 2 per budget)",
               "unequal_counts": "renders of unequal sample counts within a budget",
               "heavy_tails": "heavy tails (one sample rules the variance of many "
-                             "blocks, and one pixel of one render holds more than "
-                             f"{bias_image.MAX_TERM_SHARE:.0%} of the image sum's: the "
-                             "test's size is void)",
+                             "blocks, and the image sum's variance is unsure: one pixel "
+                             "of one render holds more than "
+                             f"{bias_image.MAX_TERM_SHARE:.0%} of it, or the renders' own "
+                             f"variances have fewer than {bias_image.MIN_DOF} degrees of "
+                             "freedom: the test's size is void)",
               "calibration": "its calibration failed (the method that renders the reference "
                              "did not pass its own test on this scene)"}
 BIAS_FINDING = (
@@ -101,21 +103,25 @@ BIAS_TABLE = f"{NAME}/bias_test.csv"
 BLOCK_HEADER = ["scene", "method", "biased", "why untestable", "tested", "variance",
                 "detectable bias", "pooled difference", "smallest block p", "block level",
                 "pooled p", "pooled level", "flagged blocks", "ruled by one sample",
-                "image variance in one term"]
+                "image variance in one term", "degrees of freedom of the renders' own"]
 SCOPES = {"blocks": "blocks and pooled", "image": "image sum"}
 #: The caption of :data:`BIAS_TABLE` in the report.
 TABLE_CAPTION = (
     f"Bias test of every cell: its renders at both budgets against the reference's "
     f"chunks, Welch's t per block and channel and a pooled test per channel, "
     f"levels {bias_test.LEVEL:.0%} family-wise over the run (Sidak); variance "
-    f"from the pixels (independent sampler, box filter) or the renders; "
+    f"from the pixels (independent sampler, box filter) or the renders, and for the "
+    f"image sum from each render's own samples where they state it (moments); "
     f"'detectable bias': the smallest uniform bias found about 90% of the time; "
     f"'ruled by one sample': the share of blocks whose variance one pixel of one "
     f"render holds the most of (above {bias_test.TAILS_SHARE:.0%}: heavy tails, "
     f"the cell tested by its image sum alone, the 'image sum' of 'tested'); "
     f"'image variance in one term': the largest share of the image sum's variance "
-    f"that one pixel of one render holds (above "
-    f"{bias_image.MAX_TERM_SHARE:.0%}: untestable)")
+    f"that one pixel of one render holds, where it is read from their spread (above "
+    f"{bias_image.MAX_TERM_SHARE:.0%}: untestable); 'degrees of freedom of the renders' "
+    f"own': how sure the image sum's variance read from each render's own samples is "
+    f"(Welch-Satterthwaite, from their fourth moments; under {bias_image.MIN_DOF}: "
+    f"untestable)")
 
 
 def number(x: float) -> str:
@@ -141,5 +147,6 @@ def block_bias_rows(results: dict) -> list[list]:
                          (f"{max(b.delta, key=abs):+.3%}" if b.delta else "-"),
                          number(b.p_blocks if finite else math.nan), number(b.alpha_blocks),
                          number(b.p_pooled if finite else math.nan), number(b.alpha_pooled),
-                         b.flagged_blocks, share(b.tail_share), share(b.term_share)])
+                         b.flagged_blocks, share(b.tail_share), share(b.term_share),
+                         "-" if math.isnan(b.own_dof) else f"{b.own_dof:.0f}"])
     return rows

@@ -11,10 +11,14 @@ and half to the pooled test, each Sidak over its comparisons).
 Variance: the pixels' spread over the renders (``pixels``) where the pixels of a render are
 independent (the ``independent`` sampler and a ``box`` filter); otherwise the spread of the
 block means over the renders (``renders``: valid for any randomized sampler, few dof).
-Untestable, with the reason: a deterministic sampler, a user's EXR reference (no chunks),
-fewer than 2 renders per half (4 in all), renders of unequal sample counts within a budget,
-or heavy tails (:func:`.bias.tail_share` above :data:`TAILS_SHARE`: one pixel of one render
-rules the variance estimate of many blocks, the test's size is void).
+A cell whose blocks are heavy-tailed (in more than :data:`TAILS_SHARE` of them one pixel
+of one render rules the variance estimate, :func:`.bias.tail_share`, or the renders' own
+samples state it with few degrees of freedom, :func:`.bias_image.own_tail_share`: the
+block tests' size is void) is tested by its image sum alone (:mod:`.bias_image`), its
+variance from each render's own samples where they state it (the independent sampler's
+pixels, ``vr_moments``). Untestable, with the reason: a deterministic sampler, a user's
+EXR reference (no chunks), fewer than 2 renders per half (4 in all), renders of unequal
+sample counts within a budget, or heavy tails that void the image test too.
 
 :func:`check_reference` is the same test of a candidate reference's chunks against the
 reference's (:mod:`.reference_choice`). The result is data (:class:`CellBias`); the words
@@ -24,6 +28,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,8 +37,9 @@ from ... import bias, bias_image, samplers, scenes
 
 #: Family-wise level of one run's bias tests (every cell of every scene).
 LEVEL = 0.99
-#: A cell where one pixel of one render rules the variance of more than this share of its
-#: blocks (:func:`.bias.tail_share`) is untestable (heavy tails).
+#: A cell whose blocks' variances are ruled by rare large values in more than this share of
+#: them (:func:`.bias.tail_share`, :func:`.bias_image.own_tail_share`) is tested by its
+#: image sum alone (heavy tails).
 TAILS_SHARE = 0.05
 #: Fewest renders per half of a side.
 MIN_PER_HALF = 2
@@ -47,7 +53,8 @@ class CellBias:
     """The bias test of one cell, as data."""
     status: str                     # biased | unbiased | untestable
     reason: str = ""                # untestable: one of REASONS
-    variance: str = ""              # pixels | renders
+    variance: str = ""              # pixels | renders | moments (the image test's, from
+                                    # the renders' own samples)
     detectable: float = float("nan")   # smallest uniform relative bias found ~90% of runs
     delta: tuple = ()               # pooled relative difference per channel
     p_blocks: float = float("nan")  # smallest per-block p
@@ -62,6 +69,7 @@ class CellBias:
     #: alone, where the blocks' tails are heavy: :mod:`.bias_image`)
     scope: str = "blocks"
     term_share: float = float("nan")   # image scope: the largest term's share of its variance
+    own_dof: float = float("nan")      # image scope, ``moments``: its variance's dof
 
     @property
     def biased(self):
@@ -75,7 +83,8 @@ class CellBias:
                 "bias_p_pooled": self.p_pooled, "bias_alpha_blocks": self.alpha_blocks,
                 "bias_alpha_pooled": self.alpha_pooled, "bias_flagged_blocks":
                     self.flagged_blocks, "bias_tail_share": self.tail_share,
-                "bias_scope": self.scope, "bias_term_share": self.term_share}
+                "bias_scope": self.scope, "bias_term_share": self.term_share,
+                "bias_dof": self.own_dof}
 
 
 def cell_level(cells: int) -> float:
@@ -107,8 +116,9 @@ def variance_kind(method, box: bool, trained: bool = True) -> str:
 
 
 def trained(method, budgets: list, pixels: int) -> bool:
-    """Whether any render of ``budgets`` (lists of (image, spp)) learned from its samples."""
-    return any(method.trains(spp, pixels) for b in budgets for _, spp in b)
+    """Whether any render of ``budgets`` (lists of (image, spp, ...)) learned from its
+    samples."""
+    return any(method.trains(r[1], pixels) for b in budgets for r in b)
 
 
 def reference_chunks(refs, spec) -> np.ndarray | None:
@@ -126,10 +136,12 @@ def untestable(reason: str, variance: str = "") -> CellBias:
 
 
 def check_cell(method, budgets: list, chunks: np.ndarray | None, box: bool, ref_box: bool,
-              reference_method, alpha: float) -> CellBias:
-    """The bias test of a cell: ``budgets`` its renders per budget (lists of (image, spp)),
-    ``chunks`` the reference's chunk images (None: a user's EXR), ``alpha`` the cell's
-    level (:func:`cell_level`)."""
+               reference_method, alpha: float) -> CellBias:
+    """The bias test of a cell: ``budgets`` its renders per budget (lists of (image, spp),
+    or of (image, spp, variance, its variance): each render's per-pixel variance of its
+    mean from its own samples' moments, and how sure it is, which the image test reads
+    where the pixels are independent), ``chunks`` the reference's chunk images (None: a
+    user's EXR), ``alpha`` the cell's level (:func:`cell_level`)."""
     pixels = int(np.prod(budgets[0][0][0].shape[:2])) if budgets and budgets[0] else 0
     kind = variance_kind(method, box, trained(method, budgets, pixels))
     if method.deterministic:
@@ -139,15 +151,24 @@ def check_cell(method, budgets: list, chunks: np.ndarray | None, box: bool, ref_
     if len(budgets) < 2 or min(len(b) for b in budgets) < MIN_PER_HALF \
             or len(chunks) < 2 * MIN_PER_HALF:
         return untestable("too_few_renders", kind)
-    if any(len({spp for _, spp in b}) > 1 for b in budgets):
+    if any(len({r[1] for r in b}) > 1 for b in budgets):
         return untestable("unequal_counts", kind)
-    halves = [bias.padded(np.stack([img for img, _ in b])) for b in budgets[:2]]
+    halves = [bias.padded(np.stack([r[0] for r in b])) for b in budgets[:2]]
     samples = [len(b) * b[0][1] for b in budgets[:2]]
     ref = bias.padded(chunks)
     varying = bias.varying_pixels(bias.Renders(np.concatenate(halves)), bias.Renders(ref))
     side = bias.side_of_halves(halves, samples, varying, variance=kind)
     return _test(side, halves, samples, varying, kind, ref,
-                 variance_kind(reference_method, ref_box), alpha)
+                 variance_kind(reference_method, ref_box), alpha, _own(budgets[:2], kind))
+
+
+def _own(budgets: list, kind: str) -> list | None:
+    """Per budget, its renders' own (variances, their variances) padded as the images, where
+    every render states them and its pixels are independent (``pixels``); else None."""
+    if kind != "pixels" or any(len(r) < 4 or r[2] is None or r[3] is None
+                               for b in budgets for r in b):
+        return None
+    return [tuple(bias.padded(np.stack([r[i] for r in b])) for i in (2, 3)) for b in budgets]
 
 
 def check_reference(chunks: np.ndarray, against: np.ndarray, method, against_method,
@@ -170,12 +191,15 @@ def check_reference(chunks: np.ndarray, against: np.ndarray, method, against_met
 
 
 def _test(side, halves: list, samples: list, varying: np.ndarray, kind: str, ref: np.ndarray,
-          ref_kind: str, alpha: float) -> CellBias:
+          ref_kind: str, alpha: float, own: list | None = None) -> CellBias:
     """Both tests of ``side`` (its renders in ``halves`` of ``samples`` per pixel in all,
     variance ``kind``) against the renders ``ref`` (variance ``ref_kind``) at level
-    ``alpha``; where the blocks' tails are heavy, the image test in their place."""
+    ``alpha``; where the blocks' tails are heavy, the image test in their place, its
+    variance from the renders' ``own`` (:func:`_own`) where given."""
     blocks_y, blocks_x, channels = side.full.mean.shape
     tails = bias.tail_share(halves, varying)
+    if own is not None:
+        tails = max(tails, bias_image.own_tail_share(own, samples, varying))
     if tails <= TAILS_SHARE:
         other = bias.side_of_renders(ref, varying, variance=ref_kind)
         alpha_blocks = bias.sidak(alpha / 2, blocks_y * blocks_x * channels)
@@ -188,15 +212,17 @@ def _test(side, halves: list, samples: list, varying: np.ndarray, kind: str, ref
                         p_pooled=float(agreement.p_pooled.min()), alpha_blocks=alpha_blocks,
                         alpha_pooled=alpha_pooled, flagged=agreement.flagged,
                         flagged_blocks=int(agreement.flagged.sum()), tail_share=tails)
+    image_kind = kind if own is None else "moments"
     image = bias_image.compare(
-        bias_image.side_sums(halves, samples, varying, kind),
+        bias_image.side_sums(halves, samples, varying, image_kind, own),
         bias_image.side_sums([ref], [1], varying, ref_kind), bias.sidak(alpha, channels))
     status = ("unbiased" if image.passed else "biased") if image.testable else "untestable"
-    return CellBias(status, "" if image.testable else "heavy_tails", variance=kind,
+    return CellBias(status, "" if image.testable else "heavy_tails", variance=image_kind,
                     detectable=float(image.detectable),
                     delta=tuple(float(x) for x in image.delta), p_pooled=float(image.p.min()),
                     alpha_pooled=image.alpha, flagged=np.zeros((blocks_y, blocks_x), bool),
-                    tail_share=tails, scope="image", term_share=image.top)
+                    tail_share=tails, scope="image", term_share=image.top,
+                    own_dof=image.own_dof if math.isfinite(image.own_dof) else math.nan)
 
 
 def calibrated(cells: dict, reference_method: str) -> dict:

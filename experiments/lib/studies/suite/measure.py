@@ -93,9 +93,10 @@ def measure_scene(cfg: Settings, sp: ScenePlan, measured: Measurements,
         tested = None
         if alpha is not None:
             box = sp.box
-            tested = bias_test.check_cell(
-                methods[name], [[(x.image, x.spp) for x in finals[budget]] for budget in
-                                (SPP, TIME)], chunks, box, box, cfg.reference_method, alpha)
+            renders = [[(x.image, x.spp, x.variance, x.variance_var) for x in finals[budget]]
+                       for budget in (SPP, TIME)]
+            tested = bias_test.check_cell(methods[name], renders, chunks, box, box,
+                                          cfg.reference_method, alpha)
         overhead = float(np.mean([r.overhead for budget in (SPP, TIME) for r in finals[budget]]))
         cells[name] = analysis.Cell(name, runs, tuple(x / px * 1e9 for x in b), overhead,
                                     methods[name].deterministic, tested)
