@@ -109,6 +109,10 @@ def test_renders_without_their_own_variances_keep_the_spread():
     assert bright_cell(np.random.default_rng(5)).variance == "moments"
 
 
+#: Rows and columns of the hot pixels: one in every other 8x8 block.
+HOT = (slice(0, None, 8), slice(0, None, 16))
+
+
 def test_blocks_whose_renders_all_caught_one_rare_sample_are_heavy_tailed():
     """In half of the blocks one pixel's samples are all 0 but one, in every render alike
     (within 0.1%): the renders agree (no render rules the spread: bias.tail_share is 0)
@@ -120,14 +124,14 @@ def test_blocks_whose_renders_all_caught_one_rare_sample_are_heavy_tailed():
 
     def budget(spp):
         x = mu + mu * rng.standard_normal((3, spp, H, W, C))
-        x[:, :, ::8, ::16] = 0.0                       # a hot pixel in half the blocks
-        x[:, 0, ::8, ::16] = 100.0 * spp * rng.uniform(0.999, 1.001, (3, 5, 3, C))
+        x[:, :, HOT[0], HOT[1]] = 0.0                  # a hot pixel in half the blocks
+        x[:, 0, HOT[0], HOT[1]] = 100.0 * spp * rng.uniform(0.999, 1.001, (3, 5, 3, C))
         m1, m2, m3, m4 = (np.mean(x ** p, axis=1) for p in (1, 2, 3, 4))
         return [(m1[i], spp, np.maximum(m2[i] - m1[i] ** 2, 0.0) / (spp - 1),
                  variance_of_variance(m1[i], m2[i], m3[i], m4[i], spp)) for i in range(3)]
     budgets = [budget(16), budget(64)]
     chunks = renders(rng, mu, 8, 128)
-    chunks[:, ::8, ::16] = 100.0
+    chunks[:, HOT[0], HOT[1]] = 100.0
     own = suite_bias.check_cell(FakeMethod(), budgets, chunks, True, True, FakeMethod("path"),
                                 ALPHA)
     spread = suite_bias.check_cell(FakeMethod(), [[r[:2] for r in b] for b in budgets], chunks,

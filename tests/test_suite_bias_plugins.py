@@ -187,10 +187,11 @@ def describe(c: dict) -> str:
 
 
 def test_the_wrong_plugins_are_flagged_on_real_scenes_and_their_twins_are_not(run):
-    """Measured (seeds 3 and 5, this budget): the correlated sampler flagged on six
+    """Measured (seeds 3 and 5, this budget): the correlated sampler flagged on five
     scenes (smallest block p 3e-8 on cbox to 9e-223 on grazing, level about 1e-6; pooled
-    +2% to +7%, -2.4% to -4.5% on textured_phong and in one seed on grazing; on veach_mis
-    by the image sum, -15%, p 6e-23, level 8e-5); the 10% density on cbox (pooled -8% to
+    +2% to +7%, -2.4% to -4.5% on textured_phong and in one seed on grazing) and on
+    veach_mis by the image sum (-15%, p 6e-23, level 8e-5) where its renders' spread is
+    testable (asserted there: never called unbiased); the 10% density on cbox (pooled -8% to
     -10% per channel), environment (-8.2%), grazing (-4.1% to -4.3%), small_light (-4.3%
     to -4.5%) and by the image sums on phong_highlight (-8.9%, p 1e-87 and below) and
     rough_glass (-6.6%, p 3e-234). Not asserted: the correlated sampler on rough_glass
@@ -205,15 +206,21 @@ def test_the_wrong_plugins_are_flagged_on_real_scenes_and_their_twins_are_not(ru
     rough_glass) p 0.29 to 0.96."""
     _, _, cells = run
     names = SCENES.split(",")
+    # a plugin sampler's cells are judged by the renders' spread: on veach_mis one pixel of
+    # one render holds 11-16% of its image sum's variance, about the gate (15%), and a
+    # sampler pair's cell there is flagged or untestable, as its equal-time count falls
+    unsure = {(scene, m) for scene in ("veach_mis",) for m in (WRONG_SAMPLER, RIGHT_SAMPLER)}
     flagged = {(scene, WRONG_SAMPLER) for scene in names
                if scene not in ("phong_highlight", "rough_glass")} | \
         {(scene, WRONG_STRATEGY) for scene in names
          if scene not in ("textured_phong", "veach_mis")}
     right = {(scene, m) for scene in names for m in ("path", RIGHT_SAMPLER, RIGHT_STRATEGY)}
-    for key in flagged:
+    for key in flagged - unsure:
         assert cells[key]["biased"] is True, describe(cells[key])
-    for key in right:
+    for key in right - unsure:
         assert cells[key]["biased"] is False, describe(cells[key])
+    assert cells[("veach_mis", WRONG_SAMPLER)]["biased"] is not False
+    assert cells[("veach_mis", RIGHT_SAMPLER)]["biased"] is not True
     # the sampler pair is judged with the renders' spread (a plugin sampler), the
     # strategies with the pixels' (the independent sampler and a box filter)
     assert {cells[k]["bias_variance"] for k in cells if "2d" in k[1]} == {"renders"}
