@@ -232,8 +232,8 @@ MUTANTS = [
            ("tests/test_suite_bias_moments.py::test_infinite_variance_is_untestable_by_its_"
             "own_moments_too",)),
     Mutant("own-variance-over-k", "experiments/lib/bias_image.py",
-           "        c = share * share / images.shape[0] ** 2\n",
-           "        c = share * share / images.shape[0]\n",
+           "        c = share * share / v.shape[0] ** 2\n",
+           "        c = share * share / v.shape[0]\n",
            "the variance of a mean of k renders taken as one render's over k, not k^2: "
            "the image test's variance k times too large, its power lost",
            ("tests/test_suite_bias_moments.py::test_bright_pixels_of_light_tails_are_tested_"

@@ -140,7 +140,7 @@ class Side:
         return float(self.samples[1 - tested]) / float(self.samples[tested])
 
 
-def _block_sum(x: np.ndarray, block: int) -> np.ndarray:
+def block_sum(x: np.ndarray, block: int) -> np.ndarray:
     """(..., H, W, C) -> (..., H // block, W // block, C) sums over block x block tiles."""
     *lead, h, w, c = x.shape
     return x.reshape(*lead, h // block, block, w // block, block, c).sum(axis=(-4, -2))
@@ -148,16 +148,16 @@ def _block_sum(x: np.ndarray, block: int) -> np.ndarray:
 
 def _blocks(images: np.ndarray, varying: np.ndarray, block: int, variance: str) -> Blocks:
     k = images.shape[0]
-    n = _block_sum(varying.astype(np.float64), block)
+    n = block_sum(varying.astype(np.float64), block)
     n1 = np.maximum(n, 1.0)
-    mean = _block_sum(np.where(varying, images.mean(axis=0), 0.0), block) / n1
+    mean = block_sum(np.where(varying, images.mean(axis=0), 0.0), block) / n1
     if variance == "pixels":
         pixel_var = np.where(varying, images.var(axis=0, ddof=1), 0.0)
-        s, s4 = _block_sum(pixel_var, block), _block_sum(np.square(pixel_var), block)
+        s, s4 = block_sum(pixel_var, block), block_sum(np.square(pixel_var), block)
         var = s / (k * np.square(n1))
         dof = np.square(s) / np.maximum(s4 / (k - 1), 1e-300)
     else:
-        per_render = _block_sum(np.where(varying, images, 0.0), block) / n1
+        per_render = block_sum(np.where(varying, images, 0.0), block) / n1
         var = per_render.var(axis=0, ddof=1) / k
         dof = np.full(var.shape, float(k - 1))
     return Blocks(mean, var, np.maximum(dof, 1.0), n, variance)
@@ -409,7 +409,7 @@ def tail_share(halves, varying: np.ndarray, block: int = BLOCK, dominance: float
     of like size); high where rare large values rule the variance estimates (heavy tails:
     most renders miss them, the estimate falls short and the t tests lose their size).
     Blocks of fewer than :data:`TAIL_TERMS` terms are not read."""
-    pixels = _block_sum(varying.astype(np.float64), block)
+    pixels = block_sum(varying.astype(np.float64), block)
     used = pixels * (min(len(h) for h in halves) - 1) >= TAIL_TERMS
     if not used.any():
         return 0.0
@@ -417,7 +417,7 @@ def tail_share(halves, varying: np.ndarray, block: int = BLOCK, dominance: float
     for images in halves:
         images = np.where(varying, np.asarray(images, dtype=np.float64), 0.0)
         sq = np.square(images - images.mean(axis=0))
-        total = _block_sum(sq.sum(axis=0), block)
+        total = block_sum(sq.sum(axis=0), block)
         *_, h, w, c = sq.shape
         top = sq.reshape(sq.shape[0], h // block, block, w // block, block, c).max(
             axis=(0, 2, 4))

@@ -105,20 +105,27 @@ def side_sums(sets, samples, varying: np.ndarray, variance: str, own=None) -> Su
     return Sums(total, var, dof_part, top, spread_sum)
 
 
+def _own_terms(own, shares, varying: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per pixel and channel, the terms of a side's variance from its renders' own pixel
+    variances ``v`` and their variances ``vv`` (``own``, per set, (k, H, W, C) each), and
+    their Welch-Satterthwaite parts, summed over the renders: a render's term is c v with
+    c = share^2 / k^2, its part (c v)^2 / nu = c^2 vv / 2 (Var(v) = 2 v^2 / nu)."""
+    var = dof_part = 0.0
+    for share, (v, vv) in zip(shares, own):
+        v, vv = (np.where(varying, np.asarray(x, np.float64), 0.0) for x in (v, vv))
+        c = share * share / v.shape[0] ** 2
+        var = var + c * v.sum(axis=0)
+        dof_part = dof_part + 0.5 * c * c * vv.sum(axis=0)
+    return var, dof_part
+
+
 def _own_sums(sets, shares, varying: np.ndarray, own) -> Sums:
-    """:func:`side_sums` from each render's own pixel variances ``v`` and their variances
-    ``vv``: a render's term is c v with c = share^2 / k^2, its Welch-Satterthwaite part
-    (c v)^2 / nu = c^2 vv / 2 (Var(v) = 2 v^2 / nu)."""
-    total = var = dof_part = top = 0.0
-    for share, images, (v, vv) in zip(shares, sets, own):
-        images, v, vv = (np.where(varying, np.asarray(a, np.float64), 0.0)
-                         for a in (images, v, vv))
-        c = share * share / images.shape[0] ** 2
-        var = var + c * v.sum(axis=(0, 1, 2))
-        dof_part = dof_part + 0.5 * c * c * vv.sum(axis=(0, 1, 2))
-        top = np.maximum(top, c * v.max(axis=(0, 1, 2)))
-        total = total + share * images.mean(axis=0).sum(axis=(0, 1))
-    return Sums(total, var, dof_part, top, var, spread=False)
+    """:func:`side_sums` from the renders' own pixel variances (:func:`_own_terms`)."""
+    var, dof_part = _own_terms(own, shares, varying)
+    total = sum(share * np.where(varying, np.asarray(images, np.float64), 0.0).mean(
+        axis=0).sum(axis=(0, 1)) for share, images in zip(shares, sets))
+    return Sums(total, var.sum(axis=(0, 1)), dof_part.sum(axis=(0, 1)),
+                var.max(axis=(0, 1)), var.sum(axis=(0, 1)), spread=False)
 
 
 def own_tail_share(own, samples, varying: np.ndarray, block: int = bias.BLOCK) -> float:
@@ -130,20 +137,12 @@ def own_tail_share(own, samples, varying: np.ndarray, block: int = bias.BLOCK) -
     ruled by one pixel of one render): a block whose renders all missed them, or all
     caught one."""
     shares = np.asarray(samples, np.float64) / np.sum(samples)
-    var = dof_part = 0.0
-    for share, (v, vv) in zip(shares, own):
-        v, vv = (np.where(varying, np.asarray(a, np.float64), 0.0) for a in (v, vv))
-        c = share * share / v.shape[0] ** 2
-        k, h, w, ch = v.shape
-        var = var + c * v.reshape(k, h // block, block, w // block, block, ch).sum(
-            axis=(0, 2, 4))
-        dof_part = dof_part + 0.5 * c * c * vv.reshape(
-            k, h // block, block, w // block, block, ch).sum(axis=(0, 2, 4))
+    var, dof_part = (bias.block_sum(x, block) for x in _own_terms(own, shares, varying))
     used = np.any(var > 0, axis=-1)
     if not used.any():
         return 0.0
-    few = np.square(var) < MIN_DOF * np.maximum(dof_part, 1e-300)
-    return float(np.sum(np.any(few & (var > 0), axis=-1) & used) / np.sum(used))
+    few = (var > 0) & (np.square(var) < MIN_DOF * np.maximum(dof_part, 1e-300))
+    return float(np.sum(np.any(few, axis=-1) & used) / np.sum(used))
 
 
 @dataclass(frozen=True)
