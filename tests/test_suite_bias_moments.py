@@ -138,3 +138,28 @@ def test_blocks_whose_renders_all_caught_one_rare_sample_are_heavy_tailed():
                                    True, True, FakeMethod("path"), ALPHA)
     assert spread.scope == "blocks" and spread.tail_share <= suite_bias.TAILS_SHARE
     assert own.scope == "image" and own.tail_share > suite_bias.TAILS_SHARE, own
+
+
+def test_a_known_variance_too_large_for_any_bias_is_no_power_not_heavy_tails():
+    """Light tails, but a per-sample spread 400 times each pixel's mean: the renders' own
+    variances are sure (thousands of degrees of freedom) and the image sum close to
+    normal, but not even a 100% bias would be found: untestable for want of power, not
+    for heavy tails (the report counts them apart)."""
+    rng = np.random.default_rng(7)
+    mu = rng.uniform(0.05, 1.0, (H, W, C))
+    for count, value in ((3, 100.0), (12, 20.0)):
+        mu[rng.choice(H, count, replace=False), rng.choice(W, count, replace=False)] = value
+
+    def noisy(k, spp):
+        out = []
+        for _ in range(k):
+            mean = mu + 400.0 * mu / math.sqrt(spp) * rng.standard_normal(mu.shape)
+            s2 = np.square(400.0 * mu) * rng.chisquare(spp - 1, mu.shape) / (spp - 1)
+            out.append((mean, spp, s2 / spp, 2.0 * s2 * s2 / ((spp - 1) * spp * spp)))
+        return out
+    got = suite_bias.check_cell(FakeMethod(), [noisy(3, 16), noisy(3, 1024)],
+                                renders(rng, mu, 32, 256), True, True, FakeMethod("path"),
+                                ALPHA)
+    assert got.scope == "image" and got.variance == "moments", got
+    assert got.own_dof >= bias_image.MIN_DOF and not math.isfinite(got.detectable)
+    assert got.status == "untestable" and got.reason == "no_power"

@@ -218,19 +218,27 @@ MUTANTS = [
            ("tests/test_suite_bias.py::test_blocks_of_few_varying_pixels_do_not_read_as_"
             "heavy_tails",)),
     Mutant("image-gate-off", "experiments/lib/bias_image.py",
-           "        return self.top <= MAX_TERM_SHARE and self.own_dof >= MIN_DOF \\\n",
-           "        return self.own_dof >= MIN_DOF \\\n",
+           "        return self.top <= MAX_TERM_SHARE and self.own_dof >= MIN_DOF\n",
+           "        return self.own_dof >= MIN_DOF\n",
            "the image test run whatever share of its variance one term holds: an image of "
            "infinite variance (rough glass sampled uniformly) reads low and is called biased",
            ("tests/test_suite_bias.py::test_an_image_ruled_by_infinite_variance_is_"
             "untestable_not_flagged",)),
     Mutant("own-dof-gate-off", "experiments/lib/bias_image.py",
-           "        return self.top <= MAX_TERM_SHARE and self.own_dof >= MIN_DOF \\\n",
-           "        return self.top <= MAX_TERM_SHARE \\\n",
+           "        return self.top <= MAX_TERM_SHARE and self.own_dof >= MIN_DOF\n",
+           "        return self.top <= MAX_TERM_SHARE\n",
            "the image test run on the renders' own variances however few degrees of freedom "
            "they have: samples of infinite variance read low and are called biased",
            ("tests/test_suite_bias_moments.py::test_infinite_variance_is_untestable_by_its_"
             "own_moments_too",)),
+    Mutant("no-power-called-heavy-tails", "experiments/lib/studies/suite/bias_test.py",
+           "    reason = \"\" if image.testable else \"heavy_tails\" if not image.size_holds "
+           "else \"no_power\"\n",
+           "    reason = \"\" if image.testable else \"heavy_tails\"\n",
+           "a cell whose image test has no power called heavy-tailed: the report blames the "
+           "method's tails for what its budget cannot show",
+           ("tests/test_suite_bias_moments.py::test_a_known_variance_too_large_for_any_bias_"
+            "is_no_power_not_heavy_tails",)),
     Mutant("own-variance-over-k", "experiments/lib/bias_image.py",
            "        c = share * share / v.shape[0] ** 2\n",
            "        c = share * share / v.shape[0]\n",

@@ -159,11 +159,16 @@ class ImageTest:
     own_dof: float = math.inf   # fewest degrees of freedom of a side of ``moments``
 
     @property
+    def size_holds(self) -> bool:
+        """Whether the statistic's variance is known and the sum close to normal
+        (:data:`MAX_TERM_SHARE`, :data:`MIN_DOF`)."""
+        return self.top <= MAX_TERM_SHARE and self.own_dof >= MIN_DOF
+
+    @property
     def testable(self) -> bool:
-        """Whether its size holds (:data:`MAX_TERM_SHARE`, :data:`MIN_DOF`) and it has
-        power at all (a bias of 100% detected)."""
-        return self.top <= MAX_TERM_SHARE and self.own_dof >= MIN_DOF \
-            and bool(np.isfinite(self.detectable))
+        """Whether its size holds (:attr:`size_holds`) and it has power at all (a bias of
+        100% detected)."""
+        return self.size_holds and bool(np.isfinite(self.detectable))
 
     @property
     def passed(self) -> bool:

@@ -28,6 +28,8 @@ UNTESTABLE = {"deterministic": "a deterministic sampler (no independent renders)
                              f"{bias_image.MAX_TERM_SHARE:.0%} of it, or the renders' own "
                              f"variances have fewer than {bias_image.MIN_DOF} degrees of "
                              "freedom: the test's size is void)",
+              "no_power": "no power (its image sum's variance known, but not even a bias of "
+                          "100% would be found at the run's budget)",
               "calibration": "its calibration failed (the method that renders the reference "
                              "did not pass its own test on this scene)"}
 BIAS_FINDING = (
@@ -140,7 +142,7 @@ def block_bias_rows(results: dict) -> list[list]:
             b = c.block_bias
             if b is None:
                 continue
-            finite = b.status != "untestable" or b.reason == "heavy_tails"
+            finite = b.status != "untestable" or b.reason in ("heavy_tails", "no_power")
             rows.append([name, m, {True: "YES", False: "no"}.get(b.biased, "untestable"),
                          b.reason, SCOPES[b.scope], b.variance,
                          pct2(b.detectable) if finite else "-",

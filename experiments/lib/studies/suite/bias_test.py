@@ -45,7 +45,7 @@ TAILS_SHARE = 0.05
 MIN_PER_HALF = 2
 #: Why a cell is untestable (keys of summary.json's ``biased_reason``).
 REASONS = ("deterministic", "user_reference", "too_few_renders", "unequal_counts",
-           "heavy_tails", "calibration")
+           "heavy_tails", "no_power", "calibration")
 
 
 @dataclass(frozen=True)
@@ -217,7 +217,8 @@ def _test(side, halves: list, samples: list, varying: np.ndarray, kind: str, ref
         bias_image.side_sums(halves, samples, varying, image_kind, own),
         bias_image.side_sums([ref], [1], varying, ref_kind), bias.sidak(alpha, channels))
     status = ("unbiased" if image.passed else "biased") if image.testable else "untestable"
-    return CellBias(status, "" if image.testable else "heavy_tails", variance=image_kind,
+    reason = "" if image.testable else "heavy_tails" if not image.size_holds else "no_power"
+    return CellBias(status, reason, variance=image_kind,
                     detectable=float(image.detectable),
                     delta=tuple(float(x) for x in image.delta), p_pooled=float(image.p.min()),
                     alpha_pooled=image.alpha, flagged=np.zeros((blocks_y, blocks_x), bool),
