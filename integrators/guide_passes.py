@@ -5,7 +5,8 @@ samples (:func:`iterations`), each split into renders of bounded size (:func:`re
 a job too small to pay for training is not trained (:func:`training_refusals`); training
 stops where the records predict no gain (:func:`predicted_gain`, :func:`stops`); the
 iterations' images are pooled per estimator and combined with inverse-variance weights
-(:func:`combine`, :func:`pass_weights`). Here only numpy: no Dr.Jit, no Mitsuba, so that
+read from the other pixels of a checkerboard (:func:`combine`, :func:`cross_weights`,
+:func:`pass_weights`). Here only numpy: no Dr.Jit, no Mitsuba, so that
 every rule is testable and readable on its own. Why the constants have their values:
 docs/guiding.md, "Why these defaults".
 """
@@ -142,13 +143,33 @@ def pixel_moments(means: list, m2s: list, spps: list, idx) -> tuple[float, int]:
     return float(np.mean(sample_spread(mean, m2))), n * mean[..., 0].size
 
 
+def cross_weights(variances: list, spps: list) -> np.ndarray:
+    """Per group and pixel, the group's weight (:func:`pass_weights`) from the groups'
+    per-pixel variances ``variances`` ((H, W, C) each) averaged over the pixels of the
+    other colour of a checkerboard: a weight estimated from the samples it weights
+    correlates with them (a group whose samples missed rare bright values reads a low
+    variance and a low mean, and weighs more: the image reads low), one from other pixels
+    (independent samples, given the guides) does not. A one-pixel image takes its own.
+    Shape (groups, H, W, 1)."""
+    h, w = variances[0].shape[:2]
+    y, x = np.indices((h, w))
+    black = (y + x) % 2 == 0
+    out = np.empty((len(variances), h, w, 1))
+    for colour in (black, ~black):
+        other = ~colour if (~colour).any() else colour
+        weights = pass_weights([float(np.mean(v[other])) for v in variances], spps)
+        out[:, colour] = weights[:, None, None]
+    return out
+
+
 def combine(images: list, m2s: list, spps: list, groups: list):
-    """(the combined image, the groups' weights, its per-pixel variance) of renders with
-    per-pixel means ``images``, mean squares ``m2s`` and ``spps`` samples per pixel:
-    the renders of each group (a list of indices: the renders of one estimator) pooled by
-    their samples, then the groups weighted by :func:`pass_weights` (from the mean over
-    pixels and channels of each group's :func:`pixel_variance`); the variance is that of
-    the combined image per pixel and channel, the weights taken as fixed."""
+    """(the combined image, the groups' weights per pixel, its per-pixel variance) of
+    renders with per-pixel means ``images``, mean squares ``m2s`` and ``spps`` samples per
+    pixel: the renders of each group (a list of indices: the renders of one estimator)
+    pooled by their samples, then the groups weighted by :func:`cross_weights` (from the
+    mean over the other checkerboard colour's pixels and the channels of each group's
+    :func:`pixel_variance`); the variance is that of the combined image per pixel and
+    channel, the weights taken as fixed."""
     means, pixels, counts = [], [], []
     for idx in groups:
         n = sum(spps[i] for i in idx)
@@ -157,6 +178,6 @@ def combine(images: list, m2s: list, spps: list, groups: list):
         means.append(mean)
         pixels.append(pixel_variance(mean, m2, n))
         counts.append(n)
-    weights = pass_weights([float(np.mean(p)) for p in pixels], counts)
+    weights = cross_weights(pixels, counts)
     variance = sum(w * w * p for w, p in zip(weights, pixels))
     return sum(w * m for w, m in zip(weights, means)), weights, variance

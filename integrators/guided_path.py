@@ -315,8 +315,10 @@ class GuidedPathIntegrator(VRPathIntegrator):
         self.guide.set_share(tree.share)
 
     def combine(self, images: list, spps: list):
-        """The iterations' images, weighted by :func:`.guide_passes.pass_weights`;
-        iterations rendered by the same estimator (plain BSDF sampling before a unit
+        """The iterations' images, weighted by :func:`.guide_passes.cross_weights` (inverse
+        to each group's variance, read from the other pixels of a checkerboard: a weight
+        read from the samples it weights would bias the image low); iterations rendered
+        by the same estimator (plain BSDF sampling before a unit
         learns and after training stops; the frozen guide after it stops) are pooled
         first, by their samples (:func:`.guide_passes.combine`): weights estimated per
         identical iteration would only add noise (and, with rare bright samples, favour
@@ -333,15 +335,14 @@ class GuidedPathIntegrator(VRPathIntegrator):
         """Per pixel and channel, the variance of the image :meth:`combine` returned: the
         sum over its groups of weight^2 x the variance of the group's mean (from its
         samples' mean squares, the ``guiding_m2_*`` AOVs), the weights taken as fixed
-        (they are estimated from the same samples: Mueller 2019 reports the correlation
-        negligible). The experiments' per-pixel errors use it for this method
+        (each pixel's are read from other pixels' samples). The experiments' per-pixel errors use it for this method
         (:func:`experiments.lib.execute.render_passes`): the spread of its passes would
         treat the untrained and the trained ones as one estimator."""
         return self.variance
 
     def combined_moments(self) -> list:
-        """Per group of :meth:`combine` (the renders of one estimator): (its weight, its
-        samples per pixel, and per pixel and channel the means of its samples, of their
+        """Per group of :meth:`combine` (the renders of one estimator): (its weight per
+        pixel, its samples per pixel, and per pixel and channel the means of its samples, of their
         squares, cubes and fourth powers), from which the experiments bound how sure
         :meth:`combined_variance` is (the sum over groups of weight^4 x the variance of
         the group's variance, :func:`experiments.lib.jobs.variance_of_variance`)."""
@@ -351,7 +352,7 @@ class GuidedPathIntegrator(VRPathIntegrator):
             pooled = [sum(a[i] * self._spp[i] for i in idx) / n
                       for a in (self._mean, self._m2, [m[0] for m in self._m34],
                                 [m[1] for m in self._m34])]
-            out.append((float(w), n, *pooled))
+            out.append((w, n, *pooled))
         return out
 
     def to_string(self):

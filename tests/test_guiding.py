@@ -420,14 +420,14 @@ def test_the_executor_refuses_a_rest_that_changes_the_samples():
 def test_combined_image_and_its_variance_by_hand():
     """Two groups: untrained (2 samples, per-pixel mean 1, mean square 2: variance of the
     mean (2 - 1) / 1 = 1) and trained (4 samples, mean 2, mean square 4.75: 0.25);
-    weights 1 : 4 -> 0.2, 0.8; image 0.2 + 1.6 = 1.8; its variance 0.04 x 1 + 0.64 x 0.25
-    = 0.2."""
+    weights 1 : 4 -> 0.2, 0.8 (a one-pixel image: its own, no other checkerboard colour);
+    image 0.2 + 1.6 = 1.8; its variance 0.04 x 1 + 0.64 x 0.25 = 0.2."""
     integ = mi.load_dict({"type": "vr_guided_path"})
     integ._passes, integ._estimator, integ._spp = [(0, 2), (1, 4)], [-1, 0], [2, 4]
     integ._m2 = [np.full((1, 1, 3), 2.0), np.full((1, 1, 3), 4.75)]
     images = [np.full((1, 1, 3), 1.0), np.full((1, 1, 3), 2.0)]
     image = integ.combine(images, [2, 4])
-    assert np.allclose(integ.weights, [0.2, 0.8])
+    assert np.allclose(integ.weights.ravel(), [0.2, 0.8])
     assert np.allclose(image, 1.8) and np.allclose(integ.combined_variance(), 0.2)
 
 

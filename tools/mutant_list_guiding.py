@@ -3,6 +3,14 @@
 from tools.mutant import Mutant
 
 GUIDING = [
+    Mutant("guide-weights-own-pixels", "integrators/guide_passes.py",
+           "        other = ~colour if (~colour).any() else colour\n",
+           "        other = colour\n",
+           "each pixel's combination weights read from its own checkerboard colour, its own "
+           "samples among them: a group that missed rare bright samples reads a low "
+           "variance and weighs more, and the image reads low",
+           ("tests/test_guide_weights.py::test_cross_weights_keep_the_combined_image_"
+            "unbiased",)),
     Mutant("guide-share-missing", "integrators/guided.py",
            "        pdf = dr.select(s < 1.0, dr.fma(s, pdf_bsdf - p, p), pdf_bsdf)",
            "        pdf = dr.select(s < 1.0, (1.0 - s) * p, pdf_bsdf)",
