@@ -335,15 +335,16 @@ class GuidedPathIntegrator(VRPathIntegrator):
         """Per pixel and channel, the variance of the image :meth:`combine` returned: the
         sum over its groups of weight^2 x the variance of the group's mean (from its
         samples' mean squares, the ``guiding_m2_*`` AOVs), the weights taken as fixed
-        (each pixel's are read from other pixels' samples). The experiments' per-pixel errors use it for this method
-        (:func:`experiments.lib.execute.render_passes`): the spread of its passes would
-        treat the untrained and the trained ones as one estimator."""
+        (each pixel's are read from other pixels' samples). The experiments' per-pixel
+        errors use it for this method (:func:`experiments.lib.execute.render_passes`):
+        the spread of its passes would treat the untrained and the trained ones as one
+        estimator."""
         return self.variance
 
     def combined_moments(self) -> list:
         """Per group of :meth:`combine` (the renders of one estimator): (its weight per
-        pixel, its samples per pixel, and per pixel and channel the means of its samples, of their
-        squares, cubes and fourth powers), from which the experiments bound how sure
+        pixel, its samples per pixel, and per pixel and channel the means of its samples,
+        of their squares, cubes and fourth powers), from which the experiments bound how sure
         :meth:`combined_variance` is (the sum over groups of weight^4 x the variance of
         the group's variance, :func:`experiments.lib.jobs.variance_of_variance`)."""
         out = []

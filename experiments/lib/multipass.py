@@ -36,8 +36,9 @@ class MultiPass(Protocol):
       ``combine`` returned, which the per-pixel errors then use (without it the job is one
       pass: its errors come from its repeats against the reference);
     * optionally ``combined_moments()``: per group of independent samples that ``combine``
-      weighted, (weight, samples per pixel, the per-pixel means of x, x^2, x^3, x^4), from
-      which :func:`stated_tails` says how sure that variance is.
+      weighted, (weight: a scalar or per pixel (H, W, 1), samples per pixel, the per-pixel
+      means of x, x^2, x^3, x^4), from which :func:`stated_tails` says how sure that
+      variance is.
 
     Passes are rendered with seeds ``derive_seed(job.seed, index)`` (a pass split for
     memory: ``derive_seed(job.seed, index, part)`` after its first render)."""
