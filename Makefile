@@ -3,19 +3,28 @@ PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
+DEV    := $(VENV)/.installed-dev
 ARGS   ?=
 
-.PHONY: install run full test mutants bench docs clean
+.PHONY: install dev run full test mutants bench docs clean
 
+# What `make run` needs: libLLVM, the venv, the package and its run-time dependencies.
 install: $(STAMP)
+
+# Also what the tests, benchmarks and docs tools need: the test and cluster extras
+# (pytest, Playwright, markdown-it-py, Dask) and Chromium for the viewer's tests.
+dev: $(DEV)
 
 $(STAMP): pyproject.toml Makefile
 	$(PYTHON) integrators/llvm.py --ensure
-	$(PYTHON) tools/ensure_browser.py --ensure || echo "warning: without Chromium the viewer tests (tests/test_viewer.py) fail; everything else works"
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install -q --upgrade pip
 	# compat: the editable install is a path entry (.pth), not an import hook, so that a
 	# script beside a folder of its own named scenes/ (examples/) still imports this package
+	$(BIN)/python -m pip install -q -e . --config-settings editable_mode=compat
+	touch $@
+
+$(DEV): $(STAMP)
+	$(PYTHON) tools/ensure_browser.py --ensure || echo "warning: without Chromium the viewer tests (tests/test_viewer.py) fail; everything else works"
 	$(BIN)/python -m pip install -q -e '.[test,cluster]' --config-settings editable_mode=compat
 	touch $@
 
@@ -30,19 +39,19 @@ full: install
 # Two worker processes (pytest-xdist): most tests are bound by kernel compiles, which run
 # on one core each (14 min in one process on the 2-core machine, 8 in two).
 TEST_WORKERS ?= 2
-test: install
+test: dev
 	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) tests $(ARGS)
 
 # Realistic bugs applied one at a time to a copy: the tests must fail on each (long).
-mutants: install
+mutants: dev
 	$(BIN)/python -m tools.mutants $(ARGS)
 
 # Benchmarks: results/bench.md and .json, and the table of docs/benchmarks.md.
-bench: install
+bench: dev
 	$(BIN)/python -m benchmarks.run --update-docs $(ARGS)
 
 # The generated parts of the docs (docs/plugins.md, option tables, examples shown).
-docs: install
+docs: dev
 	$(BIN)/python -m tools.docs
 
 clean:

@@ -7,7 +7,7 @@ the images hold: screenshot colours against the sRGB tone map of the EXR
 values, the pixel readout against the EXR value, error-map colours against
 matplotlib's magma of the relMSE computed here, FLIP against
 ``flip-evaluator`` called directly. A missing browser fails the tests
-(``make install`` installs it).
+(``make dev`` installs it).
 """
 import io
 import json
@@ -79,7 +79,7 @@ def report(tmp_path_factory):
 def browser():
     path = browser_path()
     if not os.path.isfile(path):
-        pytest.fail(f"Chromium not found at {path}: run `make install` (installs Debian's "
+        pytest.fail(f"Chromium not found at {path}: run `make dev` (installs Debian's "
                     f"chromium) or set VR_CHROMIUM")
     from playwright.sync_api import sync_playwright
     with sync_playwright() as pw:

@@ -1,4 +1,4 @@
-"""Make sure a Chromium exists for the browser tests (``make install`` runs this).
+"""Make sure a Chromium exists for the browser tests (``make dev`` runs this).
 
 The report viewer is tested in a real browser with Playwright for Python.
 Playwright's own browser download is not used (it is not reachable everywhere,

@@ -128,7 +128,7 @@ def _check_scene_file(job: Job) -> None:
             f"another file at that path")
 
 
-def _scene(job: Job, variant: str):
+def scene_of(job: Job, variant: str):
     """The scene file of ``job``, loaded once per process (cached)."""
     key = (variant, job.scene, job.scene_sha256)
     if key in _scenes:
@@ -190,7 +190,7 @@ def _view(job: Job, variant: str) -> View:
     an untrained 16-spp job does not warm a trained one's kernels. A pilot is not warmed
     up (it renders once, its cost the kernels' execution, :func:`run_job`): its render
     warms the jobs after it."""
-    scene = _scene(job, variant)
+    scene = scene_of(job, variant)
     key = ((variant, job.scene, job.scene_sha256), job.method, job.width, job.height,
            job_depth(job))
     method: Method = job.method

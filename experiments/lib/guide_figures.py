@@ -69,19 +69,21 @@ def train(scene_path: str, width: int, height: int, method: str | Method = "guid
     last iteration records nothing)."""
     import mitsuba as mi
     from . import execute, plan
-    from .scenes import load_scene, read_scene
+    from .scenes import read_scene
     method = parse_method(method) if isinstance(method, str) else method
     timer = clock.Timer()
     spec = method.integrator_dict(depth)
     if spec.get("type") != "vr_guided_path":
         raise ValueError(f"guide figure: the method {method} does not train a guide "
                          f"(integrator {spec.get('type')}, not vr_guided_path)")
-    scene = load_scene(scene_path, width, height, method, depth)
+    job = plan.make_job("guide-figure", read_scene(scene_path), method, width, height, spp,
+                        seed, depth, mi.variant())
+    # the executor's cached scene, loaded alone as for the suite's renders: its kernels are
+    # theirs (a scene loaded beside another compiles its own)
+    scene = execute.scene_of(job, mi.variant())
     sensor = scene.sensors()[0]
     # a figure of the guide trains whatever its count
     integ = mi.load_dict({**spec, "min_train_spp": 2, "min_train_samples": 1})
-    job = plan.make_job("guide-figure", read_scene(scene_path), method, width, height, spp,
-                        seed, depth, mi.variant())
     # the executor's own multi-pass loop (its seeds, hooks and combination)
     timed = execute.render_passes(execute.View(scene, sensor), integ, job)
     return Trained(integ, scene, sensor, timed.image, timer.elapsed(), spp,

@@ -14,6 +14,7 @@ The analysis adds them up (:func:`.jobs.accumulate` of their results,
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import json
 import os
@@ -26,11 +27,13 @@ from .methods import Depth, Method
 from .scenes import SceneInfo
 
 
+@functools.lru_cache(maxsize=None)
 def plugins_version() -> str:
     """Hash of the plugin sources (``integrators/*.py``) and Mitsuba's version.
 
     Part of every render job's key, so renders made with other plugin code are
-    made again rather than reused.
+    made again rather than reused. Read once per process (the code it imported: a
+    suite run makes thousands of keys, and reading the files each time took 5 s).
     """
     digest = hashlib.sha256(mi.__version__.encode())
     directory = os.path.dirname(os.path.abspath(integrators.__file__))
