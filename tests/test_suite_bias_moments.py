@@ -16,19 +16,21 @@ import math
 import numpy as np
 
 from experiments.lib import bias_image
-from experiments.lib.jobs import variance_of_variance
+from experiments.lib.jobs import third_of_mean, variance_of_variance
 from experiments.lib.studies.suite import bias_test as suite_bias
 from test_suite_bias import ALPHA, SEEDS, C, FakeMethod, H, W, renders
 
 
 def own_renders(rng, mu, k, spp, factor=1.0):
     """k renders of ``spp`` normal samples per pixel (sd = mu): (their means, spp, each
-    render's own variance of its means s^2 / spp, how sure it is: 2 s^4 / ((spp-1) spp^2))."""
+    render's own variance of its means s^2 / spp, how sure it is: 2 s^4 / ((spp-1) spp^2),
+    its third cumulant: 0)."""
     out = []
     for _ in range(k):
         mean = factor * (mu + mu / math.sqrt(spp) * rng.standard_normal(mu.shape))
         s2 = np.square(factor * mu) * rng.chisquare(spp - 1, mu.shape) / (spp - 1)
-        out.append((mean, spp, s2 / spp, 2.0 * s2 * s2 / ((spp - 1) * spp * spp)))
+        out.append((mean, spp, s2 / spp, 2.0 * s2 * s2 / ((spp - 1) * spp * spp),
+                    np.zeros_like(mean)))
     return out
 
 
@@ -43,7 +45,7 @@ def bright_cell(rng, factor=1.0, own=True, unstated=0):
     budgets = [own_renders(rng, mu, 3, 16, factor), own_renders(rng, mu, 3, 1024, factor)]
     if not own:
         budgets = [[r[:2] for r in b] for b in budgets]
-    budgets[1][:unstated] = [r[:2] + (None, None) for r in budgets[1][:unstated]]
+    budgets[1][:unstated] = [r[:2] + (None, None, None) for r in budgets[1][:unstated]]
     return suite_bias.check_cell(FakeMethod(), budgets, renders(rng, mu, 32, 256), True, True,
                                  FakeMethod("path"), ALPHA)
 
@@ -76,7 +78,7 @@ def pareto_renders(rng, mu, k, spp, a):
         x = (rng.pareto(a, (spp,) + mu.shape) + 1.0) * mu * (a - 1) / a
         m1, m2, m3, m4 = (np.mean(x ** p, axis=0) for p in (1, 2, 3, 4))
         out.append((m1, spp, np.maximum(m2 - m1 * m1, 0.0) / (spp - 1),
-                    variance_of_variance(m1, m2, m3, m4, spp)))
+                    variance_of_variance(m1, m2, m3, m4, spp), third_of_mean(m1, m2, m3, spp)))
     return out
 
 
@@ -84,7 +86,8 @@ def test_infinite_variance_is_untestable_by_its_own_moments_too(monkeypatch):
     """Pareto samples of index 1.2 (infinite variance: uniform sampling of rough glass is of
     this kind): the renders' own variances have 2-14 degrees of freedom (a few samples
     rule each pixel's moments), under bias_image.MIN_DOF in every seed: untestable.
-    Negative control: with that gate off the t test flags right cells (4 of 20 measured)."""
+    Negative control: with that gate and the skewness gate off the t test flags right cells
+    (4 of 20 measured)."""
     def cells():
         out = []
         for seed in range(SEEDS):
@@ -97,6 +100,8 @@ def test_infinite_variance_is_untestable_by_its_own_moments_too(monkeypatch):
     gated = cells()
     assert all(c.status == "untestable" and c.reason == "heavy_tails" and
                c.variance == "moments" and c.own_dof < bias_image.MIN_DOF for c in gated)
+    monkeypatch.setattr(bias_image, "MAX_SKEW", math.inf)
+    assert all(c.status == "untestable" for c in cells())     # the dof gate alone
     monkeypatch.setattr(bias_image, "MIN_DOF", 0)
     assert sum(c.biased is True for c in cells()) >= 2
 
@@ -128,7 +133,8 @@ def test_blocks_whose_renders_all_caught_one_rare_sample_are_heavy_tailed():
         x[:, 0, HOT[0], HOT[1]] = 100.0 * spp * rng.uniform(0.999, 1.001, (3, 5, 3, C))
         m1, m2, m3, m4 = (np.mean(x ** p, axis=1) for p in (1, 2, 3, 4))
         return [(m1[i], spp, np.maximum(m2[i] - m1[i] ** 2, 0.0) / (spp - 1),
-                 variance_of_variance(m1[i], m2[i], m3[i], m4[i], spp)) for i in range(3)]
+                 variance_of_variance(m1[i], m2[i], m3[i], m4[i], spp),
+                 third_of_mean(m1[i], m2[i], m3[i], spp)) for i in range(3)]
     budgets = [budget(16), budget(64)]
     chunks = renders(rng, mu, 8, 128)
     chunks[:, HOT[0], HOT[1]] = 100.0
@@ -155,7 +161,8 @@ def test_a_known_variance_too_large_for_any_bias_is_no_power_not_heavy_tails():
         for _ in range(k):
             mean = mu + 400.0 * mu / math.sqrt(spp) * rng.standard_normal(mu.shape)
             s2 = np.square(400.0 * mu) * rng.chisquare(spp - 1, mu.shape) / (spp - 1)
-            out.append((mean, spp, s2 / spp, 2.0 * s2 * s2 / ((spp - 1) * spp * spp)))
+            out.append((mean, spp, s2 / spp, 2.0 * s2 * s2 / ((spp - 1) * spp * spp),
+                        np.zeros_like(mean)))
         return out
     got = suite_bias.check_cell(FakeMethod(), [noisy(3, 16), noisy(3, 1024)],
                                 renders(rng, mu, 32, 256), True, True, FakeMethod("path"),

@@ -51,6 +51,11 @@ MAX_TERM_SHARE = 0.15
 #: Fewest Welch-Satterthwaite degrees of freedom of a ``moments`` side's variance: below
 #: them the image test's size is not known and the cell is untestable.
 MIN_DOF = 30
+#: Largest skewness (third cumulant over the variance to the power 3/2) of a ``moments``
+#: side's image sum: above it the sum is far from normal (rare bright samples that most
+#: renders miss: its typical value is low, and so is its variance) and the cell is
+#: untestable.
+MAX_SKEW = 0.15
 
 
 @dataclass(frozen=True)
@@ -63,11 +68,17 @@ class Sums:
     top: np.ndarray      # the largest pixel-render term
     terms: np.ndarray    # the sum of the pixel-render terms (``var`` but for ``renders``)
     spread: bool = True  # the terms are spreads over renders (else each render's own)
+    third: np.ndarray | float = 0.0   # its third cumulant (each render's own; 0: unknown)
 
     def scaled(self, factor: float) -> "Sums":
         f2 = factor * factor
         return Sums(self.total * factor, self.var * f2, self.dof_part * f2 * f2,
-                    self.top * f2, self.terms * f2, self.spread)
+                    self.top * f2, self.terms * f2, self.spread, self.third * f2 * factor)
+
+    @property
+    def skew(self) -> np.ndarray:
+        """Skewness of the sum per channel (0 where its third cumulant is unknown)."""
+        return np.abs(self.third) / np.maximum(self.var, 1e-300) ** 1.5
 
     @property
     def dof(self) -> np.ndarray:
@@ -79,7 +90,7 @@ def side_sums(sets, samples, varying: np.ndarray, variance: str, own=None) -> Su
     """:class:`Sums` of a side made of independent ``sets`` of renders ((k >= 2, H, W, C)
     each), combined by ``samples`` (each set's samples per pixel in all); ``variance``
     ``moments`` reads ``own``: per set, (the variance of each render's pixel means, how
-    sure each is), (k, H, W, C) each."""
+    sure each is, their third cumulants), (k, H, W, C) each."""
     shares = np.asarray(samples, np.float64)
     shares = shares / shares.sum()
     if variance == "moments":
@@ -105,27 +116,30 @@ def side_sums(sets, samples, varying: np.ndarray, variance: str, own=None) -> Su
     return Sums(total, var, dof_part, top, spread_sum)
 
 
-def _own_terms(own, shares, varying: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _own_terms(own, shares, varying: np.ndarray) -> tuple:
     """Per pixel and channel, the terms of a side's variance from its renders' own pixel
-    variances ``v`` and their variances ``vv`` (``own``, per set, (k, H, W, C) each), and
-    their Welch-Satterthwaite parts, summed over the renders: a render's term is c v with
-    c = share^2 / k^2, its part (c v)^2 / nu = c^2 vv / 2 (Var(v) = 2 v^2 / nu)."""
-    var = dof_part = 0.0
-    for share, (v, vv) in zip(shares, own):
-        v, vv = (np.where(varying, np.asarray(x, np.float64), 0.0) for x in (v, vv))
+    variances ``v`` and their variances ``vv`` (``own``, per set, (k, H, W, C) each), their
+    Welch-Satterthwaite parts and their third cumulants ``k3``, summed over the renders: a
+    render's term is c v with c = share^2 / k^2, its part (c v)^2 / nu = c^2 vv / 2
+    (Var(v) = 2 v^2 / nu), its third cumulant (share / k)^3 k3."""
+    var = dof_part = third = 0.0
+    for share, (v, vv, k3) in zip(shares, own):
+        v, vv, k3 = (np.where(varying, np.asarray(x, np.float64), 0.0) for x in (v, vv, k3))
         c = share * share / v.shape[0] ** 2
         var = var + c * v.sum(axis=0)
         dof_part = dof_part + 0.5 * c * c * vv.sum(axis=0)
-    return var, dof_part
+        third = third + (share / v.shape[0]) ** 3 * k3.sum(axis=0)
+    return var, dof_part, third
 
 
 def _own_sums(sets, shares, varying: np.ndarray, own) -> Sums:
     """:func:`side_sums` from the renders' own pixel variances (:func:`_own_terms`)."""
-    var, dof_part = _own_terms(own, shares, varying)
+    var, dof_part, third = _own_terms(own, shares, varying)
     total = sum(share * np.where(varying, np.asarray(images, np.float64), 0.0).mean(
         axis=0).sum(axis=(0, 1)) for share, images in zip(shares, sets))
     return Sums(total, var.sum(axis=(0, 1)), dof_part.sum(axis=(0, 1)),
-                var.max(axis=(0, 1)), var.sum(axis=(0, 1)), spread=False)
+                var.max(axis=(0, 1)), var.sum(axis=(0, 1)), spread=False,
+                third=third.sum(axis=(0, 1)))
 
 
 def own_tail_share(own, samples, varying: np.ndarray, block: int = bias.BLOCK) -> float:
@@ -137,7 +151,7 @@ def own_tail_share(own, samples, varying: np.ndarray, block: int = bias.BLOCK) -
     ruled by one pixel of one render): a block whose renders all missed them, or all
     caught one."""
     shares = np.asarray(samples, np.float64) / np.sum(samples)
-    var, dof_part = (bias.block_sum(x, block) for x in _own_terms(own, shares, varying))
+    var, dof_part = (bias.block_sum(x, block) for x in _own_terms(own, shares, varying)[:2])
     used = np.any(var > 0, axis=-1)
     if not used.any():
         return 0.0
@@ -157,12 +171,14 @@ class ImageTest:
                            # variance (any channel; 0 where neither side is of spreads)
     detectable: float      # smallest uniform relative bias found about 90% of the time
     own_dof: float = math.inf   # fewest degrees of freedom of a side of ``moments``
+    own_skew: float = 0.0       # largest skewness of a side of ``moments``
 
     @property
     def size_holds(self) -> bool:
         """Whether the statistic's variance is known and the sum close to normal
-        (:data:`MAX_TERM_SHARE`, :data:`MIN_DOF`)."""
-        return self.top <= MAX_TERM_SHARE and self.own_dof >= MIN_DOF
+        (:data:`MAX_TERM_SHARE`, :data:`MIN_DOF`, :data:`MAX_SKEW`)."""
+        return self.top <= MAX_TERM_SHARE and self.own_dof >= MIN_DOF and \
+            self.own_skew <= MAX_SKEW
 
     @property
     def testable(self) -> bool:
@@ -189,10 +205,11 @@ def compare(a: Sums, b: Sums, alpha: float, rounding: float = bias.ROUNDING) -> 
     top = float(np.max(np.max(spread, axis=0) / np.maximum(a.terms + b.terms, 1e-300))) \
         if spread else 0.0
     own_dof = min([float(x.dof.min()) for x in (a, b) if not x.spread], default=math.inf)
+    own_skew = max([float(x.skew.max()) for x in (a, b) if not x.spread], default=0.0)
     delta = (a.total - b.total) / np.where(b.total != 0, b.total, np.inf)
     common = dataclasses.replace(a, total=b.total)     # no bias: a's sum is b's
 
     def test(x, y):
         return _statistic(x, y, rounding)[:2]
     return ImageTest(delta, t, dof, 2.0 * stats.t.sf(np.abs(t), dof), alpha, top,
-                     bias.detectable(test, common, b, alpha), own_dof)
+                     bias.detectable(test, common, b, alpha), own_dof, own_skew)

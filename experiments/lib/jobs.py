@@ -223,6 +223,16 @@ class Accumulator:
                                     self.higher[1] / n, n)
 
 
+    def third_of_mean(self) -> np.ndarray | None:
+        """Per pixel, the third cumulant of :attr:`mean` (:func:`third_of_mean` of the
+        samples' raw moments); None where they are unknown (a MultiPass method states
+        its variance alone)."""
+        if self.higher is None or self.passes != self.spp or self.spp < 4:
+            return None
+        n = self.spp
+        return third_of_mean(self.mean, self.sq / n, self.higher[0] / n, n)
+
+
 #: Relative rounding of a film's single-precision sums (the raw moments' AOVs).
 FILM_ROUNDING = 2.0 ** -24
 
@@ -246,6 +256,17 @@ def variance_of_variance(m1, m2, m3, m4, n: int) -> np.ndarray:
     excess = np.maximum(mu4 - 3.0 * mu2 * mu2 - rounding, 0.0)
     s2 = mu2 * n / (n - 1)
     return (2.0 * s2 * s2 / (n - 1) + excess / n) / (n * n)
+
+
+def third_of_mean(m1, m2, m3, n: int) -> np.ndarray:
+    """The third cumulant of a mean of ``n`` independent samples, k3 / n^2, from their raw
+    moments ``m1`` .. ``m3`` (k3 estimated without bias: n^2 / ((n-1)(n-2)) times the
+    sample's third central moment). Its sum over pixels against their variance's, to the
+    power 3/2, is how skewed an image sum is: a sum ruled by rare bright samples is far
+    from normal however many degrees of freedom its variance has."""
+    m1, m2, m3 = (np.asarray(m, np.float64) for m in (m1, m2, m3))
+    mu3 = m3 - 3.0 * m1 * m2 + 2.0 * m1 ** 3
+    return mu3 * n * n / ((n - 1.0) * (n - 2.0)) / (n * n)
 
 
 def accumulate(results: Iterable[JobResult]) -> list[Accumulator]:

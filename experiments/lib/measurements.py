@@ -36,6 +36,8 @@ class Run:
     variance_var: np.ndarray | None = None   # per pixel, the variance of ``variance`` as an
                                              # estimate (from the samples' fourth moments;
                                              # None where they are unknown)
+    third: np.ndarray | None = None     # per pixel, the third cumulant of the image (from
+                                        # the samples' third moments; None where unknown)
 
 
 def rungs(results: list, ref: np.ndarray, independent: bool = False,
@@ -59,7 +61,8 @@ def rungs(results: list, ref: np.ndarray, independent: bool = False,
     return [Run(acc.spp, acc.cost, metrics.mse(acc.mean, ref), metrics.relmse(acc.mean, ref),
                 acc.mean, float(overhead),
                 acc.variance_of_mean() if spread and acc.passes > 1 else None,
-                acc.variance_of_variance() if spread else None)
+                acc.variance_of_variance() if spread else None,
+                acc.third_of_mean() if spread else None)
             for acc, overhead in zip(accs, overheads)]
 
 

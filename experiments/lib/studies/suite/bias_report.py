@@ -6,7 +6,7 @@ import math
 from collections import Counter
 
 from ... import bias_image, prose
-from . import analysis, bias_test
+from . import analysis, bias_renders, bias_test
 from .declare import NAME
 
 
@@ -38,6 +38,9 @@ BIAS_FINDING = (
     "{% if flagged %}BIASED: {{ flagged | join('; ') }}{% else %}no method flagged{% endif %}"
     "{% if image %}; {{ image }} cells with heavy-tailed blocks tested by their image sums "
     "alone{% endif %}"
+    "{% if again %}; {{ again }} cells whose tails voided the test rendered again "
+    "({{ more }} x the repeats at their equal-time count) and tested with those renders, "
+    "{{ cleared }} of them testable then{% endif %}"
     "{% if untestable %}; untestable: {{ untestable }} (each cell in "
     "{{ table }}){% endif %}"
     "{% if powers %}; smallest bias detected 90% of the time: {{ powers | join(', ') }}"
@@ -95,9 +98,11 @@ def bias_finding(results: list) -> str:
     powers = [f"{r.name} {pct2(r.power)}" + (" (indicative only: heavy tails)"
                                              if power_indicative(r) else "")
               for r in results if r.power is not None]
+    again = [b for _, _, b in tested if b.extra]
     return prose.say(BIAS_FINDING, block=tested[0][2].block, level=bias_test.LEVEL,
                      flagged=flagged, image=image, untestable=untestable, powers=powers,
-                     table=BIAS_TABLE)
+                     table=BIAS_TABLE, again=len(again), more=bias_renders.MORE,
+                     cleared=sum(b.status != "untestable" for b in again))
 
 
 #: The bias test's table of every cell (under the output folder), which the findings name.
@@ -105,7 +110,8 @@ BIAS_TABLE = f"{NAME}/bias_test.csv"
 BLOCK_HEADER = ["scene", "method", "biased", "why untestable", "tested", "variance",
                 "detectable bias", "pooled difference", "smallest block p", "block level",
                 "pooled p", "pooled level", "flagged blocks", "ruled by one sample",
-                "image variance in one term", "degrees of freedom of the renders' own"]
+                "image variance in one term", "degrees of freedom of the renders' own",
+                "renders again"]
 SCOPES = {"blocks": "blocks and pooled", "image": "image sum"}
 #: The caption of :data:`BIAS_TABLE` in the report.
 TABLE_CAPTION = (
@@ -123,7 +129,9 @@ TABLE_CAPTION = (
     f"{bias_image.MAX_TERM_SHARE:.0%}: untestable); 'degrees of freedom of the renders' "
     f"own': how sure the image sum's variance read from each render's own samples is "
     f"(Welch-Satterthwaite, from their fourth moments; under {bias_image.MIN_DOF}: "
-    f"untestable)")
+    f"untestable); 'renders again': where heavy tails voided the first test, the renders "
+    f"at the cell's equal-time count added before it was tested again "
+    f"({bias_renders.MORE} times the run's repeats, in no comparison)")
 
 
 def number(x: float) -> str:
@@ -150,5 +158,5 @@ def block_bias_rows(results: dict) -> list[list]:
                          number(b.p_blocks if finite else math.nan), number(b.alpha_blocks),
                          number(b.p_pooled if finite else math.nan), number(b.alpha_pooled),
                          b.flagged_blocks, share(b.tail_share), share(b.term_share),
-                         "-" if math.isnan(b.own_dof) else f"{b.own_dof:.0f}"])
+                         "-" if math.isnan(b.own_dof) else f"{b.own_dof:.0f}", b.extra])
     return rows

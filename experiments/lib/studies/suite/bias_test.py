@@ -70,6 +70,8 @@ class CellBias:
     scope: str = "blocks"
     term_share: float = float("nan")   # image scope: the largest term's share of its variance
     own_dof: float = float("nan")      # image scope, ``moments``: its variance's dof
+    own_skew: float = float("nan")     # image scope, ``moments``: its sum's skewness
+    extra: int = 0                  # renders beyond the cell's own (.bias_renders)
 
     @property
     def biased(self):
@@ -84,7 +86,8 @@ class CellBias:
                 "bias_alpha_pooled": self.alpha_pooled, "bias_flagged_blocks":
                     self.flagged_blocks, "bias_tail_share": self.tail_share,
                 "bias_scope": self.scope, "bias_term_share": self.term_share,
-                "bias_dof": self.own_dof}
+                "bias_dof": self.own_dof, "bias_skew": self.own_skew,
+                "bias_extra_renders": self.extra}
 
 
 def cell_level(cells: int) -> float:
@@ -138,10 +141,11 @@ def untestable(reason: str, variance: str = "") -> CellBias:
 def check_cell(method, budgets: list, chunks: np.ndarray | None, box: bool, ref_box: bool,
                reference_method, alpha: float) -> CellBias:
     """The bias test of a cell: ``budgets`` its renders per budget (lists of (image, spp),
-    or of (image, spp, variance, its variance): each render's per-pixel variance of its
-    mean from its own samples' moments, and how sure it is, which the image test reads
-    where the pixels are independent), ``chunks`` the reference's chunk images (None: a
-    user's EXR), ``alpha`` the cell's level (:func:`cell_level`)."""
+    or of (image, spp, variance, its variance, third cumulant): each render's per-pixel
+    variance of its mean from its own samples' moments, how sure it is and the mean's
+    third cumulant, which the image test reads where the pixels are independent),
+    ``chunks`` the reference's chunk images (None: a user's EXR), ``alpha`` the cell's
+    level (:func:`cell_level`)."""
     pixels = int(np.prod(budgets[0][0][0].shape[:2])) if budgets and budgets[0] else 0
     kind = variance_kind(method, box, trained(method, budgets, pixels))
     if method.deterministic:
@@ -163,12 +167,14 @@ def check_cell(method, budgets: list, chunks: np.ndarray | None, box: bool, ref_
 
 
 def _own(budgets: list, kind: str) -> list | None:
-    """Per budget, its renders' own (variances, their variances) padded as the images, where
-    every render states them and its pixels are independent (``pixels``); else None."""
-    if kind != "pixels" or any(len(r) < 4 or r[2] is None or r[3] is None
+    """Per budget, its renders' own (variances, their variances, third cumulants) padded as
+    the images, where every render states them and its pixels are independent
+    (``pixels``); else None."""
+    if kind != "pixels" or any(len(r) < 5 or any(x is None for x in r[2:5])
                                for b in budgets for r in b):
         return None
-    return [tuple(bias.padded(np.stack([r[i] for r in b])) for i in (2, 3)) for b in budgets]
+    return [tuple(bias.padded(np.stack([r[i] for r in b])) for i in (2, 3, 4))
+            for b in budgets]
 
 
 def check_reference(chunks: np.ndarray, against: np.ndarray, method, against_method,
@@ -223,7 +229,8 @@ def _test(side, halves: list, samples: list, varying: np.ndarray, kind: str, ref
                     delta=tuple(float(x) for x in image.delta), p_pooled=float(image.p.min()),
                     alpha_pooled=image.alpha, flagged=np.zeros((blocks_y, blocks_x), bool),
                     tail_share=tails, scope="image", term_share=image.top,
-                    own_dof=image.own_dof if math.isfinite(image.own_dof) else math.nan)
+                    own_dof=image.own_dof if math.isfinite(image.own_dof) else math.nan,
+                    own_skew=image.own_skew if image_kind == "moments" else math.nan)
 
 
 def calibrated(cells: dict, reference_method: str) -> dict:

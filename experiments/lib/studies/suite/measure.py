@@ -4,13 +4,13 @@
 of one scene (against the suite's reference: every chunk the store holds, or the user's
 EXR) into :class:`.analysis.SceneNumbers`: per cell and budget the raw errors per repeat,
 relMSE with outliers rejected, FLIP, image means, the pixels' pooled expected relMSE
-(:mod:`.errors`), the costs per sample, and with a level its bias test (:mod:`.bias_test`).
+(:mod:`.errors`), the costs per sample, and its bias test (:func:`bias_tests`).
 :func:`comparable` says why a rendered scene cannot be compared.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
-from dataclasses import replace
 
 import numpy as np
 
@@ -67,14 +67,35 @@ def _runs(runs: list, ref: references.Reference, b: list[float],
         float(np.mean(rej_floor))
 
 
+def bias_tests(cfg: Settings, sp: ScenePlan, measured: Measurements,
+               chunks: np.ndarray | None, alpha: float, more: dict | None = None) -> dict:
+    """{method: :class:`.bias_test.CellBias`} of one scene's cells that rendered: each
+    cell's renders at both budgets (and ``more``: {method: [Run]}, more renders at its
+    equal-time count, :mod:`.bias_renders`) against the reference's ``chunks`` (None: the
+    user's EXR) at the level ``alpha`` per cell, the test's own calibration applied
+    (:func:`.bias_test.calibrated`)."""
+    failed = measured.failed_on(sp.name)
+    methods = {m.name: m for m in measured.declaration.methods if m.name not in sp.left_out}
+    out = {}
+    for name in [n for n in methods if n not in failed]:
+        extra = (more or {}).get(name, [])
+        renders = [[(x.image, x.spp, x.variance, x.variance_var, x.third)
+                    for x in measured.final(Cell(sp.name, name, budget)) +
+                    (extra if budget == TIME else [])] for budget in (SPP, TIME)]
+        out[name] = dataclasses.replace(
+            bias_test.check_cell(methods[name], renders, chunks, sp.box, sp.box,
+                                 cfg.reference_method, alpha), extra=len(extra))
+    return out if sp.user_ref is not None else bias_test.calibrated(
+        out, cfg.reference_method.name)
+
+
 def measure_scene(cfg: Settings, sp: ScenePlan, measured: Measurements,
-                  ref: references.Reference, flip: bool, chunks: np.ndarray | None = None,
-                  alpha: float | None = None) -> analysis.SceneNumbers:
+                  ref: references.Reference, flip: bool, tests: dict | None = None
+                  ) -> analysis.SceneNumbers:
     """The numbers of one scene from the engine's ``measured`` (FLIP only when ``flip``: it
-    costs the most); with a level ``alpha`` per cell, each cell's bias test
-    (:func:`.bias_test.check_cell`) against the reference's ``chunks`` (None: the user's
-    EXR). Time per sample per repeat: the cost (:func:`.clock.cost`, in the
-    engine's runs) of the repeat's renders at both budgets over their samples."""
+    costs the most), each cell's bias test from ``tests`` (:func:`bias_tests`; None: not
+    tested). Time per sample per repeat: the cost (:func:`.clock.cost`, in the engine's
+    runs) of the repeat's renders at both budgets over their samples."""
     cells, rej_floors = {}, []
     failed = measured.failed_on(sp.name)
     methods = {m.name: m for m in measured.declaration.methods if m.name not in sp.left_out}
@@ -90,20 +111,10 @@ def measure_scene(cfg: Settings, sp: ScenePlan, measured: Measurements,
             runs[key], fl = _runs(finals[budget], ref, b, mode, costs)
             rej_floors.append(fl)
         px = sp.width * sp.height
-        tested = None
-        if alpha is not None:
-            box = sp.box
-            renders = [[(x.image, x.spp, x.variance, x.variance_var) for x in finals[budget]]
-                       for budget in (SPP, TIME)]
-            tested = bias_test.check_cell(methods[name], renders, chunks, box, box,
-                                          cfg.reference_method, alpha)
+        tested = (tests or {}).get(name)
         overhead = float(np.mean([r.overhead for budget in (SPP, TIME) for r in finals[budget]]))
         cells[name] = analysis.Cell(name, runs, tuple(x / px * 1e9 for x in b), overhead,
                                     methods[name].deterministic, tested)
-    if alpha is not None and sp.user_ref is None:
-        checked = bias_test.calibrated({n: c.block_bias for n, c in cells.items()},
-                                        cfg.reference_method.name)
-        cells = {n: replace(c, block_bias=checked[n]) for n, c in cells.items()}
     floor = analysis.Floor(ref.relmse_floor or 0.0,
                            float(np.mean(rej_floors)) if rej_floors else 0.0,
                            ref.mse_floor or 0.0, ref.floor_known)

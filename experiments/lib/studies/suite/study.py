@@ -44,8 +44,8 @@ from experiments.lib.engine import Engine
 from experiments.lib.methods import parse_method, strategies
 from experiments.lib.studies import StudySpec, register_study
 from experiments.lib.studies.sampler_comparison import efficiency as sampler_efficiency
-from experiments.lib.studies.suite import (analysis, bias_test, declare, measure,
-                                           reference_choice, report)
+from experiments.lib.studies.suite import (analysis, bias_renders, bias_test, declare,
+                                           measure, reference_choice, report)
 from experiments.lib.study import Study
 from integrators.strategies import integrator_type
 
@@ -311,8 +311,17 @@ def run_suite(cfg: declare.Settings) -> dict:
     cells = sum(1 for sp in compared for m in cfg.methods
                 if m.name not in sp.left_out and m.name not in measured.failed_on(sp.name))
     with timer.part("analysis"):
-        outcomes = [outcome(cfg, sp, measured, refs, bias_test.cell_level(cells))
-                    for sp in compared]
+        chunks = {sp.name: bias_test.reference_chunks(refs, sp.bias_ref) for sp in compared}
+        tests = {sp.name: measure.bias_tests(cfg, sp, measured, chunks[sp.name],
+                                             bias_test.cell_level(cells)) for sp in compared}
+    # a cell whose tails void its test renders on, once (bias_renders)
+    more = timer.time("bias renders", bias_renders.render, engine, cfg, compared, measured,
+                      bias_renders.void(tests))
+    with timer.part("analysis"):
+        for sp in [sp for sp in compared if sp.name in more]:
+            tests[sp.name] = measure.bias_tests(cfg, sp, measured, chunks[sp.name],
+                                                bias_test.cell_level(cells), more[sp.name])
+        outcomes = [outcome(cfg, sp, measured, refs, tests[sp.name]) for sp in compared]
     allocations = timer.time("allocation figures", report.adaptive_blocks, cfg, compared,
                              measured, {o.plan.name: o.reference.image for o in outcomes})
     return report.write(cfg, engine.study, plans, outcomes, measured, timer, guides,
@@ -320,12 +329,11 @@ def run_suite(cfg: declare.Settings) -> dict:
 
 
 def outcome(cfg: declare.Settings, sp: declare.ScenePlan, measured, refs,
-            alpha: float) -> report.SceneOutcome:
-    """One scene's numbers (FLIP and its bias test at level ``alpha`` included), analysis
-    and viewer."""
+            tests: dict) -> report.SceneOutcome:
+    """One scene's numbers (FLIP and its cells' bias ``tests`` included), analysis and
+    viewer."""
     ref = declare.reference_of(refs, sp)
-    numbers = measure.measure_scene(cfg, sp, measured, ref, True,
-                                    bias_test.reference_chunks(refs, sp.bias_ref), alpha)
+    numbers = measure.measure_scene(cfg, sp, measured, ref, True, tests)
     result = analysis.analyse_scene(numbers)
     return report.SceneOutcome(sp, numbers, result, ref,
                                report.viewer_block(cfg, sp, measured, result, ref))
