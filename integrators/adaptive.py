@@ -17,9 +17,9 @@ import mitsuba as mi
 
 from . import guided_path, moments
 
-#: A pixel's mean in the allocation's denominator is at least this share of the image's
-#: mean luminance (a black pixel's relative deviation is undefined).
-MEAN_FLOOR = 0.05
+#: Default ``relmse_eps``: the offset of the relative error's denominator, as the
+#: experiments' relMSE has it (``experiments.lib.metrics.RELMSE_EPS``).
+RELMSE_EPS = 0.01
 
 
 class AdaptiveIntegrator(mi.SamplingIntegrator):
@@ -47,13 +47,19 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
      * - min_spp
        - |int|
        - Fewest samples per pixel of the final pass. (Default: 1)
+     * - relmse_eps
+       - |float|
+       - Offset of the relative error's denominator: a pixel's relative variance is
+         var / (mean^2 + eps), as the experiments' relMSE measures it (a dark pixel's
+         error then counts little; 0: purely relative, dark pixels ruling). (Default: 0.01)
 
     Renders ``spp`` samples per pixel on average in two passes. The pilot (``pilot_share``
-    of them) estimates each pixel's relative standard deviation of one sample,
-    sigma_i / max(mu_i, 0.05 mean(mu)), from the luminance of its samples; pixel i's count
-    in the final pass is read from the mean of that ratio over its 8 neighbours, never its
-    own: its floor (``min_share`` of the pass's average count, at least ``min_spp``) plus
-    its share of the remaining samples in proportion to the ratio (rounded down). The
+    of them) estimates each pixel's relative variance of one sample,
+    sigma_i^2 / (mu_i^2 + ``relmse_eps``), from the luminance of its samples; pixel i's count
+    in the final pass is read from the square root of the mean of that over its 8
+    neighbours, never its own: its floor (``min_share`` of the pass's average count, at
+    least ``min_spp``) plus its share of the remaining samples in proportion to that
+    relative deviation (rounded down). The
     image is each pixel's mean over all its samples, pilot and final: unbiased, because
     the pixel's count does not depend on its own samples (one read from its own pilot
     would: a pixel whose pilot missed a rare bright path would keep its low pilot mean).
@@ -75,6 +81,7 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
         self.pilot_share = float(props.get("pilot_share", 0.25))
         self.min_spp = int(props.get("min_spp", 1))
         self.min_share = float(props.get("min_share", 0.25))
+        self.relmse_eps = float(props.get("relmse_eps", RELMSE_EPS))
         if not 0.0 < self.pilot_share < 1.0:
             raise ValueError(f"vr_adaptive: pilot_share must be in (0, 1), got "
                              f"{self.pilot_share}")
@@ -83,6 +90,8 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
         if not 0.0 <= self.min_share < 1.0:
             raise ValueError(f"vr_adaptive: min_share must be in [0, 1), got "
                              f"{self.min_share}")
+        if not self.relmse_eps >= 0.0:
+            raise ValueError(f"vr_adaptive: relmse_eps must be >= 0, got {self.relmse_eps}")
 
     # ------------------------------------------------------------ the render
     def render(self, scene, sensor=0, seed=0, spp=0, develop=True, evaluate=True):
@@ -119,13 +128,13 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
                  size) -> mi.UInt32:
         """Per-pixel counts of the final pass: the floor each plus the rest of ``budget``
         in proportion to the pilot's relative standard deviation of one sample (its
-        luminance's, averaged over the pixel's 8 neighbours), rounded down."""
+        luminance's: the square root of the mean over the pixel's 8 neighbours of
+        var / (mean^2 + ``relmse_eps``)), rounded down."""
         lum = mi.luminance(mean)
         var = dr.maximum(second - dr.square(lum), 0.0) * dr.opaque(mi.Float,
                                                                        pilot / (pilot - 1.0))
-        floor = MEAN_FLOOR * dr.mean(lum)
-        ratio = dr.sqrt(var) / dr.maximum(lum, dr.maximum(floor, 1e-12))
-        ratio = _blur(ratio, int(size.x), int(size.y))
+        relative = var / dr.maximum(dr.square(lum) + self.relmse_eps, 1e-24)
+        ratio = dr.sqrt(_blur(relative, int(size.x), int(size.y)))
         pixels = int(size.x) * int(size.y)
         least = max(self.min_spp, int(self.min_share * budget / pixels))
         spare = max(0, budget - least * pixels)
@@ -169,7 +178,8 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
 
     def to_string(self):
         return (f"AdaptiveIntegrator[nested={self.nested}, pilot_share={self.pilot_share}, "
-                f"min_share={self.min_share}, min_spp={self.min_spp}]")
+                f"min_share={self.min_share}, min_spp={self.min_spp}, "
+                f"relmse_eps={self.relmse_eps}]")
 
 
 def _check(film, sampler) -> None:

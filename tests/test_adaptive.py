@@ -148,7 +148,8 @@ def test_the_allocation_is_proportional_to_the_relative_deviation():
     ratio = np.repeat(levels, 3)[:4096]          # runs of 3: the neighbours' mean keeps some
     budget = 64 * len(ratio)
     n = allocation(ratio, budget)
-    r = np.array(adaptive._blur(mi.Float(ratio), len(ratio), 1)) / np.sqrt(0.5)  # pilot 2
+    relative = 2.0 * np.square(ratio) / (1.0 + adaptive.RELMSE_EPS)         # pilot 2
+    r = np.sqrt(np.array(adaptive._blur(mi.Float(relative), len(ratio), 1)))
     assert n.min() >= 1 and n.sum() <= budget
     best = np.sum(r) ** 2 / budget
     assert np.sum(np.square(r) / n) < 1.05 * best

@@ -295,8 +295,8 @@ MUTANTS = [
            ("tests/test_engine.py::test_a_runs_variance_comes_only_from_independent_passes",)),
     # ------------------------------------------------------------ adaptive sampling
     Mutant("adaptive-by-variance", "integrators/adaptive.py",
-           "        ratio = dr.sqrt(var) / dr.maximum(lum, dr.maximum(floor, 1e-12))",
-           "        ratio = var / dr.square(dr.maximum(lum, dr.maximum(floor, 1e-12)))",
+           "        ratio = dr.sqrt(_blur(relative, int(size.x), int(size.y)))",
+           "        ratio = _blur(relative, int(size.x), int(size.y))",
            "samples allocated in proportion to the relative variance instead of the relative "
            "standard deviation (the relMSE-optimal rule): unbiased, but the error is larger",
            ("tests/test_adaptive.py::test_the_allocation_is_proportional_to_the_relative_deviation",)),
