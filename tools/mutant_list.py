@@ -293,6 +293,20 @@ MUTANTS = [
            "a zsobol job's passes (parts of one Owen-scrambled Sobol' sequence) read as "
            "independent: their spread taken for the image's variance, the cell's error from it",
            ("tests/test_engine.py::test_a_runs_variance_comes_only_from_independent_passes",)),
+    Mutant("verdict-by-a-firefly", "experiments/lib/studies/suite/analysis.py",
+           "        return self.side == \"\" and self.est.known and self.est.lo > 1 and self.firm",
+           "        return self.side == \"\" and self.est.known and self.est.lo > 1",
+           "a method found more efficient by an interval that one render's rare firefly "
+           "makes (two renders of one estimator 177 times apart)",
+           ("tests/test_suite_fireflies.py",)),
+    Mutant("typical-by-the-mean", "experiments/lib/studies/suite/errors.py",
+           "    return float(np.median(b.each) * np.mean(b.seconds) /\n"
+           "                 (np.median(a.each) * np.mean(a.seconds)))",
+           "    return float(np.mean(b.each) * np.mean(b.seconds) /\n"
+           "                 (np.mean(a.each) * np.mean(a.seconds)))",
+           "the typical ratio read from the renders' mean error, which the firefly rules too: "
+           "every verdict firm",
+           ("tests/test_suite_fireflies.py",)),
     # ------------------------------------------------------------ adaptive sampling
     Mutant("adaptive-by-variance", "integrators/adaptive.py",
            "        ratio = dr.sqrt(_blur(relative, int(size.x), int(size.y)))",

@@ -65,6 +65,7 @@ class Runs:
     #                           variance of that estimate): errors; () without passes
     costs: tuple = ()         # per budget (equal spp, equal time): (its spp, each repeat's
     #                           cost per sample)
+    each: tuple = ()          # per repeat, its own expected relMSE (its pixels' variances)
 
 
 @dataclass(frozen=True)
@@ -107,24 +108,39 @@ class SceneNumbers:
 @dataclass(frozen=True)
 class Ratio:
     """An efficiency ratio: an interval (``side`` ""), a lower bound (">": the numerator's
-    error is below the reference's noise), an upper bound ("<"), or unknown ("?")."""
+    error is below the reference's noise), an upper bound ("<"), or unknown ("?").
+    ``typical``: the same ratio from the median of each cell's renders' own expected errors
+    (:func:`.errors.typical_efficiency`; nan where not known)."""
     est: stats.Estimate
     side: str = ""
+    typical: float = math.nan
 
     @property
     def value(self) -> float:
         return self.est.value
 
+    @property
+    def firm(self) -> bool:
+        """Whether the interval, moved to the typical ratio, is on the same side of 1: a
+        verdict that one render's rare firefly makes (its cell's mean error ruled by it,
+        its median not) is no verdict (:func:`.errors.typical_efficiency`)."""
+        if not math.isfinite(self.typical) or not self.est.known or not self.value > 0:
+            return True
+        shift = self.typical / self.value
+        if self.est.lo > 1:
+            return self.est.lo * shift > 1
+        return self.est.hi >= 1 or self.est.hi * shift < 1
+
     def greater(self) -> bool:
-        """Above 1 at the interval's level."""
+        """Above 1 at the interval's level, and firmly so (:attr:`firm`)."""
         if self.side == ">":
             return self.value > 1
-        return self.side == "" and self.est.known and self.est.lo > 1
+        return self.side == "" and self.est.known and self.est.lo > 1 and self.firm
 
     def less(self) -> bool:
         if self.side == "<":
             return self.value < 1
-        return self.side == "" and self.est.known and self.est.hi < 1
+        return self.side == "" and self.est.known and self.est.hi < 1 and self.firm
 
     def score(self) -> float:
         """For ranking: the value (a lower bound counts as its value), unknown last."""
@@ -162,7 +178,7 @@ def efficiency(a: Runs, b: Runs, floor: float, metric: str = "relmse") -> Ratio:
     pixels' pass variances (relMSE only): :func:`.errors.efficiency`."""
     precise = errors.efficiency(a, b) if metric == "relmse" else None
     if precise is not None:
-        return Ratio(precise)
+        return Ratio(precise, typical=errors.typical_efficiency(a, b))
     ea, eb = (getattr(r, metric) for r in (a, b))
     xa, xb = stats.excess_interval(ea, floor), stats.excess_interval(eb, floor)
     n = min(len(ea), len(eb))

@@ -62,8 +62,9 @@ def _runs(runs: list, ref: references.Reference, b: list[float],
     maps = [errors.pixel_map(x.variance, ref.image) for x in runs]
     tails = [errors.pixel_map_variance(x.variance_var, ref.image) for x in runs]
     expected = errors.pooled(maps, tails) if all(m is not None for m in maps) else ()
+    each = tuple(float(m.mean()) for m in maps) if expected else ()
     return analysis.Runs(runs[0].spp, tuple(rel), tuple(rej), tuple(mse), tuple(secs),
-                         tuple(flips), tuple(means), tuple(mvars), expected, costs), \
+                         tuple(flips), tuple(means), tuple(mvars), expected, costs, each), \
         float(np.mean(rej_floor))
 
 

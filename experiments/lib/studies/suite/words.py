@@ -34,7 +34,9 @@ WINNER = ("On {{ scene }}, {{ winner }} wins at equal time: {% if winner != base
           "{{ ratio.text() }} times {{ base }}'s efficiency{% else %}ahead of every other "
           "method{% endif %}.")
 TIES = ("On {{ scene }}, {{ names }} cannot be told apart at equal time (best estimate: "
-        "{% if lead != base %}{{ lead }}, {{ value | g }} times {{ base }}{% else %}"
+        "{% if lead != base %}{{ lead }}, {{ ratio.value | g }} times {{ base }}"
+        "{% if not ratio.firm %}, {{ ratio.typical | g }} by the median of each one's "
+        "renders' errors: a rare firefly rules the mean{% endif %}{% else %}"
         "{{ base }} itself{% endif %}).")
 HYPOTHESIS = "Its hypothesis {{ words }}: {{ why }}."
 TIME_RATIO = "vr_path {{ a }} takes {{ ratio.text() }} of {{ b }}'s time per sample."
@@ -57,7 +59,7 @@ def sentences(r: analysis.SceneResult) -> list[str]:
     elif rank.ties:
         lead = rank.ties[0]
         out.append(prose.say(TIES, scene=r.name, names=names(rank.ties), lead=lead, base=base,
-                             value=r.cells[lead].relative["equal_time"].value))
+                             ratio=r.cells[lead].relative["equal_time"]))
     if r.verdict.status != "none":
         out.append(prose.say(HYPOTHESIS, words=VERDICT_WORDS[r.verdict.status],
                              why=verdict_text(r.verdict)))
