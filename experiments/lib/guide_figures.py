@@ -69,7 +69,7 @@ def train(scene_path: str, width: int, height: int, method: str | Method = "guid
     last iteration records nothing)."""
     import mitsuba as mi
     from . import execute, plan
-    from .scenes import read_scene
+    from .scenes import load_sensor, read_scene
     method = parse_method(method) if isinstance(method, str) else method
     timer = clock.Timer()
     spec = method.integrator_dict(depth)
@@ -78,10 +78,11 @@ def train(scene_path: str, width: int, height: int, method: str | Method = "guid
                          f"(integrator {spec.get('type')}, not vr_guided_path)")
     job = plan.make_job("guide-figure", read_scene(scene_path), method, width, height, spp,
                         seed, depth, mi.variant())
-    # the executor's cached scene, loaded alone as for the suite's renders: its kernels are
-    # theirs (a scene loaded beside another compiles its own)
+    # the executor's cached scene, loaded alone as for the suite's renders, and a sensor of
+    # this film as the executor makes one: their kernels are theirs (a scene loaded beside
+    # another compiles its own)
     scene = execute.scene_of(job, mi.variant())
-    sensor = scene.sensors()[0]
+    sensor = load_sensor(scene_path, width, height, method, spp)
     # a figure of the guide trains whatever its count
     integ = mi.load_dict({**spec, "min_train_spp": 2, "min_train_samples": 1})
     # the executor's own multi-pass loop (its seeds, hooks and combination)
