@@ -22,9 +22,9 @@ from ... import bias_image
 from ...declaration import Budget, Cell, Declaration
 from . import declare, precision
 
-#: More renders of a void cell, in multiples of the run's repeats (measured on grazing and
-#: environment's heavy-tailed cells: untestable in 19 and 6 of 20 fresh draws at 1x, in 2 of
-#: 10 at 2x, 0 and 1 of 6 at 3x).
+#: More renders of a void cell, in multiples of the run's repeats (three cold default runs:
+#: 7, 7 and 8 cells rendered again, 2, 1 and 3 of them testable then; 3 x the repeats cleared
+#: no more in 6 draws of veach_mis, grazing and environment: docs/methodology.md).
 MORE = 2
 #: The declaration's name (the first part of its job keys).
 NAME = "suite-bias"

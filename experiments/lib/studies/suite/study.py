@@ -310,17 +310,18 @@ def run_suite(cfg: declare.Settings) -> dict:
     compared = [sp for sp in plans if not sp.error]
     cells = sum(1 for sp in compared for m in cfg.methods
                 if m.name not in sp.left_out and m.name not in measured.failed_on(sp.name))
+    level = bias_test.cell_level(cells)
     with timer.part("analysis"):
         chunks = {sp.name: bias_test.reference_chunks(refs, sp.bias_ref) for sp in compared}
-        tests = {sp.name: measure.bias_tests(cfg, sp, measured, chunks[sp.name],
-                                             bias_test.cell_level(cells)) for sp in compared}
+        tests = {sp.name: measure.bias_tests(cfg, sp, measured, chunks[sp.name], level)
+                 for sp in compared}
     # a cell whose tails void its test renders on, once (bias_renders)
     more = timer.time("bias renders", bias_renders.render, engine, cfg, compared, measured,
                       bias_renders.void(tests))
     with timer.part("analysis"):
         for sp in [sp for sp in compared if sp.name in more]:
-            tests[sp.name] = measure.bias_tests(cfg, sp, measured, chunks[sp.name],
-                                                bias_test.cell_level(cells), more[sp.name])
+            tests[sp.name] = measure.bias_tests(cfg, sp, measured, chunks[sp.name], level,
+                                                more[sp.name])
         outcomes = [outcome(cfg, sp, measured, refs, tests[sp.name]) for sp in compared]
     allocations = timer.time("allocation figures", report.adaptive_blocks, cfg, compared,
                              measured, {o.plan.name: o.reference.image for o in outcomes})
