@@ -481,3 +481,28 @@ def test_crop_boxes_follow_the_data():
     (x0, y0, s, _), (x1, y1, _, _) = A.crop_boxes([a, b], 6)
     assert 2 <= x0 <= 4 and 14 <= y0 <= 16 and s == 6       # the largest errors
     assert (x1, y1) == (20, 2)                              # where the methods differ
+
+
+def test_methods_without_nee_are_said_to_miss_a_scenes_delta_lights(tmp_path):
+    """A point light (a delta emitter) is reached by next-event estimation only: on a scene
+    with one the report names the methods that sample no emitter; on one without, and for
+    methods with NEE (and Mitsuba's path), nothing."""
+    from experiments.lib import scenes as lib_scenes
+    from experiments.lib.studies.suite import words
+    body = ('<sensor type="perspective"><film type="hdrfilm"><integer name="width" '
+            'value="8"/><integer name="height" value="8"/></film></sensor>'
+            '<shape type="sphere"><bsdf type="diffuse"/></shape>')
+    lit = tmp_path / "lit.xml"
+    lit.write_text(f'<scene version="3.0.0">{body}<emitter type="point">'
+                   f'<point name="position" x="0" y="4" z="0"/></emitter>'
+                   f'<emitter type="constant"/></scene>')
+    plain = tmp_path / "plain.xml"
+    plain.write_text(f'<scene version="3.0.0">{body}<emitter type="constant"/></scene>')
+    cfg = SimpleNamespace(methods=tuple(methods.parse_method(m) for m in
+                                        ("bsdf", "cosine", "bsdf+nee", "path")))
+    got = words.unreachable(cfg, SimpleNamespace(path=str(lit), left_out={"cosine": "x"}))
+    assert got == {"methods": ["bsdf"], "emitters": ["point"]}
+    assert "bsdf sample no emitter" in words.unreachable_words(
+        cfg, SimpleNamespace(path=str(lit), left_out={"cosine": "x"}))[0]
+    assert words.unreachable(cfg, SimpleNamespace(path=str(plain), left_out={})) == {}
+    assert lib_scenes.delta_emitters(str(FURNACE)) == ()

@@ -307,6 +307,12 @@ MUTANTS = [
            "the typical ratio read from the renders' mean error, which the firefly rules too: "
            "every verdict firm",
            ("tests/test_suite_fireflies.py",)),
+    Mutant("unreachable-lights-with-nee", "experiments/lib/studies/suite/words.py",
+           "             and m.strategy is not None and not m.nee]",
+           "             and m.strategy is not None]",
+           "methods with next-event estimation said to miss the scene's point lights",
+           ("tests/test_suite.py::test_methods_without_nee_are_said_to_miss_a_scenes_delta_"
+            "lights",)),
     # ------------------------------------------------------------ adaptive sampling
     Mutant("adaptive-by-variance", "integrators/adaptive.py",
            "        ratio = dr.sqrt(_blur(relative, int(size.x), int(size.y)))",

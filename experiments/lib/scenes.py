@@ -64,6 +64,23 @@ def parse(path: str):
                          f"{str(e).strip().splitlines()[0]}") from None
 
 
+#: Emitters that no sampled direction reaches (a position or a direction that is a delta):
+#: only next-event estimation sees their light.
+DELTA_EMITTERS = ("point", "spot", "projector", "directional", "directionalarea")
+
+
+def delta_emitters(path: str) -> tuple[str, ...]:
+    """The plugin names of the scene's emitters that only next-event estimation reaches
+    (:data:`DELTA_EMITTERS`), in file order; () where it has none or does not parse."""
+    try:
+        state = parse(path)
+    except ValueError:
+        return ()
+    return tuple(n.props.plugin_name() for n in state.nodes
+                 if n.type == mi.ObjectType.Emitter and
+                 n.props.plugin_name() in DELTA_EMITTERS)
+
+
 def file_hash(path: str) -> str:
     with open(path, "rb") as f:
         return hashlib.sha256(f.read()).hexdigest()

@@ -392,7 +392,7 @@ def scene_blocks(cfg, o: SceneOutcome, measured, guide: dict | None) -> list[dic
             "the bias test." if precise_only(o.numbers) else "")]
     if sp.header_note:
         extra.append(f"Note: {sp.header_note}.")
-    extra += words.left_out_words(cfg, sp)
+    extra += words.left_out_words(cfg, sp) + words.unreachable_words(cfg, sp)
     if bias_words(r):
         extra.append(bias_words(r))
     blocks = [report.text(lead + " ".join(words.sentences(r) + extra)), o.viewer,
@@ -423,6 +423,7 @@ def summary_of(cfg, outcomes: list[SceneOutcome], found: list, failed: dict, tim
                     "reference_adequate": r.reference_adequate,
                     **(r.time_ratio.fields("time_ratio") if r.time_ratio else {}),
                     "failed": r.failed, "left_out": dict(o.plan.left_out),
+                    "unreachable_lights": words.unreachable(cfg, o.plan),
                     "bias_power": r.power, "bias_power_method": r.power_method,
                     "biased": [m for m, c in r.cells.items() if c.biased]}
                    for o in outcomes for r in [o.result]],

@@ -5,7 +5,7 @@ here, through the report layer's templates (:mod:`experiments.lib.prose`).
 """
 from __future__ import annotations
 
-from ... import metrics, prose, stats
+from ... import metrics, prose, scenes, stats
 from ...execute import VIEW_CACHE
 from ...methods import parse_method
 from . import analysis, declare, precision
@@ -226,6 +226,27 @@ def timing_text(timer) -> str:
         + f"; total {total_w:.1f} s. Renders include loading each scene per method, "
           f"compiling its kernels and the untimed warm-up renders; CPU time counts every "
           f"thread of this process.")
+
+
+def unreachable(cfg, sp) -> dict:
+    """{"methods": [...], "emitters": [...]}: the methods the scene renders that sample no
+    emitter (no next-event estimation), and the scene's emitters only that reaches
+    (:func:`.scenes.delta_emitters`); empty where either list is."""
+    emitters = scenes.delta_emitters(sp.path)
+    blind = [m.name for m in cfg.methods if m.name not in sp.left_out
+             and m.strategy is not None and not m.nee]
+    return {"methods": blind, "emitters": list(emitters)} if emitters and blind else {}
+
+
+def unreachable_words(cfg, sp) -> list[str]:
+    """The sentence that says which methods cannot see the scene's delta emitters."""
+    found = unreachable(cfg, sp)
+    if not found:
+        return []
+    lights = ", ".join(dict.fromkeys(found["emitters"]))
+    return [f"{names(found['methods'])} sample no emitter, and the scene's {lights} "
+            f"light{'s' if len(found['emitters']) > 1 else ''} only next-event estimation "
+            f"reaches: their images miss that light (biased low by construction)."]
 
 
 def left_out_words(cfg, sp) -> list[str]:
