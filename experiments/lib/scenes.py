@@ -19,6 +19,7 @@ parameters with their ``<default>`` values, ``<ref>`` ids and relative asset pat
 from __future__ import annotations
 
 import copy
+import functools
 import hashlib
 import os
 from dataclasses import dataclass
@@ -69,6 +70,7 @@ def parse(path: str):
 DELTA_EMITTERS = ("point", "spot", "projector", "directional", "directionalarea")
 
 
+@functools.lru_cache(maxsize=64)
 def delta_emitters(path: str) -> tuple[str, ...]:
     """The plugin names of the scene's emitters that only next-event estimation reaches
     (:data:`DELTA_EMITTERS`), in file order; () where it has none or does not parse."""
