@@ -20,6 +20,10 @@ from . import guided_path, moments
 #: Default ``relmse_eps``: the offset of the relative error's denominator, as the
 #: experiments' relMSE has it (``experiments.lib.metrics.RELMSE_EPS``).
 RELMSE_EPS = 0.01
+#: Default ``pilot_share``: the share of the samples the pilot spends, every pixel alike.
+PILOT_SHARE = 0.125
+#: Default ``min_share``: every pixel's floor, as a share of the final pass's average count.
+MIN_SHARE = 0.1
 
 
 class AdaptiveIntegrator(mi.SamplingIntegrator):
@@ -38,12 +42,12 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
      * - pilot_share
        - |float|
        - Share of the samples per pixel spent on the pilot pass, which every pixel gets
-         alike, at least 2 samples per pixel. (Default: 0.25)
+         alike, at least 2 samples per pixel. (Default: 0.125)
      * - min_share
        - |float|
        - Share of the final pass's average samples per pixel that every pixel gets at
          least: the floor that keeps a pixel whose pilot missed its rare bright paths
-         from starving. (Default: 0.25)
+         from starving. (Default: 0.1)
      * - min_spp
        - |int|
        - Fewest samples per pixel of the final pass. (Default: 1)
@@ -78,9 +82,9 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
             raise ValueError("vr_adaptive: the nested integrator (vr_guided_path) learns "
                              "between its own passes, which one pass of per-pixel counts "
                              "cannot hold; nest a plain sampling integrator (path, vr_path)")
-        self.pilot_share = float(props.get("pilot_share", 0.25))
+        self.pilot_share = float(props.get("pilot_share", PILOT_SHARE))
         self.min_spp = int(props.get("min_spp", 1))
-        self.min_share = float(props.get("min_share", 0.25))
+        self.min_share = float(props.get("min_share", MIN_SHARE))
         self.relmse_eps = float(props.get("relmse_eps", RELMSE_EPS))
         if not 0.0 < self.pilot_share < 1.0:
             raise ValueError(f"vr_adaptive: pilot_share must be in (0, 1), got "

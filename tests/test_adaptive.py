@@ -274,8 +274,8 @@ def test_the_allocation_figure_reads_the_counts_the_render_used():
     counts = adaptive_figures.allocation(scenes.path("suite/phong_highlight.xml"), 48, 36,
                                          parse_method("bsdf+nee+adaptive"), 64, 3,
                                          effective_depth(info))
-    pilot = 16
-    least = int(0.25 * (64 - pilot))
+    pilot = round(64 * adaptive.PILOT_SHARE)
+    least = int(adaptive.MIN_SHARE * (64 - pilot))
     assert counts.shape == (36, 48) and counts.min() >= pilot + least
     assert 64 * counts.size - counts.size < counts.sum() <= 64 * counts.size
     assert counts.max() > 4 * counts.min()
