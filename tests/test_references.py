@@ -53,6 +53,13 @@ def test_rendered_once_then_extended_without_rerendering(tmp_path, count_jobs):
     assert not [p for p in (tmp_path / "refs").rglob(".tmp-*")]
     # the first chunks of the extended reference are the old reference
     np.testing.assert_allclose(store.read(s, 32).image, first.image)
+    # asked for fewer chunks than it holds (a later declaration of the first size), the
+    # JSON and image still describe every chunk it holds, not the fewer
+    assert store.ensure(s, 32) == 0
+    again = json.loads((tmp_path / "refs" / s.key / R.JSON_NAME).read_text())
+    assert (again["spp"], again["chunks"]) == (48, 12)
+    np.testing.assert_allclose(files.read_exr(str(tmp_path / "refs" / s.key / "reference.exr")),
+                               more.image, rtol=1e-6)
 
 
 def test_key_is_the_content_not_the_path(tmp_path):

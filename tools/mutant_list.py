@@ -313,6 +313,13 @@ MUTANTS = [
            "methods with next-event estimation said to miss the scene's point lights",
            ("tests/test_suite.py::test_methods_without_nee_are_said_to_miss_a_scenes_delta_"
             "lights",)),
+    Mutant("reference-recorded-short", "experiments/lib/references.py",
+           "            self.record(spec, self.read(spec, None) if self.cached(spec) > len(js) else\n"
+           "                        self.read_jobs(js, spec.method.name))",
+           "            self.record(spec, self.read_jobs(js, spec.method.name))",
+           "a reference that an earlier declaration extended is recorded with the chunks a later "
+           "one asked for (its JSON and image shorter than it is: the suite's bias round did so)",
+           ("tests/test_references.py::test_rendered_once_then_extended_without_rerendering",)),
     # ------------------------------------------------------------ adaptive sampling
     Mutant("adaptive-by-variance", "integrators/adaptive.py",
            "        ratio = dr.sqrt(_blur(relative, int(size.x), int(size.y)))",

@@ -218,12 +218,14 @@ class ReferenceStore:
     def render(self, specs_and_jobs: list[tuple[RefSpec, list[Job]]], executor=None,
                variant: str | None = None, progress: bool | str = "references") -> int:
         """Render the chunks the store lacks (one executor call for all references, so a
-        cluster fans them out), then write each reference's JSON and image; returns how
-        many chunks were rendered."""
+        cluster fans them out), then write each reference's JSON and image: of every chunk
+        the store holds (a reference an earlier run, or this one, extended is never
+        recorded shorter than it is); returns how many chunks were rendered."""
         jobs = [j for _, js in specs_and_jobs for j in js]
         done = execute(jobs, self.store, executor, progress=progress, variant=variant)
         for spec, js in specs_and_jobs:
-            self.record(spec, self.read_jobs(js, spec.method.name))
+            self.record(spec, self.read(spec, None) if self.cached(spec) > len(js) else
+                        self.read_jobs(js, spec.method.name))
         return done
 
     def ensure(self, spec: RefSpec, spp: int, executor=None, progress=False) -> int:
