@@ -11,12 +11,13 @@ header leaves the candidate out keeping path's.
 from __future__ import annotations
 
 from dataclasses import replace
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 from scipy import stats as sps
 
-from experiments.lib import references
+from experiments.lib import bias_image, references
 from experiments.lib.methods import parse_method
 from experiments.lib.studies.suite import bias_test, declare, reference_choice
 from experiments.lib.studies.suite import study as S
@@ -83,8 +84,15 @@ def choose(tmp_path, candidate: str, scenes: str = "cbox"):
     return cfg, plans
 
 
-def test_the_best_samplers_reference_stands_in_where_it_agrees_with_paths(tmp_path):
+def test_the_best_samplers_reference_stands_in_where_it_agrees_with_paths(tmp_path,
+                                                                         monkeypatch):
+    looked = []            # path's reference is looked at before the candidate is tested
+    render_on = reference_choice._render_on
+    monkeypatch.setattr(reference_choice, "_render_on",
+                        lambda study, cfg, refs, spec: (looked.append(spec),
+                                                        render_on(study, cfg, refs, spec)))
     cfg, (cbox,) = choose(tmp_path, "bsdf+nee+zsobol:owen")
+    assert looked == [cbox.bias_ref]
     assert cbox.ref.method.name == "bsdf+nee+zsobol:owen", cbox.reference_note
     assert cbox.bias_ref.method.name == "path" and "agrees with path's" in cbox.reference_note
     assert cbox.setup().reference_method.name == "bsdf+nee+zsobol:owen"   # the engine's
@@ -125,3 +133,50 @@ def test_the_default_run_tries_the_best_samplers_method_unless_a_reference_is_gi
     assert S.parse(base + ["--quick"]).precise_reference is None
     with pytest.raises(SystemExit):
         S.parse(base + ["--reference-method", "nonsense"])
+
+
+def test_paths_reference_renders_on_while_one_chunks_pixel_rules_its_spread(monkeypatch):
+    """One pixel of one chunk far above the others holds a third of path's spread (every image
+    test on the scene void): its reference is doubled while that holds and the whole costs
+    at most reference_choice.AGAINST_SECONDS; smooth chunks, or a reference too dear,
+    render nothing more."""
+    rng = np.random.default_rng(3)
+    smooth = chunks(rng, 16, 0.2)
+    firefly = smooth.copy()
+    firefly[3, 5, 7] += 12.0
+    assert reference_choice.top_share(smooth) < 0.01
+    assert reference_choice.top_share(firefly) > 0.3
+
+    class Store:             # path's reference: its chunks, spp and seconds per chunk
+        def __init__(self, images, seconds):
+            self.images, self.seconds = images, seconds
+
+        def read(self, spec, spp):
+            n = len(self.images)
+            return SimpleNamespace(spp=8 * n, seconds=self.seconds * n)
+
+    rendered = []
+
+    class FakeStudy:
+        def reference_jobs(self, info, depth, resolution, spp, method, typical):
+            return spp
+
+        def run(self, spp, label):       # the new chunks are smooth
+            rendered.append(spp)
+            store.images = np.concatenate([store.images, chunks(rng, spp // 8 - len(
+                store.images), 0.2)])
+
+    monkeypatch.setattr(bias_test, "reference_chunks", lambda refs, spec: refs.images)
+    spec = SimpleNamespace(info=None, depth=None, width=W, height=H, method=PATH)
+    cfg = SimpleNamespace(reference_typical_spp=None)
+    store = Store(firefly, 0.001)
+    reference_choice._render_on(FakeStudy(), cfg, store, spec)
+    assert rendered[:2] == [2 * 8 * 16, 4 * 8 * 16]            # doubled while it rules
+    assert reference_choice.top_share(store.images) <= bias_image.MAX_TERM_SHARE
+    rendered.clear()
+    store = Store(smooth, 0.001)
+    reference_choice._render_on(FakeStudy(), cfg, store, spec)
+    assert rendered == []
+    store = Store(firefly.copy(), reference_choice.AGAINST_SECONDS / 16)   # 16 chunks: all of it
+    reference_choice._render_on(FakeStudy(), cfg, store, spec)
+    assert rendered == []

@@ -320,6 +320,12 @@ MUTANTS = [
            "a reference that an earlier declaration extended is recorded with the chunks a later "
            "one asked for (its JSON and image shorter than it is: the suite's bias round did so)",
            ("tests/test_references.py::test_rendered_once_then_extended_without_rerendering",)),
+    Mutant("against-reference-not-rendered-on", "experiments/lib/studies/suite/reference_choice.py",
+           "        _render_on(study, cfg, refs, sp.bias_ref)\n",
+           "",
+           "path's reference, which every cell's bias test on a stand-in's scene reads, left at "
+           "its first size however one chunk's pixel rules it",
+           ("tests/test_reference_choice.py",)),
     # ------------------------------------------------------------ adaptive sampling
     Mutant("adaptive-by-variance", "integrators/adaptive.py",
            "        ratio = dr.sqrt(_blur(relative, int(size.x), int(size.y)))",

@@ -20,6 +20,9 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import numpy as np
+
+from ... import bias_image
 from ...names import one_line
 from . import bias_test
 from .declare import ScenePlan, Settings
@@ -29,6 +32,35 @@ LEVEL = 0.99
 #: ``path``'s reference that a candidate is tested against, and that every cell's bias test
 #: reads on its scene: this many times ``--reference-spp`` (at most the extension cap).
 AGAINST_GROWTH = 8
+#: ... rendered on, doubling, while one pixel of one chunk holds more than
+#: :data:`.bias_image.MAX_TERM_SHARE` of its spread (every image test on the scene would be
+#: void), as far as this many seconds of its rendering in all go, at most this many times:
+#: a stand-in reference stops the engine extending ``path``'s, which the cells' bias tests
+#: still read.
+AGAINST_SECONDS, AGAINST_DOUBLINGS = 1.5, 4
+
+
+def top_share(chunks: np.ndarray) -> float:
+    """The largest share of a reference's spread over its ``chunks`` (k, H, W, C), per
+    channel, that one pixel of one chunk holds (:func:`.bias_image.side_sums`)."""
+    sums = bias_image.side_sums([chunks], [1], np.ones(chunks.shape[1:3] + (1,), bool),
+                                "pixels")
+    return float(np.max(sums.top / np.maximum(sums.terms, 1e-300)))
+
+
+def _render_on(study, cfg: Settings, refs, spec) -> None:
+    """Double ``path``'s reference ``spec`` while :func:`top_share` of its chunks is over
+    the gate and the whole costs at most :data:`AGAINST_SECONDS` (at most
+    :data:`AGAINST_DOUBLINGS` times)."""
+    for _ in range(AGAINST_DOUBLINGS):
+        ref = refs.read(spec, None)
+        chunks = bias_test.reference_chunks(refs, spec)
+        if top_share(chunks) <= bias_image.MAX_TERM_SHARE or \
+                2 * ref.seconds > AGAINST_SECONDS:
+            return
+        study.run(study.reference_jobs(spec.info, spec.depth, (spec.width, spec.height),
+                                       2 * ref.spp, spec.method, cfg.reference_typical_spp),
+                  "suite: references")
 
 
 def candidate(cfg: Settings, sp: ScenePlan):
@@ -61,6 +93,7 @@ def choose(study, cfg: Settings, plans: list[ScenePlan], refs) -> None:
             sp.reference_note = f"{cfg.precise_reference}'s reference failed: {one_line(e)}"
         return
     for sp, spec in tried:
+        _render_on(study, cfg, refs, sp.bias_ref)
         paths = bias_test.reference_chunks(refs, sp.bias_ref)    # every chunk cached
         test = bias_test.check_reference(bias_test.reference_chunks(refs, spec), paths,
                                          spec.method, sp.bias_ref.method, sp.box, 1.0 - LEVEL)
