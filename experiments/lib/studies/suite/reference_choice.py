@@ -37,7 +37,8 @@ AGAINST_GROWTH = 8
 #: void), as far as this many seconds of its rendering in all go, at most this many times:
 #: a stand-in reference stops the engine extending ``path``'s, which the cells' bias tests
 #: still read.
-AGAINST_SECONDS, AGAINST_DOUBLINGS = 1.5, 4
+AGAINST_SECONDS = 1.5
+AGAINST_DOUBLINGS = 4
 
 
 def top_share(chunks: np.ndarray) -> float:
