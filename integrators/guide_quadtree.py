@@ -13,7 +13,7 @@ nodes, each a square block of bins) is a leaf where it holds at most ``rho`` of 
 energy (its parent holding more, or it is the root), or at the finest level. Every bin of
 a leaf gets the leaf's energy over its bins, so the fitted tree **is** a histogram of
 ``res x res`` bins: the render kernel's density lookup (one gather) and sampling
-(:func:`.guide_warps.sample_histogram`) do not change, nor their cost, and the tree's
+(the alias table of :func:`.guide_warps.alias_table`) do not change, nor their cost, and the tree's
 shape recompiles nothing. Pure numpy: no Dr.Jit, no Mitsuba.
 """
 from __future__ import annotations

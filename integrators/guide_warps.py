@@ -3,8 +3,9 @@
 A direction is binned by its cylindrical coordinates (cos theta, phi) in world space
 (Lambert's map: d omega = d cos(theta) d phi, so ``res x res`` equal cells of the rectangle
 [-1, 1] x [0, 2 pi) are ``res^2`` bins of equal solid angle ``4 pi / res^2``). A histogram
-of bin probabilities ``p`` is sampled by inverting its cumulative sum (a binary search)
-and a uniform point inside the chosen bin; its density is ``p[bin] / (4 pi / res^2)``.
+of bin probabilities ``p`` is sampled in O(1) by Walker's alias method (one gather of a
+bin's threshold and alias: :func:`alias_table`, :func:`sample_alias`) and a uniform point
+inside the chosen bin; its density is ``p[bin] / (4 pi / res^2)``.
 Every warp here has its pdf beside it (Dr.Jit versions for the render kernel, numpy
 versions for the host and the tests). Pure functions only: the tables live in
 :mod:`.sdtree`.
@@ -47,17 +48,59 @@ def bin_to_direction(index: mi.UInt32, u: mi.Point2f, res: int) -> mi.Vector3f:
     return mi.Vector3f(sin_theta * c, sin_theta * s, cos_theta)
 
 
-def sample_histogram(cdf: mi.Float, offset: mi.UInt32, u: mi.Float, u2: mi.Point2f,
-                     res: int, active=True) -> mi.Vector3f:
-    """A direction drawn from the histogram whose inclusive cumulative sum starts at
-    ``offset`` in ``cdf`` (``res^2`` entries ending at 1): the bin by inverting the sum with
-    ``u``, the point inside it by ``u2``. Density: :func:`histogram_pdf`."""
+def alias_order(prob: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """What :func:`alias_table` reads, per row of ``prob`` (rows of ``n`` bin
+    probabilities, each summing to 1): the bins' scaled probabilities ``n p`` with the
+    *light* bins (``n p < 1``) first and the *heavy* ones after them, and those bins'
+    indices, both (rows, n)."""
+    q = prob * prob.shape[1]
+    order = np.argsort(q >= 1.0, axis=1, kind="stable")
+    return np.take_along_axis(q, order, axis=1), order
+
+
+@dr.syntax
+def alias_table(table: mi.Float, first: mi.UInt32, q: mi.Float, order: mi.UInt32,
+                bins: int) -> None:
+    """Walker's alias tables of rows of ``bins`` bins, written into ``table`` in place:
+    per bin the pair (threshold, alias), row ``k`` of the inputs at row ``first + k`` of
+    ``table``. The inputs are :func:`alias_order`'s, flattened. Vose's method, one lane per
+    row: a light bin keeps its own share ``n p`` and gives the rest of its slot to the
+    current heavy bin, which pays it from its excess; a heavy bin whose scaled
+    probability falls under 1 is a light one at once, filled by the next heavy bin. Bin
+    ``i`` is then drawn with probability ``(threshold_i + sum over the bins aliased to
+    i of (1 - threshold)) / n = p_i`` (:func:`alias_probabilities_np`)."""
+    lane = dr.arange(mi.UInt32, dr.width(first))
+    row = lane * bins
+    out = first * bins
+    light, heavy = mi.UInt32(0), mi.UInt32(bins - 1)
+    excess = dr.gather(mi.Float, q, row + heavy)        # the current heavy bin's n p
+    step = mi.UInt32(0)
+    while step < bins:
+        demoted = (excess < 1.0) & (heavy > light)
+        share = dr.select(demoted, excess, dr.gather(mi.Float, q, row + light))
+        small = dr.gather(mi.UInt32, order, row + dr.select(demoted, heavy, light))
+        heavy = dr.select(demoted, heavy - 1, heavy)
+        large = dr.gather(mi.UInt32, order, row + heavy)
+        last = small == large                           # the row's last bin
+        dr.scatter(table, dr.select(last, 1.0, dr.minimum(share, 1.0)), 2 * (out + small))
+        dr.scatter(table, mi.Float(large), 2 * (out + small) + 1)
+        excess = dr.select(demoted, dr.gather(mi.Float, q, row + heavy), excess)
+        excess = excess - dr.select(last, 0.0, 1.0 - share)
+        light = dr.select(demoted, light, light + 1)
+        step += 1
+
+
+def sample_alias(table: mi.Float, offset: mi.UInt32, u: mi.Float, u2: mi.Point2f,
+                 res: int, active=True) -> mi.Vector3f:
+    """A direction drawn from the histogram whose alias table (:func:`alias_table`)
+    starts at bin ``offset`` of ``table``: the bin ``i = floor(u n)`` or its alias, as
+    ``u n - i`` falls under its threshold or not, and the point inside it by ``u2``.
+    Density: :func:`histogram_pdf`."""
     bins = res * res
-    u = dr.minimum(u, ONE_MINUS_EPSILON)
-    index = dr.binary_search(
-        0, bins - 1,
-        lambda i: dr.gather(mi.Float, cdf, offset + i, active) <= u)
-    index = dr.minimum(index, bins - 1)
+    x = dr.minimum(u, ONE_MINUS_EPSILON) * bins
+    index = dr.minimum(mi.UInt32(x), bins - 1)
+    entry = dr.gather(mi.Point2f, table, offset + index, active)
+    index = dr.select(x - mi.Float(index) < entry.x, index, mi.UInt32(entry.y))
     return bin_to_direction(index, u2, res)
 
 
@@ -75,6 +118,17 @@ def direction_to_bin_np(d: np.ndarray, res: int) -> np.ndarray:
     i_cos = np.minimum(((cos_theta + 1.0) * 0.5 * res).astype(np.int64), res - 1)
     i_phi = np.minimum((phi * res / (2 * np.pi)).astype(np.int64), res - 1)
     return i_cos * res + i_phi
+
+
+def alias_probabilities_np(table: np.ndarray) -> np.ndarray:
+    """The bin probabilities that alias tables (rows of ``n`` (threshold, alias) pairs,
+    shape (rows, n, 2)) draw with: ``(threshold_i + sum over the bins aliased to i of
+    (1 - threshold)) / n``."""
+    rows, n, _ = table.shape
+    prob = table[..., 0] / n
+    index = (np.arange(rows)[:, None] * n + table[..., 1].astype(np.int64)).ravel()
+    np.add.at(prob.reshape(-1), index, ((1.0 - table[..., 0]) / n).ravel())
+    return prob
 
 
 def histogram_pdf_np(probabilities: np.ndarray, d: np.ndarray, res: int) -> np.ndarray:

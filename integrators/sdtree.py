@@ -114,9 +114,8 @@ class SDTree:
         self.has_bbox = False
         # the device tables (:meth:`upload`) and their float32 host copies
         self._prob32 = np.empty((self.max_units, self.bins), np.float32)
-        self._cdf32 = np.empty((self.max_units, self.bins), np.float32)
         self._grid_nodes = 0                                 # nodes of grid_table (0: none)
-        self.grid_table = self.prob_table = self.cdf_table = self.reflected_table = None
+        self.grid_table = self.prob_table = self.alias_table = self.reflected_table = None
         # the record accumulators (:meth:`reset_records`)
         self.energy = self.counts = self.moments = self.reflected_sums = None
         #: The last refinement's summed second moments (None: nothing evaluated).
@@ -161,21 +160,22 @@ class SDTree:
         units in use, not with ``max_leaves``)."""
         rows = self.max_units if rows is None or self.prob_table is None else rows
         self._prob32[:rows] = self.prob[:rows]
-        cdf = np.cumsum(self.prob[:rows], axis=1)
-        cdf /= np.maximum(cdf[:, -1:], 1e-30)
-        self._cdf32[:rows] = cdf
         if self._grid_nodes != self.nodes:                   # the tree changed
             self.grid_table = mi.UInt32(self.grid())
             self._grid_nodes = self.nodes
         self.reflected_table = mi.Float(self.reflected.ravel().astype(np.float32))
         if rows == self.max_units:
             self.prob_table = mi.Float(self._prob32.ravel())
-            self.cdf_table = mi.Float(self._cdf32.ravel())
+            self.alias_table = dr.zeros(mi.Float, 2 * self.max_units * self.bins)
+            dr.make_opaque(self.alias_table)
         else:       # only the rows in use, written into the tables in place
             index = dr.arange(mi.UInt32, rows * self.bins)
             dr.scatter(self.prob_table, mi.Float(self._prob32[:rows].ravel()), index)
-            dr.scatter(self.cdf_table, mi.Float(self._cdf32[:rows].ravel()), index)
-        dr.eval(self.grid_table, self.prob_table, self.cdf_table, self.reflected_table)
+        q, order = guide_warps.alias_order(self.prob[:rows])
+        guide_warps.alias_table(self.alias_table, dr.arange(mi.UInt32, rows),
+                                mi.Float(q.ravel().astype(np.float32)),
+                                mi.UInt32(order.ravel().astype(np.uint32)), self.bins)
+        dr.eval(self.grid_table, self.prob_table, self.alias_table, self.reflected_table)
 
     def reset_records(self, rows: int | None = None) -> None:
         """Empty record accumulators (energy per unit bin, records per unit, the share
@@ -252,8 +252,8 @@ class SDTree:
 
     def sample(self, unit: mi.UInt32, u: mi.Float, u2: mi.Point2f, active=True):
         """A world direction from ``unit``'s histogram (density :meth:`pdf`)."""
-        return guide_warps.sample_histogram(self.cdf_table, unit * self.bins, u, u2,
-                                            self.res, active)
+        return guide_warps.sample_alias(self.alias_table, unit * self.bins, u, u2,
+                                        self.res, active)
 
     def record_index(self, unit: mi.UInt32, d: mi.Vector3f) -> mi.UInt32:
         """Where a record of radiance arriving along the world direction ``d`` goes."""

@@ -23,6 +23,21 @@ GUIDING = [
            "the bins tile the sphere (the density twice too high)",
            ("tests/test_guiding.py::test_guide_density_integrates_to_one",
             "tests/test_guiding.py")),
+    Mutant("guide-alias-deficit-unpaid", "integrators/guide_warps.py",
+           "        excess = excess - dr.select(last, 0.0, 1.0 - share)\n",
+           "        excess = excess - dr.select(last | demoted, 0.0, 1.0 - share)\n",
+           "an alias table whose next heavy bin does not pay a demoted heavy bin's deficit: "
+           "it keeps more of its own slot than it has, and the guide draws its bins with "
+           "other probabilities than its density states",
+           ("tests/test_guide_alias.py::test_alias_tables_draw_the_histograms_probabilities",
+            "tests/test_guiding.py::test_frozen_guide_draws_its_pdf")),
+    Mutant("guide-alias-threshold-reversed", "integrators/guide_warps.py",
+           "    index = dr.select(x - mi.Float(index) < entry.x, index, mi.UInt32(entry.y))",
+           "    index = dr.select(x - mi.Float(index) < entry.x, mi.UInt32(entry.y), index)",
+           "the alias draw keeps the bin where it should take its alias and the other way "
+           "round",
+           ("tests/test_guide_alias.py::test_drawn_bins_pass_a_chi_square",
+            "tests/test_guiding.py::test_frozen_guide_draws_its_pdf")),
     Mutant("guide-record-wrong-vertex", "integrators/guide_record.py",
            "            after = L - dr.gather(mi.Color3f, self.radiance, slot, valid)\n",
            "            after = L\n",
