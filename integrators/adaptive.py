@@ -3,12 +3,18 @@
 A pilot pass gives every pixel the same few samples; their per-pixel spread says where the
 image's relative error is; the rest of the budget goes to the pixels in proportion to their
 relative standard deviation (the allocation that minimises the image's relMSE at a fixed
-number of samples), with a floor so that no pixel starves. A pixel's count is read from its
-8 neighbours' pilot samples, never its own: then its count is independent of its own
-samples, and the mean of all of them (pilot and final) is unbiased. A count read from the
-pixel's own pilot would be optional stopping: a pixel whose pilot missed a rare bright path
-gets few samples and keeps its low pilot mean (a synthetic pixel whose sample is 50 with
-probability 0.02 came out 20% dark so, tests/test_adaptive.py).
+number of samples), with a floor so that no pixel starves. A pixel's relative variance is
+read half from its own pilot and half from its 8 neighbours' (:data:`OWN_SHARE`): its own
+finds a highlight a pixel wide, its neighbours' a rare bright path its own pilot missed.
+
+Because the count depends on the pixel's own pilot, the pilot does not enter the image by
+its count: the mean of all its samples would be optional stopping (a pixel whose pilot
+missed a rare bright path gets few samples and keeps its low pilot mean: a synthetic pixel
+whose sample is 50 with probability 0.02 came out 20% dark so, tests/test_adaptive.py).
+The pilot's mean gets the fixed weight ``n_p / (n_p + m)``, ``m`` the count the pixel's
+neighbours alone would give it (independent of its own samples), and the final pass's mean
+the rest: the pilot's weight does not depend on its own samples, and given its count the
+final pass is the mean of fresh samples, so the image is unbiased (:func:`combine`).
 """
 from __future__ import annotations
 
@@ -24,6 +30,9 @@ RELMSE_EPS = 0.01
 PILOT_SHARE = 0.125
 #: Default ``min_share``: every pixel's floor, as a share of the final pass's average count.
 MIN_SHARE = 0.1
+#: The share of a pixel's own pilot in the relative variance its count is read from (the
+#: rest its 8 neighbours'): docs/adaptive.md.
+OWN_SHARE = 0.5
 
 
 class AdaptiveIntegrator(mi.SamplingIntegrator):
@@ -60,13 +69,14 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
     Renders ``spp`` samples per pixel on average in two passes. The pilot (``pilot_share``
     of them) estimates each pixel's relative variance of one sample,
     sigma_i^2 / (mu_i^2 + ``relmse_eps``), from the luminance of its samples; pixel i's count
-    in the final pass is read from the square root of the mean of that over its 8
-    neighbours, never its own: its floor (``min_share`` of the pass's average count, at
-    least ``min_spp``) plus its share of the remaining samples in proportion to that
-    relative deviation (rounded down). The
-    image is each pixel's mean over all its samples, pilot and final: unbiased, because
-    the pixel's count does not depend on its own samples (one read from its own pilot
-    would: a pixel whose pilot missed a rare bright path would keep its low pilot mean).
+    in the final pass is read from the square root of the mean of its own and of the mean
+    over its 8 neighbours: its floor (``min_share`` of the pass's average count, at least
+    ``min_spp``) plus its share of the remaining samples in proportion to that relative
+    deviation (rounded down). The image is, per pixel, the pilot's mean with the fixed
+    weight n_p / (n_p + m_i) plus the final pass's mean with the rest, m_i the count the
+    neighbours alone would give the pixel: unbiased, because that weight does not depend on
+    the pixel's own samples (its mean over all its samples would not be: a pixel whose
+    pilot missed a rare bright path would keep its low pilot mean).
     The per-pixel counts are not a power of two nor equal: the ``independent`` sampler
     only, and a ``box`` filter (each sample in its own pixel); the film's developed image
     is returned without AOVs. After a render, ``last_counts`` holds every pixel's samples
@@ -121,24 +131,33 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
         counts = dr.opaque(mi.UInt32, pilot, pixels)
         total, squares = self._pass(scene, sensor, sampler, seed, counts, pilot * pixels)
         mean = total / n_pilot
-        counts = self.allocate(mean, squares / n_pilot, pilot, final * pixels, size)
+        counts, planned = self.allocate(mean, squares / n_pilot, pilot, final * pixels, size)
         n = int(dr.sum(counts)[0]) if dr.width(counts) else 0
         rest, _ = self._pass(scene, sensor, sampler, _other_seed(seed), counts, n)
-        image = combine(total, n_pilot, rest, mi.Float(counts))
+        image = combine(total, n_pilot, rest, mi.Float(counts), mi.Float(planned))
         self.last_counts = counts + pilot
         return mi.TensorXf(dr.ravel(image), shape=(int(size.y), int(size.x), 3))
 
     def allocate(self, mean: mi.Color3f, second: mi.Float, pilot: int, budget: int,
-                 size) -> mi.UInt32:
-        """Per-pixel counts of the final pass: the floor each plus the rest of ``budget``
-        in proportion to the pilot's relative standard deviation of one sample (its
-        luminance's: the square root of the mean over the pixel's 8 neighbours of
-        var / (mean^2 + ``relmse_eps``)), rounded down."""
+                 size) -> tuple[mi.UInt32, mi.UInt32]:
+        """(per-pixel counts of the final pass, the counts the neighbours alone would
+        give): the floor each plus the rest of ``budget`` in proportion to the pilot's
+        relative standard deviation of one sample (its luminance's: the square root of
+        var / (mean^2 + ``relmse_eps``), :data:`OWN_SHARE` the pixel's own and the rest the
+        mean over its 8 neighbours; for the second, the neighbours' mean alone), rounded
+        down."""
         lum = mi.luminance(mean)
         var = dr.maximum(second - dr.square(lum), 0.0) * dr.opaque(mi.Float,
                                                                        pilot / (pilot - 1.0))
         relative = var / dr.maximum(dr.square(lum) + self.relmse_eps, 1e-24)
-        ratio = dr.sqrt(_blur(relative, int(size.x), int(size.y)))
+        neighbours = _blur(relative, int(size.x), int(size.y))
+        own = dr.fma(OWN_SHARE, relative - neighbours, neighbours)
+        return (self._counts(dr.sqrt(own), budget, size),
+                self._counts(dr.sqrt(neighbours), budget, size))
+
+    def _counts(self, ratio: mi.Float, budget: int, size) -> mi.UInt32:
+        """The floor each plus the rest of ``budget`` in proportion to ``ratio``, rounded
+        down."""
         pixels = int(size.x) * int(size.y)
         least = max(self.min_spp, int(self.min_share * budget / pixels))
         spare = max(0, budget - least * pixels)
@@ -199,11 +218,15 @@ def _check(film, sampler) -> None:
                          f"low-discrepancy sampler's points); got {kind}")
 
 
-def combine(pilot: mi.Color3f, n_pilot: mi.Float, final: mi.Color3f,
-            n_final: mi.Float) -> mi.Color3f:
-    """The pixel estimate from the passes' sums and counts: the mean of all its samples
-    (unbiased because its final count does not depend on its own pilot samples)."""
-    return (pilot + final) / (n_pilot + n_final)
+def combine(pilot: mi.Color3f, n_pilot: mi.Float, final: mi.Color3f, n_final: mi.Float,
+            planned: mi.Float) -> mi.Color3f:
+    """The pixel estimate from the passes' sums and counts: the pilot's mean with the
+    weight ``n_pilot / (n_pilot + planned)``, ``planned`` the count the neighbours alone
+    would give the pixel, and the final pass's mean with the rest. Unbiased: the weight
+    does not depend on the pixel's own samples, and given its count ``n_final`` (which
+    does) the final pass's mean is the mean of fresh samples."""
+    weight = n_pilot / (n_pilot + planned)
+    return weight * (pilot / n_pilot) + (1.0 - weight) * (final / n_final)
 
 
 def _other_seed(seed) -> int:

@@ -328,22 +328,23 @@ MUTANTS = [
            ("tests/test_reference_choice.py",)),
     # ------------------------------------------------------------ adaptive sampling
     Mutant("adaptive-by-variance", "integrators/adaptive.py",
-           "        ratio = dr.sqrt(_blur(relative, int(size.x), int(size.y)))",
-           "        ratio = _blur(relative, int(size.x), int(size.y))",
+           "        return (self._counts(dr.sqrt(own), budget, size),",
+           "        return (self._counts(own, budget, size),",
            "samples allocated in proportion to the relative variance instead of the relative "
            "standard deviation (the relMSE-optimal rule): unbiased, but the error is larger",
            ("tests/test_adaptive.py::test_the_allocation_is_proportional_to_the_relative_deviation",)),
-    Mutant("adaptive-pilot-uncounted", "integrators/adaptive.py",
-           "    return (pilot + final) / (n_pilot + n_final)",
-           "    return (pilot + final) / n_final",
-           "the pilot's samples summed but not counted when the passes are combined: the "
-           "image about a third too bright where the final pass has three times the pilot's",
+    Mutant("adaptive-pilot-double-counted", "integrators/adaptive.py",
+           "    return weight * (pilot / n_pilot) + (1.0 - weight) * (final / n_final)",
+           "    return weight * (2.0 * pilot / n_pilot) + (1.0 - weight) * (final / n_final)",
+           "the pilot's samples counted twice when the passes are combined: the image too "
+           "bright by the pilot's weight",
            ("tests/test_adaptive.py::test_adaptive_agrees_with_path_per_block",)),
     Mutant("adaptive-own-pilot", "integrators/adaptive.py",
-           "            if dx == 0 and dy == 0:\n                continue\n",
-           "",
-           "a pixel's count read from a 3 x 3 mean that includes its own pilot (optional "
-           "stopping: a pixel whose pilot missed a rare bright path keeps its low mean)",
+           "    weight = n_pilot / (n_pilot + planned)",
+           "    weight = n_pilot / (n_pilot + n_final)",
+           "the pilot weighted by the pixel's own count, which reads its own pilot: each "
+           "pixel's mean over all its samples (optional stopping: a pixel whose pilot "
+           "missed a rare bright path keeps its low mean)",
            ("tests/test_adaptive.py::test_a_heavy_pixel_stays_unbiased",)),
     Mutant("allocation-map-without-pilot", "integrators/adaptive.py",
            "        self.last_counts = counts + pilot",
