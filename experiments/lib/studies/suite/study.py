@@ -56,9 +56,9 @@ MAX_SIZE = 48
 REFERENCE_GROWTH = 16
 #: Without --reference-max-spp (and --quick), a reference whose extension costs little goes
 #: past that cap as far as this many seconds of rendering go
-#: (:func:`experiments.lib.counts.reference_cap`: veach_mis' heavy-tailed path at 48x36,
-#: 0.27 s per 4096 spp, to 32768 spp).
-REFERENCE_SECONDS = 2.5
+#: (:func:`experiments.lib.counts.reference_cap`: veach_mis' and rough_glass' references
+#: at 48x36, whose heavy tails need 32768-65536 spp, a few seconds each).
+REFERENCE_SECONDS = 6.0
 QUICK_DEFAULTS = {"spp": 4, "time_budget": 0.02, "reference_spp": 32, "max_size": 12,
                   "scenes": "furnace,veach_mis", "methods": "bsdf,bsdf+nee,path"}
 FLIP_MODES = ("first", "all")
