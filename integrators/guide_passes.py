@@ -178,6 +178,9 @@ def combine(images: list, m2s: list, spps: list, groups: list):
         means.append(mean)
         pixels.append(pixel_variance(mean, m2, n))
         counts.append(n)
-    weights = cross_weights(pixels, counts)
+    # one estimator (a job that did not train, or stopped before a unit learned): its
+    # pooled mean, no weights to estimate
+    weights = cross_weights(pixels, counts) if len(groups) > 1 else \
+        np.ones((1,) + means[0].shape[:2] + (1,))
     variance = sum(w * w * p for w, p in zip(weights, pixels))
     return sum(w * m for w, m in zip(weights, means)), weights, variance

@@ -60,3 +60,17 @@ def test_each_colour_takes_the_others_weights():
     w = guide_passes.cross_weights([v1, v2], [1, 1])
     # black pixels read the white ones (variances 4 and 1: weights 0.2, 0.8), and back
     assert np.allclose(w[:, 0, 0, 0], [0.2, 0.8]) and np.allclose(w[:, 0, 1, 0], [0.5, 0.5])
+
+
+def test_one_estimator_is_its_pooled_mean():
+    """A job of one estimator (untrained, or stopped before a unit learned): the combined
+    image is its renders pooled by their samples, weight 1 everywhere, and the variance is
+    that of the pooled mean (exact values)."""
+    rng = np.random.default_rng(3)
+    images = [rng.random((3, 4, 3)) for _ in range(2)]
+    m2s = [im * im + rng.random((3, 4, 3)) for im in images]
+    image, weights, variance = guide_passes.combine(images, m2s, [4, 12], [[0, 1]])
+    mean = (4 * images[0] + 12 * images[1]) / 16
+    m2 = (4 * m2s[0] + 12 * m2s[1]) / 16
+    assert np.allclose(image, mean) and np.all(weights == 1.0)
+    assert np.allclose(variance, (m2 - mean ** 2) / 15)

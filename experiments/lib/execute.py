@@ -357,13 +357,14 @@ def render_passes(view: View, integrator, job: Job) -> Timed:
             view, integrator, job, i, schedule[i], done, multi, multi or per_sample)
         compiled += c
         if multi:
-            dr.sync_thread()
+            # the image on the host, as every method's is read (not the method's work)
+            image = np.array(image, dtype=np.float64)
             start = time.thread_time()
             rest = integrator.after_pass(i, image, k)
             dr.sync_thread()
             host += time.thread_time() - start
             schedule = schedule if rest is None else replaced_rest(schedule, i, rest)
-            image = np.array(image, dtype=np.float64)[..., :3]
+            image = image[..., :3]
             images.append(image)
             spps.append(k)
         if per_sample:

@@ -27,7 +27,8 @@ class MultiPass(Protocol):
       summing to ``spp``; a pass over the job's lane cap (:data:`.jobs.MAX_LANES`) is
       rendered in several renders and averaged (:meth:`.jobs.Job.split_lanes`);
     * ``after_pass(index, image, spp)``: host work after pass ``index`` (learning from it;
-      ``image`` the pass's mean as a Dr.Jit tensor); it may return the passes that follow
+      ``image`` the pass's mean, every channel, as a numpy (H, W, C) float64 array, read
+      on the host before the hook's clock starts, as every method's image is read); it may return the passes that follow
       anew (a list of samples per pixel with the same sum as the ones it replaces: e.g. a
       method whose learning stopped renders its rest in one pass), None to keep them;
     * ``combine(images, spps)``: the job's image from every pass's (a numpy (H, W, 3)
