@@ -79,11 +79,20 @@ PRESETS = {
 
 # ------------------------------------------------------------------ options
 
-def default_methods() -> list[str]:
+#: The adaptive modifier's method that ``--full`` (``make full``) adds to the default
+#: methods: :data:`.analysis.TIMED_PAIR`'s first method with its samples where the
+#: relative error is. Not in the default run: its kernels cost a cold ``make run`` about
+#: 20 s (docs/methodology.md, "Adaptive sampling").
+ADAPTIVE_METHOD = f"{analysis.TIMED_PAIR[0]}+adaptive"
+
+
+def default_methods(full: bool = False) -> list[str]:
     """Every vr_path strategy with and without NEE, every strategy that learns (its own
-    integrator, e.g. ``guided``) with NEE only, then Mitsuba's path."""
+    integrator, e.g. ``guided``) with NEE only, with ``full`` ``bsdf+nee`` made adaptive
+    (:data:`ADAPTIVE_METHOD`), then Mitsuba's path."""
     return [n for s in strategies() for n in
-            ((s, f"{s}+nee") if integrator_type(s) == "vr_path" else (f"{s}+nee",))] + ["path"]
+            ((s, f"{s}+nee") if integrator_type(s) == "vr_path" else (f"{s}+nee",))] + \
+        [ADAPTIVE_METHOD] * full + ["path"]
 
 
 def scene_files(text: str) -> list[str]:
@@ -177,6 +186,8 @@ def build_parser() -> cli.Parser:
                    help="FLIP of the first repeat at equal time only (the images shown), or "
                         "of every repeat at both budgets (an interval; HDR-FLIP costs 0.1-1 s "
                         "of CPU per 64x48 image)")
+    p.add_argument("--full", action="store_true",
+                   help=f"also {ADAPTIVE_METHOD} among the default methods (make full)")
     p.add_argument("--quick", action="store_true",
                    help="tiny run for tests: " + ", ".join(f"{k} {v}" for k, v in
                                                           QUICK_DEFAULTS.items()))
@@ -231,7 +242,8 @@ def parse(argv=None):
                     value = cli.method_list(value)
                 setattr(args, key, value)
     files_list = args.scenes or bundled.suite()
-    methods = list(args.methods)
+    full = args.full and "methods" not in args.explicit and not args.quick
+    methods = default_methods(full=True) if full else list(args.methods)
     args.best_note = "methods as given (--methods)"
     args.precise_reference = None
     if "methods" not in args.explicit and not args.quick:
@@ -347,4 +359,4 @@ def run(args) -> None:
 STUDY = register_study(StudySpec(
     NAME, TITLE, ORDER, build_parser, run, parse=parse, quick=("--quick",), shared=add_shared,
     forwarded={"scenes": "--scenes", "references": "--references",
-               "best_sampler": "--best-sampler", "preset": "--preset"}))
+               "best_sampler": "--best-sampler", "preset": "--preset", "full": "--full"}))
