@@ -27,7 +27,7 @@ from . import guided_path, moments
 #: experiments' relMSE has it (``experiments.lib.metrics.RELMSE_EPS``).
 RELMSE_EPS = 0.01
 #: Default ``pilot_share``: the share of the samples the pilot spends, every pixel alike.
-PILOT_SHARE = 0.125
+PILOT_SHARE = 0.25
 #: Default ``min_share``: every pixel's floor, as a share of the final pass's average count.
 MIN_SHARE = 0.1
 #: The share of a pixel's own pilot in the relative variance its count is read from (the
@@ -51,7 +51,7 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
      * - pilot_share
        - |float|
        - Share of the samples per pixel spent on the pilot pass, which every pixel gets
-         alike, at least 2 samples per pixel. (Default: 0.125)
+         alike, at least 2 samples per pixel. (Default: 0.25)
      * - min_share
        - |float|
        - Share of the final pass's average samples per pixel that every pixel gets at
