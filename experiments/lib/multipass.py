@@ -28,9 +28,10 @@ class MultiPass(Protocol):
       rendered in several renders and averaged (:meth:`.jobs.Job.split_lanes`);
     * ``after_pass(index, image, spp)``: host work after pass ``index`` (learning from it;
       ``image`` the pass's mean, every channel, as a numpy (H, W, C) float64 array, read
-      on the host before the hook's clock starts, as every method's image is read); it may return the passes that follow
-      anew (a list of samples per pixel with the same sum as the ones it replaces: e.g. a
-      method whose learning stopped renders its rest in one pass), None to keep them;
+      on the host before the hook's clock starts, as every method's image is read); it may
+      return the passes that follow anew (a list of samples per pixel with the same sum as
+      the ones it replaces: e.g. a method whose learning stopped renders its rest in one
+      pass), None to keep them;
     * ``combine(images, spps)``: the job's image from every pass's (a numpy (H, W, 3)
       array; e.g. a weighted mean);
     * optionally ``combined_variance()``: the per-pixel variance (H, W, 3) of what

@@ -92,7 +92,7 @@ def default_methods(full: bool = False) -> list[str]:
     (:data:`ADAPTIVE_METHOD`), then Mitsuba's path."""
     return [n for s in strategies() for n in
             ((s, f"{s}+nee") if integrator_type(s) == "vr_path" else (f"{s}+nee",))] + \
-        [ADAPTIVE_METHOD] * full + ["path"]
+        ([ADAPTIVE_METHOD] if full else []) + ["path"]
 
 
 def scene_files(text: str) -> list[str]:
