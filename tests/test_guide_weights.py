@@ -74,3 +74,16 @@ def test_one_estimator_is_its_pooled_mean():
     m2 = (4 * m2s[0] + 12 * m2s[1]) / 16
     assert np.allclose(image, mean) and np.all(weights == 1.0)
     assert np.allclose(variance, (m2 - mean ** 2) / 15)
+
+
+def test_weights_sum_to_one_for_every_number_of_groups():
+    """Every group gets a weight, and per pixel the weights sum to 1 (exact), for one, two
+    and three groups: a constant image stays that constant."""
+    rng = np.random.default_rng(4)
+    for groups in ([[0]], [[0], [1]], [[0, 1], [2]], [[0], [1], [2]]):
+        n = 1 + max(max(g) for g in groups)
+        images = [np.full((3, 4, 3), 0.7) for _ in range(n)]
+        m2s = [im * im + rng.random((3, 4, 3)) for im in images]
+        image, weights, _ = guide_passes.combine(images, m2s, [8] * n, groups)
+        assert weights.shape[0] == len(groups) and np.all(weights > 0)
+        assert np.allclose(weights.sum(axis=0), 1.0) and np.allclose(image, 0.7)

@@ -11,6 +11,14 @@ GUIDING = [
            "variance and weighs more, and the image reads low",
            ("tests/test_guide_weights.py::test_cross_weights_keep_the_combined_image_"
             "unbiased",)),
+    Mutant("guide-one-estimator-off-by-one", "integrators/guide_passes.py",
+           "    weights = cross_weights(pixels, counts) if len(groups) > 1 else \\\n",
+           "    weights = cross_weights(pixels, counts) if len(groups) > 2 else \\\n",
+           "the one-estimator shortcut (one weight of 1, no cross weights) taken for two "
+           "estimators too: the second one's renders are dropped from the image, which is "
+           "then noisier than the variance it states",
+           ("tests/test_guide_weights.py::test_weights_sum_to_one_for_every_number_of_"
+            "groups",)),
     Mutant("guide-share-missing", "integrators/guided.py",
            "        pdf = dr.select(s < 1.0, dr.fma(s, pdf_bsdf - p, p), pdf_bsdf)",
            "        pdf = dr.select(s < 1.0, (1.0 - s) * p, pdf_bsdf)",
