@@ -117,3 +117,14 @@ def test_a_name_not_listed_is_rejected_naming_the_choices(name):
     message = str(exc.value) + str(exc.value.__cause__ or "")
     assert f"unknown strategy {name!r}" in message, message
     assert "valid choices are " + ", ".join(STRATEGIES) in message, message
+
+
+def test_a_scene_loads_with_an_adaptive_methods_integrator():
+    """The executor loads a scene with the first job's method: an adaptive one nests its
+    integrator, which the scene's integrator node takes as an object."""
+    scene = load_scene(scene_path("cbox.xml"), 8, 4, M.parse_method("bsdf+nee+adaptive"),
+                       M.Depth(3, 2, None))
+    integrator = scene.integrator()
+    assert type(integrator).__name__ == "AdaptiveIntegrator"
+    assert (integrator.nested.strategy, integrator.nested.emitter_sampling,
+            integrator.nested.max_depth) == ("bsdf", True, 3)

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from _paths import scene_path
+from experiments import run_all
 from experiments.lib.studies import stability
 from experiments.lib import methods as M
 from experiments.lib import metrics
@@ -285,3 +286,47 @@ def test_sweeps_are_skipped_with_a_sentence_on_a_scene_without_their_parameters(
     texts = " ".join(b["text"] for b in section["blocks"] if b["kind"] == "text")
     assert "Sweep 'exponent' skipped: the scene has no <default> parameter exponent" in texts
     assert "Sweep 'light' skipped" in texts and "Halton at max_depth 2" in texts
+
+
+def test_adaptive_sweep_only_with_full_and_on_the_light_sweeps_cells(tmp_path):
+    """--full (make full) adds the adaptive sweep; its plain methods are the light sweep's
+    cells (one store entry for both), and each point compares adaptive with its twin."""
+    assert "adaptive" not in stability.parse(["--out", str(tmp_path)]).sweeps
+    assert "adaptive" in stability.parse(["--full", "--out", str(tmp_path)]).sweeps
+    args = run_all.cli.parse_args(run_all.build_parser(), ["--full", "--out", str(tmp_path)])
+    assert "--full" in run_all.sub_argv(args, stability.STUDY)
+    out = tmp_path / "r"
+    # 24 spp over 3 repeats: 8 per repeat, the adaptive sweep's least, so the light sweep's
+    # plain renders are the adaptive sweep's
+    stability.STUDY.main(["--quick", "--resolution", "16x8", "--spp", "24",
+                          "--sweeps", "light,adaptive", "--out", str(out)])
+    rows = list(csv.DictReader(open(out / "stability" / "adaptive.csv")))
+    assert {r["method"] for r in rows} == {"bsdf", "bsdf + adaptive", "bsdf + NEE",
+                                           "bsdf + NEE + adaptive"}
+    assert len(rows) == 4 * len(stability.QUICK.light_sizes)
+    for r in rows:
+        v, lo, hi = (float(r["ratio_to_plain" if k == "" else f"ratio{k}"])
+                     for k in ("", "_lo", "_hi"))
+        assert lo <= v * (1 + 1e-9) and v <= hi * (1 + 1e-9), r
+    # the plain methods at the adaptive sweep's samples are cells of the light sweep
+    point = out / "store" / "stability" / "light" / "2"
+    assert len(list(point.glob("bsdf_nee-*.npz"))) == 1              # rendered once
+    assert len(list(point.glob("bsdf_nee_adaptive-*.npz"))) == 1
+    notes = " ".join(json.loads((out / "stability" / "summary.json").read_text())["notes"])
+    assert "Adaptive sweep, bsdf + adaptive against bsdf at equal samples" in notes
+
+
+def test_adaptive_sweep_is_skipped_without_a_box_filter(tmp_path):
+    """Per-pixel counts need each sample in its own pixel: on the stability scene with a
+    Gaussian filter the sweep is skipped, and says why."""
+    scene = tmp_path / "cbox_gaussian.xml"
+    text = open(scene_path("cbox.xml")).read()
+    assert '<rfilter type="box"/>' in text
+    scene.write_text(text.replace('<rfilter type="box"/>', '<rfilter type="gaussian"/>'))
+    out = tmp_path / "r"
+    stability.STUDY.main(["--quick", "--scene", str(scene), "--sweeps", "adaptive",
+                          "--out", str(out)])
+    section = json.loads((out / "stability" / "section.json").read_text())
+    texts = " ".join(b["text"] for b in section["blocks"] if b["kind"] == "text")
+    assert "Sweep 'adaptive' skipped: adaptive sampling needs a box reconstruction filter" \
+        in texts

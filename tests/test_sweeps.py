@@ -7,11 +7,12 @@ excludes none. Repeats are synthetic too: value x (1 + small noise), so the
 95% intervals are narrow, or two wildly different values, so they are wide.
 """
 
+import numpy as np
 import pytest
 
 from experiments.lib import stats
-from experiments.lib.sweeps import (REGISTRY, SWEEPS, exponent, grazing, halton_randomization,
-                                    light)
+from experiments.lib.sweeps import (REGISTRY, SWEEPS, adaptive, exponent, grazing,
+                                    halton_randomization, light)
 from experiments.lib.sweeps.base import BREAK_FACTOR, Run, exceeds, mean_interval, onset
 
 NOISE = (0.97, 1.0, 1.03)          # three repeats, +-3%
@@ -25,7 +26,7 @@ def runs(value, seconds=1.0, noise=NOISE, level=1.0):
 # ----------------------------------------------------------------- shared
 
 def test_registry_lists_every_sweep_with_the_whole_protocol():
-    assert SWEEPS == ("exponent", "light", "grazing", "halton")
+    assert SWEEPS == ("exponent", "light", "grazing", "halton", "adaptive")
     for name, sweep in REGISTRY.items():
         assert sweep.name == name
         for step in ("declare", "measure", "analyse", "report"):
@@ -144,6 +145,55 @@ def test_light_sweep_says_when_nee_degrades_too():
     res = light.analyse(light_data(nee=(1, 2, 10, 30, 100, 300)))
     words = light.sentences(res)
     assert "degrades too" in words[-1]
+
+
+# ----------------------------------------------------------------- adaptive
+
+def runs_dark(value, dark, noise=NOISE):
+    """Repeats with whole-image relMSE ``value`` and dark-pixel relMSE ``dark``."""
+    return [Run(value * k, dark * k, 1.0, 1.0) for k in noise]
+
+
+def adaptive_data(bsdf=(1, 1, 1, 1, 1, 1), bsdf_dark=(1, 1, 1, 1, 1, 1)):
+    """Plain methods at relMSE 1 everywhere; ``bsdf+adaptive`` at ``bsdf`` x that (whole
+    image) and ``bsdf_dark`` (dark pixels); ``bsdf+nee+adaptive`` at 0.5 (a gain)."""
+    runs = {"bsdf": [runs_dark(1, 1) for _ in SIZES],
+            "bsdf+adaptive": [runs_dark(w, d) for w, d in zip(bsdf, bsdf_dark)],
+            "bsdf+nee": [runs_dark(1, 1) for _ in SIZES],
+            "bsdf+nee+adaptive": [runs_dark(0.5, 0.5) for _ in SIZES]}
+    return adaptive.AdaptiveData(SIZES, runs, ("bsdf", "bsdf+nee"), spp=11)
+
+
+def test_adaptive_sweep_finds_where_the_pilot_misleads_it():
+    res = adaptive.analyse(adaptive_data(bsdf=(0.9, 0.9, 1.0, 2.0, 3.0, 3.0),
+                                         bsdf_dark=(1, 1, 1, 1, 1, 4.0)))
+    plain, nee = res.comparisons
+    assert plain.method == "bsdf" and plain.ratio[3].value == pytest.approx(2.0)
+    assert plain.loses_from == 0.2 and plain.dark_loses_from == 0.02
+    assert nee.loses_from is None and nee.ratio[0].value == pytest.approx(0.5)
+    words = adaptive.sentences(res)
+    assert "bsdf + adaptive against bsdf at equal samples (11 spp)" in words[0]
+    assert "it loses (ratio above 1) from light size 0.2" in words[0]
+    assert "it loses there from light size 0.02" in words[0]
+    assert "bsdf + NEE + adaptive against bsdf + NEE" in words[1]
+    assert "loses (ratio above 1) nowhere in the sweep" in words[1]
+
+
+def test_adaptive_sweep_negative_control_no_loss_claimed_without_the_interval():
+    flat = adaptive.analyse(adaptive_data())
+    assert all(c.loses_from is None and c.dark_loses_from is None for c in flat.comparisons)
+    # two wildly different repeats: a ratio of 3 whose interval holds 1 is not a loss
+    wide = adaptive_data()
+    wide.runs["bsdf+adaptive"][4] = [Run(v, 1.0, 1.0, 1.0) for v in (0.05, 5.95)]
+    assert adaptive.analyse(wide).comparisons[0].loses_from is None
+
+
+def test_dark_mask_is_the_darkest_share_of_the_reference():
+    ref = np.zeros((2, 4, 3))
+    ref[..., :] = np.arange(8, dtype=float).reshape(2, 4, 1)[::-1]      # 7 ... 0
+    mask = adaptive.dark_mask(ref, 0.25)
+    assert mask.sum() == 2 and (ref[mask] <= 1.0).all()
+    assert adaptive.dark_mask(ref, 0.01).sum() == 1                     # at least one pixel
 
 
 # ----------------------------------------------------------------- grazing

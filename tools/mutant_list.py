@@ -406,4 +406,17 @@ MUTANTS = [
            "the warm-up at 1 spp for every power of two: on a Gaussian film a 16-spp render "
            "compiles another kernel, so its first timed try is thrown away",
            ("tests/test_timing.py::test_the_warm_up_count_compiles_the_kernel_of_the_timed_count",)),
+    # ------------------------------------------------------------ the adaptive sweep
+    Mutant("adaptive-sweep-twin-swapped", "experiments/lib/sweeps/adaptive.py",
+           "        whole = [ratio(a, b) for a, b in zip(err[adaptive(m)], err[m])]",
+           "        whole = [ratio(a, b) for a, b in zip(err[m], err[adaptive(m)])]",
+           "the adaptive sweep divides the plain method's relMSE by its adaptive twin's: "
+           "where the pilot misleads the allocation, the sweep reports a gain",
+           ("tests/test_sweeps.py::test_adaptive_sweep_finds_where_the_pilot_misleads_it",)),
+    Mutant("dark-pixels-brightest", "experiments/lib/sweeps/adaptive.py",
+           '    mask[np.argsort(lum, axis=None, kind="stable")[:k]] = True',
+           '    mask[np.argsort(lum, axis=None, kind="stable")[-k:]] = True',
+           "the adaptive sweep's dark pixels are the brightest ones, where the floor never "
+           "serves",
+           ("tests/test_sweeps.py::test_dark_mask_is_the_darkest_share_of_the_reference",)),
 ]

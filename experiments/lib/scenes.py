@@ -65,6 +65,19 @@ def parse(path: str):
                          f"{str(e).strip().splitlines()[0]}") from None
 
 
+@functools.lru_cache(maxsize=64)
+def box_filter(path: str) -> bool:
+    """Whether every reconstruction filter of the scene file is a ``box`` (Mitsuba's
+    default, with none given, is a Gaussian): each sample then lands in its own pixel."""
+    try:
+        state = parse(path)
+    except ValueError:
+        return False
+    kinds = [n.props.plugin_name() for n in state.nodes
+             if n.type == mi.ObjectType.ReconstructionFilter]
+    return bool(kinds) and all(k == "box" for k in kinds)
+
+
 #: Emitters that no sampled direction reaches (a position or a direction that is a delta):
 #: only next-event estimation sees their light.
 DELTA_EMITTERS = ("point", "spot", "projector", "directional", "directionalarea")
@@ -130,10 +143,12 @@ def _sensor(state, path: str) -> int:
 
 
 def _props(d: dict) -> "mi.Properties":
+    """``d``'s properties, a nested plugin dict (``vr_adaptive``'s ``nested``) as the
+    object it describes."""
     p = mi.Properties(d["type"])
     for key, value in d.items():
         if key != "type":
-            p[key] = value
+            p[key] = mi.load_dict(value) if isinstance(value, dict) else value
     return p
 
 

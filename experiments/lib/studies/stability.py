@@ -5,7 +5,9 @@ the Phong exponent (every vr_path strategy), the light size at constant
 power (with and without next-event estimation), grazing incidence, and
 Halton without and with randomization at max_depth 2 and --max-depth (8 when
 the scene and the command line give none above 2, or an unbounded one, where
-plain Halton's all-zero first sample would never end its path). Every comparison is
+plain Halton's all-zero first sample would never end its path); with --full (make full)
+a fifth, adaptive sampling against its plain twin on the light sweep's scenes, where
+its pilot can mislead it (fireflies, dark pixels). Every comparison is
 measured over --repeats independent randomizations and reported with 95%
 intervals. Outliers are counted over every render. --methods picks the
 strategies of the light and Halton sweeps.
@@ -25,6 +27,10 @@ from experiments.lib.sweeps import BREAK_FACTOR, NAME, NORMAL, QUICK, REGISTRY, 
 from experiments.lib.sweeps.base import StabilitySettings
 
 ORDER = 40
+#: Sweeps that only ``--full`` (``make full``) adds to the default ones: the adaptive
+#: method is not among the default run's methods either (the 5-minute make run).
+FULL_ONLY = ("adaptive",)
+DEFAULT_SWEEPS = tuple(n for n in REGISTRY if n not in FULL_ONLY)
 QUICK_DEFAULTS = {"resolution": (32, 16), "spp": 4, "reference_spp": 16}
 #: Independent repeats of every sweep render, for the intervals (--spp, and the Halton
 #: ladder's 64, are split over them: each repeat renders spp // R).
@@ -41,8 +47,12 @@ def build_parser() -> cli.Parser:
                         f"--reference-spp default to {QUICK_DEFAULTS['resolution'][0]}x"
                         f"{QUICK_DEFAULTS['resolution'][1]}, {QUICK_DEFAULTS['spp']} and "
                         f"{QUICK_DEFAULTS['reference_spp']}")
-    p.add_argument("--sweeps", type=sweep_list, default=",".join(REGISTRY),
-                   help=f"comma-separated sweeps to run: {', '.join(REGISTRY)}")
+    p.add_argument("--sweeps", type=sweep_list, default=",".join(DEFAULT_SWEEPS),
+                   help=f"comma-separated sweeps to run: {', '.join(REGISTRY)} (default: "
+                        f"{', '.join(DEFAULT_SWEEPS)}; --full adds the rest)")
+    p.add_argument("--full", action="store_true",
+                   help=f"also the sweeps {', '.join(FULL_ONLY)} when --sweeps is not given "
+                        f"(make full)")
     return p
 
 
@@ -57,6 +67,8 @@ def sweep_list(text: str) -> list[str]:
 
 def parse(argv=None):
     args = cli.parse_args(build_parser(), argv)
+    if args.full and "sweeps" not in args.explicit:
+        args.sweeps = list(REGISTRY)
     if args.quick:       # quick values for every option not given on the command line
         for key, value in QUICK_DEFAULTS.items():
             if key not in args.explicit:
@@ -155,4 +167,4 @@ def run_settings(settings: StabilitySettings) -> None:
 
 STUDY = register_study(StudySpec(
     NAME, 'Stability: where each method breaks down', ORDER, build_parser, run,
-    parse=parse, quick=("--quick",)))
+    parse=parse, quick=("--quick",), forwarded={"full": "--full"}))

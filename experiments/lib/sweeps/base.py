@@ -150,7 +150,7 @@ def budget(spp: int, repeats: int) -> str:
 
 
 def label(method: str) -> str:
-    return method.replace("+nee", " + NEE")
+    return method.replace("+nee", " + NEE").replace("+adaptive", " + adaptive")
 
 
 class Outliers:
@@ -181,7 +181,7 @@ class Outliers:
         table = report.write_table(
             out, f"{NAME}/outliers", ["method", "images", "largest pixel", "fireflies",
                                       "NaN/Inf pixels"], rows,
-            f"5. Outliers per method over every sweep render (every repeat). Firefly: a pixel "
+            f"6. Outliers per method over every sweep render (every repeat). Firefly: a pixel "
             f"whose luminance error exceeds the image's median error by "
             f"{metrics.FIREFLY_MADS:g} median absolute deviations. NaN/Inf: non-finite pixels "
             f"of the accumulated image (one non-finite sample makes its pixel non-finite).")

@@ -116,17 +116,18 @@ class LightSweep:
         defaults = scene_defaults(ctx.settings.info.path)
         return float(defaults["light_size"]), float(defaults["light_radiance"])
 
-    def declare(self, ctx: Context) -> Declaration:
-        """Every method at every light size (a scene variant each, constant power), --spp
-        split over the repeats."""
+    def declare(self, ctx: Context, methods=None, at: Budget | None = None) -> Declaration:
+        """Every method (default :meth:`methods`) at every light size (a scene variant
+        each, constant power), at ``at`` (default --spp split over the repeats). Another
+        sweep declares its methods on these scenes so (:mod:`.adaptive`): the same cells."""
         info, (size0, rad0) = ctx.settings.info, self.lights(ctx)
 
         def variant(size, scene):
             return replace(scene, info=scene_variant(
                 info, ctx.scene_dir, f"light-{size:g}",
                 {"light_size": float(size), "light_radiance": rad0 * (size0 / size) ** 2}))
-        return ctx.declare(self.name, ctx.cfg.light_sizes, variant, self.methods(ctx),
-                           Budget.equal_spp(ctx.spp))
+        return ctx.declare(self.name, ctx.cfg.light_sizes, variant,
+                           methods or self.methods(ctx), at or Budget.equal_spp(ctx.spp))
 
     def measure(self, ctx: Context, measured: Measurements) -> LightData:
         methods, (size0, rad0) = self.methods(ctx), self.lights(ctx)

@@ -27,7 +27,6 @@ are the report's (:mod:`.report`).
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
 from dataclasses import dataclass
 
@@ -93,19 +92,6 @@ class CellBias:
 def cell_level(cells: int) -> float:
     """The per-cell level that makes ``cells`` cells one family at :data:`LEVEL`."""
     return bias.sidak(1.0 - LEVEL, max(1, cells))
-
-
-@functools.lru_cache(maxsize=64)
-def box_filter(path: str) -> bool:
-    """Whether every reconstruction filter of the scene file is a ``box`` (Mitsuba's
-    default, with none given, is a Gaussian)."""
-    try:
-        state = scenes.parse(path)
-    except ValueError:
-        return False
-    kinds = [n.props.plugin_name() for n in state.nodes
-             if n.type == scenes.mi.ObjectType.ReconstructionFilter]
-    return bool(kinds) and all(k == "box" for k in kinds)
 
 
 def variance_kind(method, box: bool, trained: bool = True) -> str:

@@ -92,7 +92,7 @@ class ScenePlan:
     reference_note: str = ""                      # why ref is the one it is (reference_choice)
     reference_test: object = None                 # the candidate's bias test (bias_test.CellBias)
     user_ref: str | None = None
-    box: bool = False                             # every filter a box (bias_test.box_filter)
+    box: bool = False                             # every filter a box (scenes.box_filter)
     left_out: dict = field(default_factory=dict)  # {method name: why} (header ``methods``)
 
     def setup(self) -> SceneSetup:
@@ -151,7 +151,7 @@ def plan_scenes(cfg: Settings) -> list[ScenePlan]:
                             f"{cfg.forced_resolution[1]}")
                 continue
         sp.depth = scenes.effective_depth(sp.info, cfg.max_depth, cfg.rr_depth)
-        sp.box = bias_test.box_filter(path)
+        sp.box = scenes.box_filter(path)
         if sp.user_ref is None:
             chunk = references.chunk_spp_for(sp.width, sp.height, cfg.reference_typical_spp)
             sp.ref = sp.bias_ref = references.RefSpec(sp.info, sp.width, sp.height, sp.depth,
