@@ -22,6 +22,7 @@ from .guide_record import Recorder
 from .guide_roulette import Roulette
 from .guided import GuidedStrategy
 from .path import VRPathIntegrator
+from .sequence_sampler import SequenceSampler
 
 #: The values of the ``roulette`` parameter.
 ROULETTES = ("adjoint", "throughput")
@@ -130,7 +131,9 @@ class GuidedPathIntegrator(VRPathIntegrator):
          ``throughput``: ``vr_path``'s rule. (Default: ``adjoint``)
 
     and every parameter of ``vr_path`` (``max_depth``, ``rr_depth``, ``hide_emitters``,
-    ``emitter_sampling``). See docs/guiding.md for the method, its costs and when it loses.
+    ``emitter_sampling``). One ``mi.render`` call trains and renders the whole job in its
+    own passes and returns the combined RGB image. See docs/guiding.md for the method, its
+    costs and when it loses.
     Samplers that compile the sample count into the kernel (stratified, multijitter,
     orthogonal, ldsampler) are refused: every pass would recompile.
     """
@@ -197,6 +200,9 @@ class GuidedPathIntegrator(VRPathIntegrator):
         self.gains = []
         #: The weights of :meth:`combine`'s groups, and the combined image's variance.
         self.weights, self.variance = None, None
+        #: A driver renders the passes, one ``mi.render`` call each, between
+        #: :meth:`pass_schedule` and :meth:`combine` (else :meth:`render` drives them).
+        self._driven = False
 
     # ------------------------------------------------------------------- render side
 
@@ -261,6 +267,7 @@ class GuidedPathIntegrator(VRPathIntegrator):
         # without training: vr_path's own bsdf strategy and roulette (its kernel)
         self._stopped = not trains
         self.sampling_strategy = self.guide if trains else strategies.get("bsdf")
+        self._driven = True
         return [n for _, n in self._passes]
 
     def after_pass(self, index: int, image, spp: int) -> list | None:
@@ -329,6 +336,7 @@ class GuidedPathIntegrator(VRPathIntegrator):
         image, self.weights, self.variance = guide_passes.combine(images, self._m2, spps,
                                                                    groups)
         self._groups = groups
+        self._driven = False
         return image
 
     def combined_variance(self) -> np.ndarray:
@@ -356,9 +364,60 @@ class GuidedPathIntegrator(VRPathIntegrator):
             out.append((w, n, *pooled))
         return out
 
+    # ------------------------------------------------------------ one mi.render call
+
+    def render(self, scene, sensor=0, seed=0, spp=0, develop=True, evaluate=True):
+        """``mi.render`` with this integrator: the whole job, trained, in its own passes
+        (:meth:`_render_job`); the combined RGB image (H, W, 3). Between a driver's
+        :meth:`pass_schedule` and :meth:`combine` (the experiments' executor), each call
+        renders one pass, its image with the moment AOVs."""
+        if self._driven or not develop:
+            return super().render(scene, sensor, seed, spp, develop, evaluate)
+        return self._render_job(scene, sensor, seed, spp)
+
+    def _render_job(self, scene, sensor, seed: int, spp: int) -> mi.TensorXf:
+        """Every pass of :meth:`pass_schedule` with :meth:`after_pass` between them, then
+        :meth:`combine`, as the executor drives them: a sampler of the project that takes
+        a sequence per pixel (``halton``, ``zsobol``) continues it from pass to pass (its
+        ``sample_offset``, restored after), any other is reseeded per pass."""
+        if isinstance(sensor, int):
+            sensor = scene.sensors()[sensor]
+        sampler = sensor.sampler()
+        spp = spp or sampler.sample_count()
+        size = sensor.film().crop_size()
+        schedule = self.pass_schedule(spp, int(size.x) * int(size.y))
+        sequence = isinstance(sampler, SequenceSampler)
+        kept = {n: getattr(sampler, n) for n in ("sample_offset", "sequence_length")
+                if sequence and hasattr(sampler, n)}
+        images, spps = [], []
+        try:
+            while len(images) < len(schedule):
+                i, k = len(images), schedule[len(images)]
+                if sequence:
+                    sampler.sample_offset = kept["sample_offset"] + sum(spps)
+                    if "sequence_length" in kept:
+                        sampler.sequence_length = kept["sample_offset"] + spp
+                image = np.array(super().render(scene, sensor, seed if sequence else
+                                                _pass_seed(seed, i), k), dtype=np.float64)
+                rest = self.after_pass(i, image, k)
+                schedule = schedule if rest is None else schedule[:i + 1] + list(rest)
+                images.append(image[..., :3])
+                spps.append(k)
+            image = self.combine(images, spps)
+        finally:
+            self._driven = False
+            for name, value in kept.items():
+                setattr(sampler, name, value)
+        return mi.TensorXf(np.ascontiguousarray(image, dtype=np.float32))
+
     def to_string(self):
         return (f"GuidedPathIntegrator[{VRPathIntegrator.to_string(self)}, "
                 f"bsdf_fraction={self.bsdf_fraction}, leaves={self.guide.tree.leaves}]")
+
+
+def _pass_seed(seed: int, index: int) -> int:
+    """The seed of pass ``index`` of a job seeded ``seed`` (a stream of its own per pass)."""
+    return (int(seed) * 0x9E3779B1 + (index + 1) * 0x85EBCA77) & 0xFFFFFFFF
 
 
 mi.register_integrator("vr_guided_path", GuidedPathIntegrator)

@@ -681,3 +681,62 @@ def test_guide_with_a_qmc_sampler_agrees_with_path(method, qmc_reference):
     agreement = _blocks.agree(_blocks.summarize(guided), _blocks.summarize(qmc_reference),
                               0.005, 0.005, variance="renders")
     assert agreement.passed, agreement.describe()
+
+
+def _pass_seeds_as_render_job(monkeypatch):
+    """The seeds render_job gives its passes (seed x 1000 + pass) for a plain render too."""
+    from integrators import guided_path
+    monkeypatch.setattr(guided_path, "_pass_seed", lambda seed, i: seed * 1000 + i)
+
+
+def test_one_mi_render_trains_the_guide_in_its_own_passes(monkeypatch):
+    """A user's ``mi.render`` with ``vr_guided_path`` renders the whole job in the
+    integrator's own passes: it trains (learned units, several iterations combined) and
+    returns the combined RGB image, the very image the passes driven one by one give (the
+    experiments' executor, here ``render_job``) with the same seeds."""
+    _pass_seeds_as_render_job(monkeypatch)
+    d = {"type": "vr_guided_path", "emitter_sampling": True, "max_depth": 4,
+         "min_train_spp": 2, "min_train_samples": 1}
+    driven, _, ref = render_job(cbox(), d, 64, 5)
+    integ = mi.load_dict(d)
+    image = np.array(mi.render(cbox(), integrator=integ, spp=64, seed=5), dtype=np.float64)
+    assert image.shape == (16, 16, 3) and np.isfinite(image).all()
+    assert integ.guide.tree.learned.any() and len(integ._iterations) > 2
+    assert len(integ.weights) == len(ref.weights)
+    np.testing.assert_allclose(image, driven, rtol=1e-4, atol=1e-6)
+    # between a driver's pass_schedule and combine, one call renders one pass
+    integ.pass_schedule(64, 256)
+    one = mi.render(cbox(), integrator=integ, spp=2, seed=1)
+    assert one.shape[-1] == 3 + len(integ.aov_names())      # its image and moment AOVs
+
+
+def test_one_mi_render_continues_a_sequence_samplers_points(monkeypatch):
+    """With ``halton`` the passes continue one sequence per pixel (its ``sample_offset``
+    set to the samples already taken, and put back afterwards): the image is the one
+    the driven passes give with those offsets."""
+    _pass_seeds_as_render_job(monkeypatch)
+    d = {"type": "vr_guided_path", "emitter_sampling": True, "max_depth": 4,
+         "min_train_spp": 2, "min_train_samples": 1}
+
+    def scene():
+        s = mi.cornell_box()
+        s["sensor"]["film"].update(width=16, height=16, rfilter={"type": "box"})
+        s["sensor"]["sampler"] = {"type": "halton", "sample_count": 32,
+                                  "randomization": "owen"}
+        return mi.load_dict(s)
+    integ = mi.load_dict(d)
+    sc = scene()
+    image = np.array(mi.render(sc, integrator=integ, spp=32, seed=2), dtype=np.float64)
+    assert sc.sensors()[0].sampler().sample_offset == 0
+    assert integ.guide.tree.learned.any() and np.isfinite(image).all()
+    sc2, driven = scene(), mi.load_dict(d)
+    schedule, images, done, i = driven.pass_schedule(32, 256), [], 0, 0
+    while i < len(schedule):
+        sc2.sensors()[0].sampler().sample_offset = done
+        img = mi.render(sc2, integrator=driven, spp=schedule[i], seed=2)
+        rest = driven.after_pass(i, img, schedule[i])
+        schedule = schedule if rest is None else replaced_rest(schedule, i, rest)
+        images.append(np.array(img, dtype=np.float64)[..., :3])
+        done, i = done + schedule[i], i + 1
+    np.testing.assert_allclose(image, driven.combine(images, schedule), rtol=1e-4,
+                               atol=1e-6)

@@ -229,4 +229,10 @@ GUIDING = [
            "the guided integrator's variance of its combined image not used: the suite's "
            "per-pixel errors of guided+nee lost (its errors from 3 repeats, bounds only)",
            ("tests/test_guiding.py::test_the_executor_takes_the_combined_variance",)),
+    Mutant("guided-render-untrained", "integrators/guided_path.py",
+           "        if self._driven or not develop:",
+           "        if True:",
+           "one mi.render call with vr_guided_path (a user's own scene) renders one untrained "
+           "pass: plain BSDF sampling, and the moment AOVs in the image",
+           ("tests/test_guiding.py::test_one_mi_render_trains_the_guide_in_its_own_passes",)),
 ]
