@@ -299,6 +299,21 @@ MUTANTS = [
            "a method found more efficient by an interval that one render's rare firefly "
            "makes (two renders of one estimator 177 times apart)",
            ("tests/test_suite_fireflies.py",)),
+    Mutant("tail-rest-keeps-the-top", "experiments/lib/studies/suite/errors.py",
+           "    v[r][p] = 0.0\n",
+           "    pass\n",
+           "the rest of an error that one pixel of one render rules keeps that term: the "
+           "bound on the efficiency is the mean-based interval's end, which a firefly in "
+           "the baseline puts above 1 for one estimator",
+           ("tests/test_suite_tail_bounds.py",)),
+    Mutant("tail-bound-on-the-wrong-side", "experiments/lib/studies/suite/analysis.py",
+           "    if errors.ruled(b):       # b's error at least its rest: a at least this "
+           "efficient",
+           "    if errors.ruled(a):       # b's error at least its rest: a at least this "
+           "efficient",
+           "a firefly in the baseline's renders bounds the efficiency from above instead "
+           "of below",
+           ("tests/test_suite_tail_bounds.py",)),
     Mutant("typical-by-the-mean", "experiments/lib/studies/suite/errors.py",
            "    return float(np.median(b.each) * np.mean(b.seconds) /\n"
            "                 (np.median(a.each) * np.mean(a.seconds)))",

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import fnmatch
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -66,6 +66,9 @@ class Runs:
     costs: tuple = ()         # per budget (equal spp, equal time): (its spp, each repeat's
     #                           cost per sample)
     each: tuple = ()          # per repeat, its own expected relMSE (its pixels' variances)
+    top: float = 0.0          # the largest share of ``expected`` one pixel of one render
+    #                           holds (:func:`.errors.top_share`)
+    rest: tuple = ()          # ``expected`` without that term (:func:`.errors.without_top`)
 
 
 @dataclass(frozen=True)
@@ -105,15 +108,26 @@ class SceneNumbers:
 
 # ------------------------------------------------------------------ ratios with bounds
 
+#: Why a ratio is a bound (``Ratio.why``): an error below the reference's noise, or an
+#: error that one pixel of one render rules (:func:`.errors.ruled`).
+NOISE, TAIL = "noise", "tail"
+BOUND_WORDS = {NOISE: "an error below the reference's noise",
+               TAIL: "an error that one pixel of one render rules, so at least its rest"}
+
+
 @dataclass(frozen=True)
 class Ratio:
-    """An efficiency ratio: an interval (``side`` ""), a lower bound (">": the numerator's
-    error is below the reference's noise), an upper bound ("<"), or unknown ("?").
-    ``typical``: the same ratio from the median of each cell's renders' own expected errors
-    (:func:`.errors.typical_efficiency`; nan where not known)."""
+    """An efficiency ratio: an interval (``side`` ""), a lower bound (">"), an upper bound
+    ("<"), or unknown ("?"); ``why`` a bound (:data:`BOUND_WORDS`): the numerator's error
+    (">") or the denominator's ("<") is below the reference's noise, or the denominator's
+    (">") or the numerator's ("<") is ruled by one pixel of one render, so that only its
+    rest is known, a lower bound of it. ``typical``: the same ratio from the median of each
+    cell's renders' own expected errors (:func:`.errors.typical_efficiency`; nan where not
+    known)."""
     est: stats.Estimate
     side: str = ""
     typical: float = math.nan
+    why: str = NOISE
 
     @property
     def value(self) -> float:
@@ -148,9 +162,10 @@ class Ratio:
 
     def text(self) -> str:
         if self.side == "?":
-            return "unknown (both errors below the reference's noise)"
+            return ("unknown (both errors below the reference's noise)" if self.why == NOISE
+                    else "unknown (both errors ruled by one pixel of one render)")
         if self.side in "<>" and self.side:
-            return f"{self.side} {g(self.value)} (an error below the reference's noise)"
+            return f"{self.side} {g(self.value)} ({BOUND_WORDS[self.why]})"
         return self.est.text()
 
     def short(self) -> str:
@@ -178,7 +193,10 @@ def efficiency(a: Runs, b: Runs, floor: float, metric: str = "relmse") -> Ratio:
     pixels' pass variances (relMSE only): :func:`.errors.efficiency`."""
     precise = errors.efficiency(a, b) if metric == "relmse" else None
     if precise is not None:
-        return Ratio(precise, typical=errors.typical_efficiency(a, b))
+        typical = errors.typical_efficiency(a, b)
+        if (errors.ruled(a) or errors.ruled(b)) and a is not b:
+            return _tail_bound(a, b, typical)
+        return Ratio(precise, typical=typical)
     ea, eb = (getattr(r, metric) for r in (a, b))
     xa, xb = stats.excess_interval(ea, floor), stats.excess_interval(eb, floor)
     n = min(len(ea), len(eb))
@@ -196,6 +214,28 @@ def efficiency(a: Runs, b: Runs, floor: float, metric: str = "relmse") -> Ratio:
                              [_shift(ea, floor), list(a.seconds)])
     high = r.hi if r.known else r.value
     return Ratio(stats.Estimate(high, 0.0, high, n), "<")
+
+
+def _tail_bound(a: Runs, b: Runs, typical: float) -> Ratio:
+    """The efficiency of ``a`` over ``b`` where one pixel of one render rules the error of
+    one of them (:func:`.errors.ruled`): that error is at least its estimate without the
+    term (``Runs.rest``), so the interval's end on that side, computed with the rest, is a
+    bound; unknown where both are ruled (or the rest is no error)."""
+    n = min(len(a.relmse), len(b.relmse))
+    unknown = Ratio(stats.Estimate(math.nan, math.nan, math.nan, n), "?", typical, TAIL)
+    if errors.ruled(a) and errors.ruled(b):
+        return unknown
+    if errors.ruled(b):       # b's error at least its rest: a at least this efficient
+        r = errors.efficiency(a, replace(b, expected=b.rest))
+        if r is None:
+            return unknown
+        low = r.lo if r.known else r.value
+        return Ratio(stats.Estimate(low, low, math.inf, n), ">", typical, TAIL)
+    r = errors.efficiency(replace(a, expected=a.rest), b)
+    if r is None:
+        return unknown
+    high = r.hi if r.known else r.value
+    return Ratio(stats.Estimate(high, 0.0, high, n), "<", typical, TAIL)
 
 
 # ------------------------------------------------------------------ the winner

@@ -108,6 +108,36 @@ def pooled(maps, tails=None) -> tuple[float, float]:
     return value, var
 
 
+#: Share of a cell's pooled expected relMSE (:func:`pooled`) above which one pixel of one
+#: render holds it: its estimate rests on that one term, so its efficiencies are bounds
+#: (:func:`without_top`), not intervals.
+TAIL_SHARE = 0.5
+
+
+def top_share(maps) -> float:
+    """The largest share of the sum of ``maps`` (each render's :func:`pixel_map`) that one
+    pixel of one render holds (0 where the sum is not positive)."""
+    v = np.stack([np.asarray(m, np.float64).ravel() for m in maps])
+    total = float(v.sum())
+    return float(v.max()) / total if total > 0 else 0.0
+
+
+def without_top(maps, tails=None) -> tuple[float, float]:
+    """:func:`pooled` with the one term that holds the most of it (a pixel of one render,
+    its value and its tail) left out: an estimate of the cell's expected relMSE that is
+    low where that term is a rare sample of a heavy tail (the error it left out is real),
+    so its interval's lower end bounds the error from below."""
+    v = [np.asarray(m, np.float64).copy() for m in maps]
+    r = int(np.argmax([m.max() for m in v]))
+    p = np.unravel_index(int(np.argmax(v[r])), v[r].shape)
+    v[r][p] = 0.0
+    t = None
+    if tails and all(x is not None for x in tails):
+        t = [np.asarray(x, np.float64).copy() for x in tails]
+        t[r][p] = 0.0
+    return pooled(v, t)
+
+
 def estimate(value: float, var: float, n: int, level: float = stats.LEVEL) -> stats.Estimate:
     """The pooled expected relMSE (:func:`pooled`) with its interval (log scale, normal
     quantile); ``n``: the repeats."""
@@ -126,6 +156,12 @@ def _error_terms(a, b) -> tuple | None:
     if not (ea > 0 and eb > 0 and math.isfinite(va + vb)):
         return None
     return math.log(eb / ea), [(va / ea ** 2, math.inf), (vb / eb ** 2, math.inf)]
+
+
+def ruled(runs) -> bool:
+    """Whether one pixel of one render holds more than :data:`TAIL_SHARE` of the cell's
+    expected relMSE (``Runs.top``)."""
+    return bool(runs.expected) and runs.top > TAIL_SHARE
 
 
 def error_ratio(a, b, level: float = stats.LEVEL) -> stats.Estimate | None:

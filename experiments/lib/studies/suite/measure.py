@@ -63,8 +63,11 @@ def _runs(runs: list, ref: references.Reference, b: list[float],
     tails = [errors.pixel_map_variance(x.variance_var, ref.image) for x in runs]
     expected = errors.pooled(maps, tails) if all(m is not None for m in maps) else ()
     each = tuple(float(m.mean()) for m in maps) if expected else ()
+    top = errors.top_share(maps) if expected else 0.0
+    rest = errors.without_top(maps, tails) if expected else ()
     return analysis.Runs(runs[0].spp, tuple(rel), tuple(rej), tuple(mse), tuple(secs),
-                         tuple(flips), tuple(means), tuple(mvars), expected, costs, each), \
+                         tuple(flips), tuple(means), tuple(mvars), expected, costs, each,
+                         top, rest), \
         float(np.mean(rej_floor))
 
 

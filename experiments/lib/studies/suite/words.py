@@ -35,6 +35,7 @@ WINNER = ("On {{ scene }}, {{ winner }} wins at equal time: {% if winner != base
           "method{% endif %}.")
 TIES = ("On {{ scene }}, {{ names }} cannot be told apart at equal time (best estimate: "
         "{% if lead != base %}{{ lead }}, {{ ratio.value | g }} times {{ base }}"
+        "{% if ratio.side %} ({{ ratio.text() }}){% endif %}"
         "{% if not ratio.firm %}, {{ ratio.typical | g }} by the median of each one's "
         "renders' errors: a rare firefly rules the mean{% endif %}{% else %}"
         "{{ base }} itself{% endif %}).")
