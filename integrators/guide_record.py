@@ -32,6 +32,12 @@ def channel_mean(color) -> mi.Float:
     return (color[0] + color[1] + color[2]) * (1.0 / 3.0)
 
 
+def most_spp(pixels: int, depth: int) -> int:
+    """The most samples per pixel of one recording render of ``pixels`` pixels whose
+    records (``depth`` per sample) stay within :data:`RECORD_CAP_BYTES` (0: not even one)."""
+    return RECORD_CAP_BYTES // (RECORD_BYTES * depth * max(1, pixels))
+
+
 class Recorder:
     """The records of one render (see the module) into ``tree`` (an
     :class:`~.sdtree.SDTree`): arrays of ``depth x lanes`` entries, for the first

@@ -17,7 +17,7 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from . import guide_passes, guide_quadtree, moments, strategies
+from . import guide_passes, guide_quadtree, guide_record, moments, strategies
 from .guide_record import Recorder
 from .guide_roulette import Roulette
 from .guided import GuidedStrategy
@@ -105,8 +105,9 @@ class GuidedPathIntegrator(VRPathIntegrator):
        - |int|
        - Most samples per pixel of one render of an iteration that records: one above it
          is split into several renders (records cost 56 bytes x record_depth per sample, at
-         most 256 MiB per render). The last iteration, and the rest of a job whose training
-         stopped, are one render each. (Default: 64)
+         most 256 MiB per render: on a larger film a render takes fewer, down to 1). The
+         last iteration, and the rest of a job whose training stopped, are one render
+         each. (Default: 64)
 
      * - first_pass_spp
        - |int|
@@ -257,7 +258,9 @@ class GuidedPathIntegrator(VRPathIntegrator):
                           f"sampling (vr_path's bsdf strategy)", stacklevel=2)
         self._iterations = guide_passes.iterations(spp, self.first_pass_spp) \
             if not small else [spp]
-        self._passes = guide_passes.renders(self._iterations, self.max_pass_spp, not small)
+        most = min(self.max_pass_spp,
+                   max(1, guide_record.most_spp(pixels, self.record_depth)))
+        self._passes = guide_passes.renders(self._iterations, most, not small)
         self._m2, self._mean, self._spp, self.gains = [], [], [], []
         self._m34, self._groups = [], []
         self.weights, self.variance = None, None

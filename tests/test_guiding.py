@@ -479,11 +479,13 @@ def test_the_executor_splits_a_pass_over_its_lane_cap(monkeypatch):
 
 
 def test_record_cap_and_refusals():
-    scene = cbox()
-    big = mi.load_dict({"type": "vr_guided_path", "max_pass_spp": 4096, "record_depth": 32})
+    d = mi.cornell_box()
+    d["sensor"]["film"].update(width=400, height=400)   # 1 spp x 32 records: 287 MiB
+    big = mi.load_dict({"type": "vr_guided_path", "record_depth": 32})
     with pytest.raises(Exception) as error:
-        mi.render(scene, integrator=big, spp=4096)
+        mi.render(mi.load_dict(d), integrator=big, spp=1024)
     assert "256 MiB" in str(error.value) + str(error.value.__cause__)
+    scene = cbox()
     strat = {**mi.cornell_box(), "integrator": {"type": "vr_guided_path"}}
     strat["sensor"]["sampler"] = {"type": "stratified", "sample_count": 4}
     with pytest.raises(Exception) as error:
@@ -740,3 +742,21 @@ def test_one_mi_render_continues_a_sequence_samplers_points(monkeypatch):
         done, i = done + schedule[i], i + 1
     np.testing.assert_allclose(image, driven.combine(images, schedule), rtol=1e-4,
                                atol=1e-6)
+
+
+def test_a_large_film_records_in_renders_that_fit_the_cap():
+    """A recording render keeps 56 bytes x record_depth per sample, at most 256 MiB: on a
+    512 x 512 film at record_depth 4 that is 4 spp (the default max_pass_spp, 64, would
+    keep 3.6 GiB), so the schedule splits each recording iteration into renders of at most
+    4 spp; the last iteration is one render; every sample is kept."""
+    from integrators import guide_record
+    pixels = 512 * 512
+    assert guide_record.most_spp(pixels, 4) == 4
+    assert guide_record.most_spp(400 * 400, 32) == 0
+    integ = mi.load_dict({"type": "vr_guided_path"})
+    schedule = integ.pass_schedule(256, pixels)
+    recording = [n for (k, n) in integ._passes if k + 1 < len(integ._iterations)]
+    assert max(recording) == 4 and sum(schedule) == 256
+    assert integ._passes[-1][1] == integ._iterations[-1] > 4
+    small = mi.load_dict({"type": "vr_guided_path"}).pass_schedule(1024, 64 * 48)
+    assert max(small[:-1]) == 64                  # a small film keeps max_pass_spp

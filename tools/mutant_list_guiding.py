@@ -235,4 +235,11 @@ GUIDING = [
            "one mi.render call with vr_guided_path (a user's own scene) renders one untrained "
            "pass: plain BSDF sampling, and the moment AOVs in the image",
            ("tests/test_guiding.py::test_one_mi_render_trains_the_guide_in_its_own_passes",)),
+    Mutant("record-split-ignores-the-film", "integrators/guided_path.py",
+           "        most = min(self.max_pass_spp,\n"
+           "                   max(1, guide_record.most_spp(pixels, self.record_depth)))\n",
+           "        most = self.max_pass_spp\n",
+           "a recording render of max_pass_spp samples per pixel whatever the film: a user's "
+           "512 x 512 render with vr_guided_path refused for its records' memory",
+           ("tests/test_guiding.py::test_a_large_film_records_in_renders_that_fit_the_cap",)),
 ]
