@@ -210,6 +210,10 @@ def test_the_wrong_plugins_are_flagged_on_real_scenes_and_their_twins_are_not(ru
     # one render holds 11-16% of its image sum's variance, about the gate (15%), and a
     # sampler pair's cell there is flagged or untestable, as its equal-time count falls
     unsure = {(scene, m) for scene in ("veach_mis",) for m in (WRONG_SAMPLER, RIGHT_SAMPLER)}
+    # rough_glass's right sampler twin: its budget is seconds, and on a machine 2-3 times
+    # slower (an AVX2 EPYC, 2026-12-07) its renders' spread had no power there (untestable,
+    # pooled p 0.57): never called biased, not always tested
+    unsure.add(("rough_glass", RIGHT_SAMPLER))
     flagged = {(scene, WRONG_SAMPLER) for scene in names
                if scene not in ("phong_highlight", "rough_glass")} | \
         {(scene, WRONG_STRATEGY) for scene in names
@@ -221,6 +225,7 @@ def test_the_wrong_plugins_are_flagged_on_real_scenes_and_their_twins_are_not(ru
         assert cells[key]["biased"] is False, describe(cells[key])
     assert cells[("veach_mis", WRONG_SAMPLER)]["biased"] is not False
     assert cells[("veach_mis", RIGHT_SAMPLER)]["biased"] is not True
+    assert cells[("rough_glass", RIGHT_SAMPLER)]["biased"] is not True
     # the sampler pair is judged with the renders' spread (a plugin sampler), the
     # strategies with the pixels' (the independent sampler and a box filter)
     assert {cells[k]["bias_variance"] for k in cells if "2d" in k[1]} == {"renders"}

@@ -1,5 +1,5 @@
 """A verdict that one render's rare firefly makes is no verdict (experiments/lib/studies/suite
-analysis.Ratio.firm, errors.typical_efficiency).
+ratios.Ratio.firm, errors.typical_efficiency).
 
 A cell's expected relMSE E is the mean of its renders' own expected errors. Where a rare
 firefly lands in one render of one cell (its own variance huge) and the other cell's renders
@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from experiments.lib.studies.suite import analysis as A
+from experiments.lib.studies.suite import ratios
 
 #: A render's expected relMSE without a firefly, with one, and how often one lands.
 TYPICAL, FIREFLY, RATE = 0.0015, 0.7, 0.05
@@ -40,7 +41,7 @@ def verdicts(rng, typical_a, rate_a, typical_b, rate_b, firm=True, either=False)
     the mean-based interval alone."""
     found = 0
     for _ in range(TRIALS):
-        r = A.efficiency(cell(rng, typical_a, rate_a), cell(rng, typical_b, rate_b), 0.0)
+        r = ratios.efficiency(cell(rng, typical_a, rate_a), cell(rng, typical_b, rate_b), 0.0)
         above, below = (r.greater(), r.less()) if firm else (r.est.lo > 1, r.est.hi < 1)
         found += above or (either and below)
     return found
@@ -70,11 +71,11 @@ def test_a_firm_verdict_needs_the_typical_ratio_on_its_side():
     """The rule itself: an interval above 1 stays firm where the median-based ratio moves
     it less than its lower end allows, not where it moves it below 1; an interval that
     holds 1 is a tie either way; without the renders' own errors nothing changes."""
-    est = A.stats.Estimate(177.0, 25.0, 1252.0, 3)
-    assert not A.Ratio(est, typical=1.0).greater()
-    assert A.Ratio(est, typical=100.0).greater()
-    assert A.Ratio(est).greater()
-    below = A.stats.Estimate(0.1, 0.014, 0.8, 3)
-    assert A.Ratio(below).less() and not A.Ratio(below, typical=1.0).less()
-    tie = A.stats.Estimate(1.13, 0.93, 1.38, 3)
-    assert A.Ratio(tie, typical=1.22).firm and not A.Ratio(tie, typical=1.22).greater()
+    est = ratios.stats.Estimate(177.0, 25.0, 1252.0, 3)
+    assert not ratios.Ratio(est, typical=1.0).greater()
+    assert ratios.Ratio(est, typical=100.0).greater()
+    assert ratios.Ratio(est).greater()
+    below = ratios.stats.Estimate(0.1, 0.014, 0.8, 3)
+    assert ratios.Ratio(below).less() and not ratios.Ratio(below, typical=1.0).less()
+    tie = ratios.stats.Estimate(1.13, 0.93, 1.38, 3)
+    assert ratios.Ratio(tie, typical=1.22).firm and not ratios.Ratio(tie, typical=1.22).greater()

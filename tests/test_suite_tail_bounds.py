@@ -1,5 +1,5 @@
 """An efficiency whose error one pixel of one render rules is a bound, not an interval
-(experiments/lib/studies/suite errors.ruled, errors.without_top, analysis._tail_bound).
+(experiments/lib/studies/suite errors.ruled, errors.without_top, ratios._tail_bound).
 
 A cell's expected relMSE E is the mean of its renders' per-pixel terms (each pixel's
 variance of its mean over the reference squared). Where one pixel of one render holds most
@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from experiments.lib.studies.suite import analysis as A
+from experiments.lib.studies.suite import ratios
 from experiments.lib.studies.suite import errors as E
 
 PIXELS, REPEATS, TRIALS = 400, 3, 400
@@ -58,8 +59,8 @@ def test_a_firefly_in_the_baseline_makes_a_lower_bound_that_holds():
     for _ in range(TRIALS):
         a, b = runs(rng), runs(rng, firefly=True)
         assert E.ruled(b) and not E.ruled(a)
-        r = A.efficiency(a, b, 0.0)
-        assert r.side == ">" and r.why == A.TAIL and not r.less()
+        r = ratios.efficiency(a, b, 0.0)
+        assert r.side == ">" and r.why == ratios.TAIL and not r.less()
         values.append(r.value)
         loose = E.efficiency(a, b)
         widths.append(loose.hi / loose.lo)
@@ -78,10 +79,10 @@ def test_light_tailed_cells_keep_their_interval():
     for _ in range(200):
         a, b = runs(rng), runs(rng)
         assert not (E.ruled(a) or E.ruled(b))
-        r = A.efficiency(a, b, 0.0)
+        r = ratios.efficiency(a, b, 0.0)
         assert r.side == ""
         held += r.est.lo < 1 < r.est.hi
-        assert A.efficiency(a, runs(rng, scale=3.0), 0.0).greater()
+        assert ratios.efficiency(a, runs(rng, scale=3.0), 0.0).greater()
     assert held >= 180, held
 
 
@@ -90,9 +91,9 @@ def test_which_side_the_bound_is_on():
     interval."""
     rng = np.random.default_rng(5)
     a, b = runs(rng, firefly=True), runs(rng)
-    up = A.efficiency(a, b, 0.0)
+    up = ratios.efficiency(a, b, 0.0)
     assert up.side == "<" and up.value < 1.5 and "rules" in up.text()
-    both = A.efficiency(a, runs(rng, firefly=True), 0.0)
+    both = ratios.efficiency(a, runs(rng, firefly=True), 0.0)
     assert both.side == "?" and "one pixel of one render" in both.text()
-    assert A.efficiency(a, a, 0.0).side == ""
+    assert ratios.efficiency(a, a, 0.0).side == ""
     assert math.isfinite(up.value)

@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 
 from experiments.lib import stats
-from experiments.lib.sweeps import (REGISTRY, SWEEPS, adaptive, exponent, grazing,
-                                    halton_randomization, light)
+from experiments.lib.sweeps import (REGISTRY, SWEEPS, exponent, grazing, halton_randomization,
+                                    light)
+from experiments.lib.sweeps import adaptive_pilot
 from experiments.lib.sweeps.base import BREAK_FACTOR, Run, exceeds, mean_interval, onset
 
 NOISE = (0.97, 1.0, 1.03)          # three repeats, +-3%
@@ -161,17 +162,17 @@ def adaptive_data(bsdf=(1, 1, 1, 1, 1, 1), bsdf_dark=(1, 1, 1, 1, 1, 1)):
             "bsdf+adaptive": [runs_dark(w, d) for w, d in zip(bsdf, bsdf_dark)],
             "bsdf+nee": [runs_dark(1, 1) for _ in SIZES],
             "bsdf+nee+adaptive": [runs_dark(0.5, 0.5) for _ in SIZES]}
-    return adaptive.AdaptiveData(SIZES, runs, ("bsdf", "bsdf+nee"), spp=11)
+    return adaptive_pilot.AdaptiveData(SIZES, runs, ("bsdf", "bsdf+nee"), spp=11)
 
 
 def test_adaptive_sweep_finds_where_the_pilot_misleads_it():
-    res = adaptive.analyse(adaptive_data(bsdf=(0.9, 0.9, 1.0, 2.0, 3.0, 3.0),
+    res = adaptive_pilot.analyse(adaptive_data(bsdf=(0.9, 0.9, 1.0, 2.0, 3.0, 3.0),
                                          bsdf_dark=(1, 1, 1, 1, 1, 4.0)))
     plain, nee = res.comparisons
     assert plain.method == "bsdf" and plain.ratio[3].value == pytest.approx(2.0)
     assert plain.loses_from == 0.2 and plain.dark_loses_from == 0.02
     assert nee.loses_from is None and nee.ratio[0].value == pytest.approx(0.5)
-    words = adaptive.sentences(res)
+    words = adaptive_pilot.sentences(res)
     assert "bsdf + adaptive against bsdf at equal samples (11 spp)" in words[0]
     assert "it loses (ratio above 1) from light size 0.2" in words[0]
     assert "it loses there from light size 0.02" in words[0]
@@ -180,20 +181,20 @@ def test_adaptive_sweep_finds_where_the_pilot_misleads_it():
 
 
 def test_adaptive_sweep_negative_control_no_loss_claimed_without_the_interval():
-    flat = adaptive.analyse(adaptive_data())
+    flat = adaptive_pilot.analyse(adaptive_data())
     assert all(c.loses_from is None and c.dark_loses_from is None for c in flat.comparisons)
     # two wildly different repeats: a ratio of 3 whose interval holds 1 is not a loss
     wide = adaptive_data()
     wide.runs["bsdf+adaptive"][4] = [Run(v, 1.0, 1.0, 1.0) for v in (0.05, 5.95)]
-    assert adaptive.analyse(wide).comparisons[0].loses_from is None
+    assert adaptive_pilot.analyse(wide).comparisons[0].loses_from is None
 
 
 def test_dark_mask_is_the_darkest_share_of_the_reference():
     ref = np.zeros((2, 4, 3))
     ref[..., :] = np.arange(8, dtype=float).reshape(2, 4, 1)[::-1]      # 7 ... 0
-    mask = adaptive.dark_mask(ref, 0.25)
+    mask = adaptive_pilot.dark_mask(ref, 0.25)
     assert mask.sum() == 2 and (ref[mask] <= 1.0).all()
-    assert adaptive.dark_mask(ref, 0.01).sum() == 1                     # at least one pixel
+    assert adaptive_pilot.dark_mask(ref, 0.01).sum() == 1                     # at least one pixel
 
 
 # ----------------------------------------------------------------- grazing

@@ -306,7 +306,7 @@ MUTANTS = [
            "bound on the efficiency is the mean-based interval's end, which a firefly in "
            "the baseline puts above 1 for one estimator",
            ("tests/test_suite_tail_bounds.py",)),
-    Mutant("tail-bound-on-the-wrong-side", "experiments/lib/studies/suite/analysis.py",
+    Mutant("tail-bound-on-the-wrong-side", "experiments/lib/studies/suite/ratios.py",
            "    if errors.ruled(b):       # b's error at least its rest: a at least this "
            "efficient",
            "    if errors.ruled(a):       # b's error at least its rest: a at least this "
@@ -422,13 +422,13 @@ MUTANTS = [
            "compiles another kernel, so its first timed try is thrown away",
            ("tests/test_timing.py::test_the_warm_up_count_compiles_the_kernel_of_the_timed_count",)),
     # ------------------------------------------------------------ the adaptive sweep
-    Mutant("adaptive-sweep-twin-swapped", "experiments/lib/sweeps/adaptive.py",
+    Mutant("adaptive-sweep-twin-swapped", "experiments/lib/sweeps/adaptive_pilot.py",
            "        whole = [ratio(a, b) for a, b in zip(err[adaptive(m)], err[m])]",
            "        whole = [ratio(a, b) for a, b in zip(err[m], err[adaptive(m)])]",
            "the adaptive sweep divides the plain method's relMSE by its adaptive twin's: "
            "where the pilot misleads the allocation, the sweep reports a gain",
            ("tests/test_sweeps.py::test_adaptive_sweep_finds_where_the_pilot_misleads_it",)),
-    Mutant("dark-pixels-brightest", "experiments/lib/sweeps/adaptive.py",
+    Mutant("dark-pixels-brightest", "experiments/lib/sweeps/adaptive_pilot.py",
            '    mask[np.argsort(lum, axis=None, kind="stable")[:k]] = True',
            '    mask[np.argsort(lum, axis=None, kind="stable")[-k:]] = True',
            "the adaptive sweep's dark pixels are the brightest ones, where the floor never "

@@ -119,7 +119,7 @@ class LightSweep:
     def declare(self, ctx: Context, methods=None, at: Budget | None = None) -> Declaration:
         """Every method (default :meth:`methods`) at every light size (a scene variant
         each, constant power), at ``at`` (default --spp split over the repeats). Another
-        sweep declares its methods on these scenes so (:mod:`.adaptive`): the same cells."""
+        sweep declares its methods on these scenes so (:mod:`.adaptive_pilot`): the same cells."""
         info, (size0, rad0) = ctx.settings.info, self.lights(ctx)
 
         def variant(size, scene):
