@@ -293,7 +293,7 @@ MUTANTS = [
            "a zsobol job's passes (parts of one Owen-scrambled Sobol' sequence) read as "
            "independent: their spread taken for the image's variance, the cell's error from it",
            ("tests/test_engine.py::test_a_runs_variance_comes_only_from_independent_passes",)),
-    Mutant("verdict-by-a-firefly", "experiments/lib/studies/suite/analysis.py",
+    Mutant("verdict-by-a-firefly", "experiments/lib/studies/suite/ratios.py",
            "        return self.side == \"\" and self.est.known and self.est.lo > 1 and self.firm",
            "        return self.side == \"\" and self.est.known and self.est.lo > 1",
            "a method found more efficient by an interval that one render's rare firefly "

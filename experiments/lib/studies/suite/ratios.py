@@ -7,13 +7,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-from typing import TYPE_CHECKING
-
 from ... import stats
 from . import errors
-
-if TYPE_CHECKING:
-    from .analysis import Runs
 
 g = stats.g
 
@@ -96,7 +91,7 @@ def _shift(values, floor: float) -> list[float]:
     return [float(v) - floor for v in values]
 
 
-def efficiency(a: Runs, b: Runs, floor: float, metric: str = "relmse") -> Ratio:
+def efficiency(a, b, floor: float, metric: str = "relmse") -> Ratio:
     """Efficiency 1/(error x time) of ``a`` over ``b`` (errors over the reference's own
     expected error ``floor``). Where one error is below the reference's noise, its upper
     bound gives a bound on the ratio; where both are, it is unknown. Where both have the
@@ -126,7 +121,7 @@ def efficiency(a: Runs, b: Runs, floor: float, metric: str = "relmse") -> Ratio:
     return Ratio(stats.Estimate(high, 0.0, high, n), "<")
 
 
-def _tail_bound(a: Runs, b: Runs, typical: float) -> Ratio:
+def _tail_bound(a, b, typical: float) -> Ratio:
     """The efficiency of ``a`` over ``b`` where one pixel of one render rules the error of
     one of them (:func:`.errors.ruled`): that error is at least its estimate without the
     term (``Runs.rest``), so the interval's end on that side, computed with the rest, is a
