@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import figures, prose, report, stats
+from .. import figures, metrics, prose, report, stats
 from ..engine import Budget, Declaration, Measurements
 from ..methods import ADAPTIVE
 from ..scenes import box_filter
@@ -40,7 +40,7 @@ def adaptive(method: str) -> str:
 def dark_mask(reference: np.ndarray, share: float = DARK_SHARE) -> np.ndarray:
     """The ``share`` of the pixels of ``reference`` (H, W, 3) whose luminance is lowest
     (at least one pixel)."""
-    lum = reference @ np.array([0.2126, 0.7152, 0.0722])
+    lum = metrics.luminance(reference)
     k = max(1, int(round(share * lum.size)))
     mask = np.zeros(lum.size, bool)
     mask[np.argsort(lum, axis=None, kind="stable")[:k]] = True
@@ -89,18 +89,14 @@ def analyse(data: AdaptiveData) -> AdaptiveResult:
         whole = [ratio(a, b) for a, b in zip(err[adaptive(m)], err[m])]
         darks = [ratio(a, b) for a, b in zip(dark[adaptive(m)], dark[m])]
         comparisons.append(AdaptiveComparison(
-            m, whole, darks, _first(xs, [exceeds(q, 1.0) for q in whole]),
-            _first(xs, [exceeds(q, 1.0) for q in darks])))
+            m, whole, darks, metrics.first_where(xs, [exceeds(q, 1.0) for q in whole]),
+            metrics.first_where(xs, [exceeds(q, 1.0) for q in darks])))
     return AdaptiveResult(
         xs, list(runs), repeats, data.spp,
         {m: [mean_interval(v) for v in e] for m, e in err.items()},
         {m: [mean_interval(v) for v in e] for m, e in dark.items()},
         {m: [float(np.mean([r.seconds for r in rs])) for rs in per] for m, per in runs.items()},
         {m: [worst(rs) for rs in per] for m, per in runs.items()}, comparisons)
-
-
-def _first(xs: list, flags: list):
-    return next((x for x, f in zip(xs, flags) if f), None)
 
 
 # ------------------------------------------------------------------ words
