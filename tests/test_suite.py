@@ -419,7 +419,8 @@ def test_a_learning_methods_equal_time_count_comes_from_its_pilot(tmp_path, monk
     which costs 2.5 times as much per sample here: 0.4 of the count, not rounded to a power
     of two. A method that does not learn renders no pilot. The engine decides it
     (:meth:`.Engine.count`), for the suite as for every study. Where the smaller count
-    would not train and the count would, the pilot renders the count itself."""
+    would not train and the count would, the pilot renders the count itself (exact, not
+    the power of two: tests/test_learner_counts.py)."""
     cfg = S.settings(S.parse(["--quick", "--spp", "16", "--time-budget", "0.1",
                               "--methods", "path,bsdf+nee,guided+nee", "--scenes",
                               scenes.path("suite/cbox.xml"), "--out", str(tmp_path)]))
@@ -437,20 +438,28 @@ def test_a_learning_methods_equal_time_count_comes_from_its_pilot(tmp_path, monk
                                 (2.5 if "/pilot" in j.key else 1)) for j in jobs]
     monkeypatch.setattr(engine.study, "results", results)
     monkeypatch.setattr(engine.study, "run", lambda jobs, label="": rendered.extend(jobs))
+    # a learner without thresholds (the guide trains only from 607 spp on a 48x36 film:
+    # below them it renders no pilot, tests/test_learner_counts.py)
+    monkeypatch.setattr(methods.Method, "trains", lambda self, spp, pixels: self.learns)
     got = {slot.method.name: engine.count(decl, time_budget, slot, planned)
            for slot in engine.slots(decl) if slot.method.name in ("bsdf+nee", "guided+nee")}
     assert got["bsdf+nee"] == 64 * scale
     assert got["guided+nee"] == int(0.1 * scale / (per_sample * 2.5)) != 32 * scale
+    plain = counts.equal_time_spp(0.1 * scale, [results(jobs) for jobs in planned.runs(
+        next(s for s in engine.slots(decl) if s.method.name == "guided+nee")
+        .cell(spp_budget.name))])               # exact: 0.2 s at the short renders' cost
+    assert plain in (127, 128)
     assert [(j.method.name, j.spp) for j in rendered] == \
-        [("guided+nee", int(64 * scale / engine_module.LEARNER_COST))]
+        [("guided+nee", int(plain / engine_module.LEARNER_COST))]
     assert rendered[0].key.startswith("suite/cbox/guided_nee/equal-time/pilot-")
     assert rendered[0].pilot
     # the training thresholds between the two counts: the pilot at the count itself
-    monkeypatch.setattr(methods.Method, "trains", lambda self, spp, pixels: spp >= 100)
+    monkeypatch.setattr(methods.Method, "trains",
+                        lambda self, spp, pixels: self.learns and spp >= 100)
     rendered.clear()
     slot = next(s for s in engine.slots(decl) if s.method.name == "guided+nee")
     engine.count(decl, time_budget, slot, planned)
-    assert [j.spp for j in rendered] == [64 * scale]
+    assert [j.spp for j in rendered] == [plain]
 
 
 def test_a_learning_methods_equal_time_count_is_not_rounded_to_a_power_of_two(tmp_path):

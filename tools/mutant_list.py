@@ -269,8 +269,8 @@ MUTANTS = [
            "the figure",
            ("tests/test_figure_pool.py::test_a_figure_past_its_deadline_is_named_and_its_worker_ended",)),
     Mutant("pilot-count-rounded", "experiments/lib/engine.py",
-           "        return counts.equal_time_spp(seconds, [self.study.results([job])], False,",
-           "        return counts.equal_time_spp(seconds, [self.study.results([job])], True,",
+           "        count = counts.equal_time_spp(seconds, piloted, False, budget.max_spp)",
+           "        count = counts.equal_time_spp(seconds, piloted, True, budget.max_spp)",
            "a learning method's equal-time count rounded to the nearest power of two: it gets "
            "0.71 to 1.41 times the budget, and its efficiency, which grows with its count, "
            "follows the rounding",

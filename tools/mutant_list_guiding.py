@@ -164,8 +164,8 @@ GUIDING = [
            "their bins' count times too much)",
            ("tests/test_guide_model.py::test_quadtree_matches_a_recursive_oracle",)),
     Mutant("pilot-halved-across-training", "experiments/lib/engine.py",
-           "        if slot.method.trains(fewer, pixels) == slot.method.trains(spp, pixels):\n",
-           "        if True:\n",
+           "        spp = fewer if trains(fewer) == trains(plain) else plain\n",
+           "        spp = fewer\n",
            "a learning method's pilot at half the count even where that count does not "
            "train while the job does: its plain cost per sample would give the job about "
            "twice its time",
@@ -242,4 +242,17 @@ GUIDING = [
            "a recording render of max_pass_spp samples per pixel whatever the film: a user's "
            "512 x 512 render with vr_guided_path refused for its records' memory",
            ("tests/test_guiding.py::test_a_large_film_records_in_renders_that_fit_the_cap",)),
+    Mutant("learner-count-across-regimes", "experiments/lib/counts.py",
+           "    if trains(count) == trains(pilot_spp):",
+           "    if True:",
+           "a learning method's count from its pilot's cost kept where it falls in the other "
+           "training regime: on glossy_indirect 532 spp that do not train, or 913 that train at "
+           "1.75 times the budget, as the rounding of its short renders' cost goes",
+           ("tests/test_learner_counts.py",)),
+    Mutant("learner-pilot-below-its-thresholds", "experiments/lib/engine.py",
+           "        if not trains(plain):       # it does not train at its budget: their cost is its cost",
+           "        if False:",
+           "a pilot rendered for a learning method that cannot train at its budget: its count "
+           "rests on one render's cost (grazing: 97 or 174 spp by the machine's spell)",
+           ("tests/test_learner_counts.py::test_a_learner_that_cannot_train_at_its_budget_renders_no_pilot",)),
 ]

@@ -142,7 +142,7 @@ class Engine:
         """The equal-time count of ``slot`` at ``budget``: an earlier run's
         (``--replay-counts``), else the budget's seconds times the scene's factor at the
         cost per sample its ``after`` budget measured (:func:`.counts.equal_time_spp`), and
-        for a method that learns the count of a pilot render at that count."""
+        for a method that learns the count of a pilot render (:meth:`pilot`)."""
         cell = slot.cell(budget.name)
         replayed = self.replayed(declaration, cell)
         if replayed is not None:
@@ -151,36 +151,45 @@ class Engine:
                                     (slot.scene.time_scale, ""))[0]
         seconds = budget.seconds * factor
         measured = [self.study.results(jobs) for jobs in planned.runs(slot.cell(budget.after))]
-        spp = counts.equal_time_spp(seconds, measured, budget.power_of_two, budget.max_spp)
         if slot.method.learns:
-            spp = self.pilot(declaration, budget, slot, spp, seconds)
-        return spp
+            return self.pilot(declaration, budget, slot, measured, seconds)
+        return counts.equal_time_spp(seconds, measured, budget.power_of_two, budget.max_spp)
 
-    def pilot(self, declaration: Declaration, budget: Budget, slot: Slot, spp: int,
+    def pilot(self, declaration: Declaration, budget: Budget, slot: Slot, measured: list,
               seconds: float) -> int:
         """A learning method's equal-time count (:attr:`.methods.Method.learns`): a pilot
         render, kept in the store and in no comparison, and the count that costs
-        ``seconds`` at the pilot's cost per sample, exact (:mod:`.counts`). ``spp`` (what
-        its earlier renders' cost per sample gives) is too many where the job trains: those
-        renders were too short to train and cost what plain BSDF sampling costs, while a
-        render that trains records, refines and guides, at about
-        :data:`LEARNER_COST` times the cost per sample. So the pilot renders ``spp /``
-        :data:`LEARNER_COST` samples (nearer the count it finds, at half the time) where
-        that count trains as ``spp`` would (:meth:`.methods.Method.trains`), else ``spp``.
-        It renders once (:attr:`.jobs.Job.pilot`), not again warm: the view its short
-        renders warmed did not train, so its kernels compile in it."""
+        ``seconds`` at the pilot's cost per sample, exact (:func:`.counts.learner_spp`,
+        which also decides a budget between its training regimes). Where even the count
+        the ``measured`` renders give does not train, the method is its plain counterpart
+        at that count, and that count (from every repeat's renders, not one pilot's) is its
+        count: no pilot. The ``measured``
+        renders' cost per sample gives too many samples where the job trains: they were too
+        short to train and cost what plain BSDF sampling costs, while a render that trains
+        records, refines and guides, at about :data:`LEARNER_COST` times the cost per
+        sample. So the pilot renders their count over :data:`LEARNER_COST` (nearer the
+        count it finds, at half the time) where that count trains as theirs would
+        (:meth:`.methods.Method.trains`), else theirs. It renders once
+        (:attr:`.jobs.Job.pilot`), not again warm: the view its short renders warmed did
+        not train, so its kernels compile in it."""
         cell = slot.cell(budget.name)
         pixels = slot.setup.resolution[0] * slot.setup.resolution[1]
-        fewer = max(1, int(spp / LEARNER_COST))
-        if slot.method.trains(fewer, pixels) == slot.method.trains(spp, pixels):
-            spp = fewer
+
+        def trains(spp: int) -> bool:
+            return slot.method.trains(spp, pixels)
+        plain = counts.equal_time_spp(seconds, measured, False, budget.max_spp)
+        if not trains(plain):       # it does not train at its budget: their cost is its cost
+            return plain
+        fewer = max(1, int(plain / LEARNER_COST))
+        spp = fewer if trains(fewer) == trains(plain) else plain
         job = self.study.job(f"{declaration.key(declaration, cell)}/pilot", slot.method, spp,
                              pilot=True,
                              sample_moments=declaration.moments(slot.method, slot.setup),
                              **self._options(declaration, cell, slot.setup))
         self.study.run([job], f"{declaration.name}: pilot")
-        return counts.equal_time_spp(seconds, [self.study.results([job])], False,
-                                     budget.max_spp)
+        piloted = [self.study.results([job])]
+        count = counts.equal_time_spp(seconds, piloted, False, budget.max_spp)
+        return counts.learner_spp(seconds, spp, count, trains, piloted, measured)
 
     def replayed(self, declaration: Declaration, cell: Cell) -> int | None:
         """The count an earlier run (``--replay-counts``) gave ``cell``'s first repeat, or
