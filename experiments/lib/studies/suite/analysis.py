@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import fnmatch
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -69,6 +69,8 @@ class Runs:
     top: float = 0.0          # the largest share of ``expected`` one pixel of one render
     #                           holds (:func:`.errors.top_share`)
     rest: tuple = ()          # ``expected`` without that term (:func:`.errors.without_top`)
+    jitter: tuple = ()        # per budget of ``costs``: the scene's pooled paired cost
+    #                           jitter, (variance, dof) (:func:`.errors.cost_jitter`)
 
 
 @dataclass(frozen=True)
@@ -275,8 +277,20 @@ def floor_share(numbers: SceneNumbers) -> float:
     return numbers.floor.relmse / smallest if math.isfinite(smallest) else 0.0
 
 
+def with_jitter(cells: dict, base: str) -> dict:
+    """``cells`` whose every Runs carries the scene's pooled paired cost jitter
+    (:func:`.errors.cost_jitter` over every cell's renders against the baseline's)."""
+    if base not in cells:
+        return cells
+    jitter = errors.cost_jitter([c.runs[BUDGETS[0]] for c in cells.values()],
+                                cells[base].runs[BUDGETS[0]])
+    return {m: replace(c, runs={b: replace(r, jitter=jitter) for b, r in c.runs.items()})
+            for m, c in cells.items()}
+
+
 def analyse_scene(numbers: SceneNumbers) -> SceneResult:
-    cells, floor, base = numbers.cells, numbers.floor, numbers.baseline
+    floor, base = numbers.floor, numbers.baseline
+    cells = with_jitter(numbers.cells, base)
 
     def compare(a: str, b: str, budget: str = BUDGETS[0]) -> ratios.Ratio:
         return ratios.efficiency(cells[a].runs[budget], cells[b].runs[budget], floor.relmse)

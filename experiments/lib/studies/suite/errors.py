@@ -38,8 +38,12 @@ relative deviations of their costs per sample, weighted by the budget's share of
 seconds (delta method; :func:`cost_terms`: winsorized at 5 robust standard deviations,
 :func:`.stats.winsorize`, since a lone render slowed 2x by the machine, seen in about 1% of
 renders, would otherwise rule the interval), Student's t on R - 1 degrees of freedom per
-budget. Cells of QMC samplers or other filters keep the repeat-based relMSE
-(:mod:`.analysis`).
+budget. Three paired renders know their own variance on 2 degrees of freedom only, so a
+pair whose renders agree by chance would claim a precision the machine does not have: each
+budget's variance is at least the scene's, pooled over every method paired with the
+baseline (:func:`cost_jitter`: every method of a scene renders about as long at equal time
+and meets the same machine), on its degrees of freedom. Cells of QMC samplers or other
+filters keep the repeat-based relMSE (:mod:`.analysis`).
 """
 from __future__ import annotations
 
@@ -210,7 +214,9 @@ def cost_terms(a, b) -> list | None:
     may differ between the budgets (one that learns trains in its equal-time renders only),
     which is not noise. Per budget, the variance of the paired relative deviations over the
     repeats, :func:`.stats.winsorize` d (a lone slow render does not rule it), R - 1
-    degrees of freedom. None without paired costs."""
+    degrees of freedom, or the scene's pooled variance (``Runs.jitter``,
+    :func:`cost_jitter`) with its degrees of freedom where that is larger. None without
+    paired costs."""
     if not (a.costs and [len(g) for _, g in a.costs] == [len(g) for _, g in b.costs]):
         return None
     budgets = [(n_a, np.asarray(ga, np.float64), n_b, np.asarray(gb, np.float64))
@@ -225,7 +231,47 @@ def cost_terms(a, b) -> list | None:
     # clipped on the spread of every budget's deviations (a budget's few repeats alone
     # would give no robust scale), then each budget's variance about its own mean
     devs = [gb / np.median(gb) - ga / np.median(ga) for _, ga, _, gb in budgets]
-    clipped = np.split(stats.winsorize(np.concatenate(devs)),
-                       np.cumsum([d.size for d in devs])[:-1])
-    return [(w * w * float(c.var(ddof=1)) / c.size, c.size - 1)
-            for w, c in zip(weight, clipped)]
+    clipped = _clipped(devs)
+    pooled = a.jitter or b.jitter
+    out = []
+    for k, (w, c) in enumerate(zip(weight, clipped)):
+        var, dof = float(c.var(ddof=1)), c.size - 1
+        if len(pooled) == len(clipped) and pooled[k][0] > var:
+            var, dof = pooled[k]
+        out.append((w * w * var / c.size, dof))
+    return out
+
+
+def _clipped(devs: list) -> list:
+    """Each array of ``devs`` with every value :func:`.stats.winsorize` d on the spread of
+    them all (a few repeats alone would give no robust scale)."""
+    return np.split(stats.winsorize(np.concatenate(devs)),
+                    np.cumsum([d.size for d in devs])[:-1])
+
+
+def cost_jitter(runs: list, baseline) -> tuple:
+    """Per budget of ``baseline.costs``, the variance of one repeat's paired relative cost
+    deviation (a method's cost per sample over its median, less the baseline's), pooled
+    over every Runs of ``runs`` but the baseline's, with its degrees of freedom (each
+    method's repeats less one, summed): () where none pairs. The repeats of one pair are
+    too few to know their own (2 degrees of freedom at 3 repeats); every method of a scene
+    at one budget renders about as long and meets the same machine, so a pair's cost term
+    takes the pooled variance where it is the larger (:func:`cost_terms`)."""
+    if not baseline.costs:
+        return ()
+    out = []
+    for k, (_, gb) in enumerate(baseline.costs):
+        gb = np.asarray(gb, np.float64)
+        devs = []
+        for r in runs:
+            if r is baseline or len(r.costs) != len(baseline.costs):
+                continue
+            ga = np.asarray(r.costs[k][1], np.float64)
+            if ga.size == gb.size > 1 and np.all(ga > 0) and np.all(gb > 0):
+                devs.append(ga / np.median(ga) - gb / np.median(gb))
+        if not devs:
+            return ()
+        clipped = _clipped(devs)
+        dof = sum(c.size - 1 for c in clipped)
+        out.append((sum(float(np.sum((c - c.mean()) ** 2)) for c in clipped) / dof, dof))
+    return tuple(out)
