@@ -249,8 +249,8 @@ MUTANTS = [
            "(a heavy-tailed reference), other methods are still called biased against it",
            ("tests/test_suite_bias.py",)),
     Mutant("cost-spike-unclipped", "experiments/lib/studies/suite/errors.py",
-           "    clipped = np.split(stats.winsorize(np.concatenate(devs)),",
-           "    clipped = np.split(np.concatenate(devs),",
+           "    return np.split(stats.winsorize(np.concatenate(devs)),",
+           "    return np.split(np.concatenate(devs),",
            "the paired costs' plain variance: one render slowed 2x by the machine widens an "
            "A/A efficiency interval to hi/lo ~2",
            ("tests/test_suite_errors.py",)),
