@@ -1,10 +1,11 @@
 """A learning method's equal-time count where its training thresholds fall near its budget.
 
 The guide trains only from ``min_train_samples`` samples on (607 spp on the suite's 48x36
-films). On glossy_indirect its budget (1.28 s) buys about 940 spp of plain BSDF sampling but
-about 530 of trained guiding: a pilot that trained gave 532 spp, which did not train, and a
-pilot that did not train gave 913, which trained at 1.75 times the budget. Two runs of the
-default suite measured it at 0.96 [0.88, 1.06] and 1.61 [1.52, 1.70] over path: which one
+films). On glossy_indirect at 64 times the suite's budget (1.28 s; it has 128 now) that
+bought about 940 spp of plain BSDF sampling but about 530 of trained guiding: a pilot that
+trained gave 532 spp, which did not train, and a pilot that did not train gave 913, which
+trained at 1.75 times the budget. Two runs of the default suite measured it at 0.96 [0.88,
+1.06] and 1.61 [1.52, 1.70] over path: which one
 depended on whether the equal-spp renders' cost rounded to 512 or 1024. The count now
 comes from the regime nearest the budget (:func:`.counts.learner_spp`), the same in both.
 """
