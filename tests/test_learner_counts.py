@@ -29,6 +29,19 @@ def renders(spp: int, per_sample: float) -> list:
                              wall_seconds=0.0)]]
 
 
+def engine_at(tmp_path, budget: str, methods: str):
+    """(declaration, engine, planned with the equal-spp jobs, the equal-time budget) of a
+    quick suite on cbox at ``budget`` seconds with ``methods``."""
+    cfg = S.settings(S.parse(["--quick", "--spp", "16", "--time-budget", budget,
+                              "--methods", methods, "--scenes",
+                              scenes.path("suite/cbox.xml"), "--out", str(tmp_path)]))
+    decl = declare.declaration(cfg, declare.plan_scenes(cfg))
+    engine, planned = Engine(Study(cfg)), Planned()
+    spp_budget, time_budget = decl.budgets
+    planned.add(spp_budget.name, engine.jobs(decl, spp_budget))
+    return decl, engine, planned, time_budget
+
+
 def threshold(n: int):
     return lambda spp: spp >= n
 
@@ -70,13 +83,7 @@ def test_the_engine_decides_the_same_regime_whatever_the_short_renders_cost(
     costing 1.36 ms per sample times ``drift`` (what the machine's load moves between runs)
     and a pilot that trains 1.76 times that: it trains at 607 every time, where before it
     gave 532 (not training) or 913 (training at 1.75 times the budget) by the drift."""
-    cfg = S.settings(S.parse(["--quick", "--spp", "16", "--time-budget", "1.28",
-                              "--methods", "path,guided+nee", "--scenes",
-                              scenes.path("suite/cbox.xml"), "--out", str(tmp_path)]))
-    decl = declare.declaration(cfg, declare.plan_scenes(cfg))
-    engine, planned = Engine(Study(cfg)), Planned()
-    spp_budget, time_budget = decl.budgets
-    planned.add(spp_budget.name, engine.jobs(decl, spp_budget))
+    decl, engine, planned, time_budget = engine_at(tmp_path, "1.28", "path,guided+nee")
     plain = 1.36e-3 * drift
     for slot in engine.slots(decl):
         planned.scales[(slot.scene.name, None, time_budget.name)] = (1.0, "")
@@ -102,13 +109,8 @@ def test_a_learner_that_cannot_train_at_its_budget_renders_no_pilot(tmp_path, mo
     exact, and no pilot renders. On grazing, one pilot rendered in a slow spell of the
     machine gave it 97 spp where another run gave 174, and 0.91 [0.89, 0.94] over path
     where the other gave 1.22 [1.07, 1.39], though it trained in neither."""
-    cfg = S.settings(S.parse(["--quick", "--spp", "16", "--time-budget", "0.1",
-                              "--methods", "path,guided+nee", "--scenes",
-                              scenes.path("suite/cbox.xml"), "--out", str(tmp_path)]))
-    decl = declare.declaration(cfg, declare.plan_scenes(cfg))
-    engine, planned, rendered = Engine(Study(cfg)), Planned(), []
-    spp_budget, time_budget = decl.budgets
-    planned.add(spp_budget.name, engine.jobs(decl, spp_budget))
+    decl, engine, planned, time_budget = engine_at(tmp_path, "0.1", "path,guided+nee")
+    rendered = []
     monkeypatch.setattr(engine.study, "results", lambda jobs: [SimpleNamespace(
         spp=j.spp, host_seconds=0.0, wall_seconds=0.0,
         kernel_seconds=j.spp * 0.1 / 100 * (2 if "/pilot" in j.key else 1)) for j in jobs])

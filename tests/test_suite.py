@@ -17,12 +17,11 @@ import pytest
 import scenes
 from experiments.lib import counts, methods, metrics, stats
 from experiments.lib import engine as engine_module
-from experiments.lib.engine import Engine, Planned
 from experiments.lib.studies.suite import analysis as A
 from experiments.lib.studies.suite import bias_report
 from experiments.lib.studies.suite import declare
 from experiments.lib.studies.suite import study as S
-from experiments.lib.study import Study
+from test_learner_counts import engine_at
 
 QUICK = ["--quick", "--seed", "3"]
 FURNACE = scenes.path("suite/furnace.xml")
@@ -421,13 +420,9 @@ def test_a_learning_methods_equal_time_count_comes_from_its_pilot(tmp_path, monk
     (:meth:`.Engine.count`), for the suite as for every study. Where the smaller count
     would not train and the count would, the pilot renders the count itself (exact, not
     the power of two: tests/test_learner_counts.py)."""
-    cfg = S.settings(S.parse(["--quick", "--spp", "16", "--time-budget", "0.1",
-                              "--methods", "path,bsdf+nee,guided+nee", "--scenes",
-                              scenes.path("suite/cbox.xml"), "--out", str(tmp_path)]))
-    decl = declare.declaration(cfg, declare.plan_scenes(cfg))
-    engine, planned = Engine(Study(cfg)), Planned()
-    spp_budget, time_budget = decl.budgets
-    planned.add(spp_budget.name, engine.jobs(decl, spp_budget))
+    decl, engine, planned, time_budget = engine_at(tmp_path, "0.1",
+                                                   "path,bsdf+nee,guided+nee")
+    spp_budget = decl.budgets[0]
     per_sample, rendered, scale = 0.1 / 64, [], 2.0
     for slot in engine.slots(decl):
         planned.scales[(slot.scene.name, None, time_budget.name)] = (scale, "")
