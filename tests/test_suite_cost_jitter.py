@@ -93,3 +93,20 @@ def test_coverage_and_width_with_the_pool(heavy):
             widths[p].append(e.hi / e.lo)
     assert np.median(widths[True]) <= 0.92 * np.median(widths[False]), \
         (np.median(widths[True]), np.median(widths[False]))
+
+
+def test_a_learning_methods_costs_stay_out_of_the_pool():
+    """A method that learns costs what each repeat learned (sunlit_room's guide: repeats
+    apart by 30%): that variance is its own, not the machine's, and pooled it widened the
+    scene's A/A interval (bsdf+nee over path, the scene's only other pair) to hi/lo 1.7. It stays out of the pool: the
+    A/A pair's interval is the same with or without it; pooled in (the negative control),
+    wider."""
+    rng = np.random.default_rng(9)
+    cells = {m: c for m, c in scene(rng, 0.01, error_sd=0.001).items() if m in ("m0", "m1")}
+    wild = runs(1e-6 * np.array([1.0, 1.0, 1.0, 1.0, 1.6, 0.7]))
+    learner = Cell("m9", {b: wild for b in analysis.BUDGETS}, (1.0,), learns=True)
+    without = efficiency(cells)
+    with_learner = efficiency({**cells, "m9": learner})
+    assert with_learner.hi / with_learner.lo == pytest.approx(without.hi / without.lo)
+    pooled_in = efficiency({**cells, "m9": Cell("m9", learner.runs, (1.0,))})
+    assert pooled_in.hi / pooled_in.lo > 1.1 * without.hi / without.lo

@@ -150,4 +150,10 @@ BIAS = [
            "by chance claims a precision the machine does not have (textured_phong's A/A "
            "1.10 [1.04, 1.16] in one run, 0.93 [0.87, 0.98] in the next)",
            ("tests/test_suite_cost_jitter.py::test_a_pair_whose_renders_agree_by_chance_takes_the_scenes_jitter",)),
+    Mutant("cost-jitter-pools-learners", "experiments/lib/studies/suite/analysis.py",
+           "    jitter = errors.cost_jitter([c.runs[BUDGETS[0]] for c in cells.values() if not c.learns],",
+           "    jitter = errors.cost_jitter([c.runs[BUDGETS[0]] for c in cells.values()],",
+           "a learning method's costs, which vary with what each repeat learned, pooled as the "
+           "machine's jitter: sunlit_room's A/A interval at hi/lo 1.7",
+           ("tests/test_suite_cost_jitter.py::test_a_learning_methods_costs_stay_out_of_the_pool",)),
 ]

@@ -81,6 +81,7 @@ class Cell:
     overhead: float = 0.0     # fitted seconds per render call
     deterministic: bool = False
     block_bias: object = None     # the bias test against the reference (bias_test.CellBias)
+    learns: bool = False      # a method that learns: its costs vary with what it learned
 
 
 @dataclass(frozen=True)
@@ -279,10 +280,12 @@ def floor_share(numbers: SceneNumbers) -> float:
 
 def with_jitter(cells: dict, base: str) -> dict:
     """``cells`` whose every Runs carries the scene's pooled paired cost jitter
-    (:func:`.errors.cost_jitter` over every cell's renders against the baseline's)."""
+    (:func:`.errors.cost_jitter` over the renders of every cell that does not learn against
+    the baseline's: a learning method's cost per repeat varies with what that repeat
+    learned, which is its own variance, not the machine's)."""
     if base not in cells:
         return cells
-    jitter = errors.cost_jitter([c.runs[BUDGETS[0]] for c in cells.values()],
+    jitter = errors.cost_jitter([c.runs[BUDGETS[0]] for c in cells.values() if not c.learns],
                                 cells[base].runs[BUDGETS[0]])
     return {m: replace(c, runs={b: replace(r, jitter=jitter) for b, r in c.runs.items()})
             for m, c in cells.items()}

@@ -118,7 +118,8 @@ def measure_scene(cfg: Settings, sp: ScenePlan, measured: Measurements,
         tested = (tests or {}).get(name)
         overhead = float(np.mean([r.overhead for budget in (SPP, TIME) for r in finals[budget]]))
         cells[name] = analysis.Cell(name, runs, tuple(x / px * 1e9 for x in b), overhead,
-                                    methods[name].deterministic, tested)
+                                    methods[name].deterministic, tested,
+                                    methods[name].learns)
     floor = analysis.Floor(ref.relmse_floor or 0.0,
                            float(np.mean(rej_floors)) if rej_floors else 0.0,
                            ref.mse_floor or 0.0, ref.floor_known)
