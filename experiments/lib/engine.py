@@ -163,11 +163,10 @@ class Engine:
         which also decides a budget between its training regimes). Where even the count
         the ``measured`` renders give does not train, the method is its plain counterpart
         at that count, and that count (from every repeat's renders, not one pilot's) is its
-        count: no pilot. The ``measured``
-        renders' cost per sample gives too many samples where the job trains: they were too
-        short to train and cost what plain BSDF sampling costs, while a render that trains
-        records, refines and guides, at about :data:`LEARNER_COST` times the cost per
-        sample. So the pilot renders their count over :data:`LEARNER_COST` (nearer the
+        count: no pilot. Elsewhere their cost per sample gives too many samples: they were
+        too short to train and cost what plain BSDF sampling costs, while a render that
+        trains records, refines and guides, at about :data:`LEARNER_COST` times the cost
+        per sample. So the pilot renders their count over :data:`LEARNER_COST` (nearer the
         count it finds, at half the time) where that count trains as theirs would
         (:meth:`.methods.Method.trains`), else theirs. It renders once
         (:attr:`.jobs.Job.pilot`), not again warm: the view its short renders warmed did
