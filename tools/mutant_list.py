@@ -434,4 +434,10 @@ MUTANTS = [
            "the adaptive sweep's dark pixels are the brightest ones, where the floor never "
            "serves",
            ("tests/test_sweeps.py::test_dark_mask_is_the_darkest_share_of_the_reference",)),
+    Mutant("scene-hash-absolute", "experiments/lib/scenes.py",
+           "        relative = os.path.relpath(os.path.abspath(f), root).replace(os.sep, \"/\")",
+           "        relative = os.path.abspath(f)",
+           "a multi-file scene's hash over its files' absolute paths: its references' keys and "
+           "seeds differ between two clones of the project",
+           ("tests/test_scene_hash.py",)),
 ]

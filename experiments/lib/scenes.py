@@ -103,13 +103,17 @@ def file_hash(path: str) -> str:
 
 def content_hash(files) -> str:
     """sha256 of a scene made of ``files`` (in parse order): the file's own hash for a
-    single file, else a hash over every file's path and content."""
+    single file, else a hash over every file's path relative to the first one's folder and
+    content (not the absolute path: the keys and seeds of a scene's renders would then
+    differ between two clones of the project)."""
     files = [str(f) for f in files]
     if len(files) == 1:
         return file_hash(files[0])
     digest = hashlib.sha256()
+    root = os.path.dirname(os.path.abspath(files[0]))
     for f in files:
-        digest.update(os.path.abspath(f).encode() + file_hash(f).encode())
+        relative = os.path.relpath(os.path.abspath(f), root).replace(os.sep, "/")
+        digest.update(relative.encode() + file_hash(f).encode())
     return digest.hexdigest()
 
 
