@@ -24,8 +24,12 @@ pass, the guide's training passes included, plus the host work between passes).
    passes in proportion to their wall-clock seconds (``JobResult.pass_seconds``; the
    clock keeps kernel time per job, not per pass), the host work counted as training.
    The last iteration is the job's last render (:func:`integrators.guide_passes.renders`).
+3. Issue 41's kernel cost targets (:func:`pass_costs`): a frozen pass's kernel time per
+   sample over ``bsdf+nee``'s (rendered at path's time as well, :data:`PLAIN`) at most
+   :data:`FROZEN_TARGET`, and a recording pass's over a frozen one's at most
+   :data:`RECORDING_TARGET`.
 
-``--methods`` adds other methods at path's time the same way (e.g. ``bsdf+nee``), and
+``--methods`` adds other methods at path's time the same way, and
 ``--scene``/``--path-spp`` measure another scene or budget (how the suite's guiding
 scenes' budgets were chosen).
 """
@@ -60,6 +64,12 @@ TARGET = 6.0
 TARGET_LOWER = 5.0
 #: Most share of guided+nee's time that its training may take (issue 41).
 TRAINING_SHARE_TARGET = 0.20
+#: The plain method whose time per sample a frozen guided pass is held to.
+PLAIN = "bsdf+nee"
+#: Most kernel time per sample of a frozen guided pass over :data:`PLAIN`'s (issue 41).
+FROZEN_TARGET = 1.15
+#: Most kernel time per sample of a recording pass over a frozen one's (issue 41).
+RECORDING_TARGET = 1.35
 
 
 def _job(info, method, width, height, spp, seed, depth, tag):
@@ -88,8 +98,21 @@ def _final_share(result) -> float:
     return float(seconds[-1] / seconds.sum())
 
 
+def pass_costs(kernel_seconds: float, pass_seconds, spp: int) -> tuple[float, float]:
+    """(kernel seconds per sample of a guided job's recording passes, of its last, frozen
+    one) for a job of ``spp`` samples whose passes took ``pass_seconds`` of wall time: the
+    job's kernel time split over its passes by their wall time, the last pass holding the
+    last training iteration's samples (:func:`integrators.guide_passes.iterations`), every
+    other pass recording."""
+    seconds = np.asarray(pass_seconds, float)
+    last = guide_passes.iterations(spp)[-1]
+    share = float(seconds[-1] / seconds.sum())
+    recording = kernel_seconds * (1.0 - share) / (spp - last) if spp > last else float("nan")
+    return recording, kernel_seconds * share / last
+
+
 def measure(scene: str = SCENE, width: int = WIDTH, height: int = HEIGHT,
-            path_spp: int = PATH_SPP, repeats: int = REPEATS, methods=(GUIDED,),
+            path_spp: int = PATH_SPP, repeats: int = REPEATS, methods=(GUIDED, PLAIN),
             reference_spp: int = REFERENCE_SPP, chunk_spp: int = CHUNK_SPP,
             pilots: int = PILOTS, log=print) -> dict:
     """Every number of the module help, as a dict (see :func:`rows`)."""
@@ -114,34 +137,49 @@ def measure(scene: str = SCENE, width: int = WIDTH, height: int = HEIGHT,
             ratios[m].append(path_cost / clock.cost(run(m, path_spp, -1 - k)[0]))
     counts = {m: max(1, round(path_spp * float(np.median(r)))) for m, r in ratios.items()}
     counts["path"] = path_spp
-    out = {m: {"spp": counts[m], "relmse": [], "cost": [], "final_share": []}
+    out = {m: {"spp": counts[m], "relmse": [], "cost": [], "kernel": [], "final_share": [],
+               "passes": []}
            for m in ("path",) + tuple(methods)}
     for rep in range(repeats):
         for m in (("path",) + tuple(methods))[::1 if rep % 2 == 0 else -1]:
             r, rel = run(m, counts[m], rep)
             out[m]["relmse"].append(rel)
             out[m]["cost"].append(clock.cost(r))
+            out[m]["kernel"].append(r.kernel_seconds)
             if parse_method(m).integrator == "vr_guided_path":
                 out[m]["final_share"].append(_final_share(r))
+                out[m]["passes"].append(pass_costs(r.kernel_seconds, r.pass_seconds,
+                                                   counts[m]))
         log(f"[guiding] repeat {rep + 1}/{repeats}: " + ", ".join(
             f"{m} {counts[m]} spp relMSE {out[m]['relmse'][-1]:.3g} cost "
             f"{out[m]['cost'][-1]:.2f} s" for m in out))
-    p = out["path"]
     for m in methods:
-        o = out[m]
-        eff = stats.efficiency_ratio(o["relmse"], o["cost"], p["relmse"], p["cost"])
-        o["efficiency"] = [eff.value, eff.lo, eff.hi]
-        if o["final_share"]:
-            share = float(np.mean(o["final_share"]))
-            last = guide_passes.iterations(o["spp"])[-1]
-            per_sample = np.mean(o["cost"]) * share / last
-            o["after_training_per_sample_over_path"] = float(
-                per_sample / (np.mean(p["cost"]) / path_spp))
-            o["training_share"] = 1 - share
+        _summarise(out, m)
     return {"scene": scene, "width": width, "height": height, "path_spp": path_spp,
             "repeats": repeats, "reference_spp": reference_spp, "reference_relmse": floor,
             "max_depth": depth.max_depth, "methods": out,
             "seconds": time.perf_counter() - start}
+
+
+def _summarise(out: dict, m: str) -> None:
+    """Method ``m``'s efficiency over path's in ``out`` (:func:`measure`'s per-method
+    lists), and where it trains its costs per pass: after training over path's per
+    sample, the training's share, and issue 41's kernel cost ratios."""
+    o, p = out[m], out["path"]
+    eff = stats.efficiency_ratio(o["relmse"], o["cost"], p["relmse"], p["cost"])
+    o["efficiency"] = [eff.value, eff.lo, eff.hi]
+    if not o["final_share"]:
+        return
+    share = float(np.mean(o["final_share"]))
+    last = guide_passes.iterations(o["spp"])[-1]
+    per_sample = np.mean(o["cost"]) * share / last
+    o["after_training_per_sample_over_path"] = float(per_sample / (np.mean(p["cost"]) / p["spp"]))
+    o["training_share"] = 1 - share
+    recording, frozen = np.mean(o["passes"], axis=0)
+    o["recording_over_frozen"] = float(recording / frozen)
+    if PLAIN in out:
+        o["frozen_over_plain"] = float(frozen / (np.mean(out[PLAIN]["kernel"]) /
+                                                 out[PLAIN]["spp"]))
 
 
 def rows(res: dict) -> list[list[str]]:
@@ -165,6 +203,14 @@ def rows(res: dict) -> list[list[str]]:
             out.append([f"7. {m} training's share of its time", f"{share:.0%}",
                         f"<= {TRAINING_SHARE_TARGET:.0%}",
                         "yes" if share <= TRAINING_SHARE_TARGET else "no"])
+            for key, what, target in (
+                    ("frozen_over_plain", f"a frozen pass's kernel time per sample / "
+                     f"{PLAIN}'s", FROZEN_TARGET),
+                    ("recording_over_frozen", "a recording pass's kernel time per sample / "
+                     "a frozen pass's", RECORDING_TARGET)):
+                if key in o:
+                    out.append([f"7. {m} {what}", f"{o[key]:.2f}", f"<= {target:g}",
+                                "yes" if o[key] <= target else "no"])
     return out
 
 
@@ -191,7 +237,9 @@ def note(res: dict) -> str:
             f"{res['reference_spp']}-spp `path` reference less its own expected relMSE "
             f"({res['reference_relmse']:.2g}); interval 95%, delta method over the repeats. "
             f"After-training cost and training share split each job's cost over its passes "
-            f"by their wall-clock seconds ({res['seconds']:.0f} s in all; "
+            f"by their wall-clock seconds, and the frozen and recording passes' kernel time "
+            f"per sample its kernel time the same way, against `{PLAIN}`'s kernel time per "
+            f"sample at path's cost ({res['seconds']:.0f} s in all; "
             f"`python -m benchmarks.guiding`).")
 
 
@@ -202,7 +250,7 @@ def main(argv=None) -> None:
     p.add_argument("--resolution", default=f"{WIDTH}x{HEIGHT}")
     p.add_argument("--path-spp", type=int, default=PATH_SPP)
     p.add_argument("--repeats", type=int, default=REPEATS)
-    p.add_argument("--methods", default=GUIDED)
+    p.add_argument("--methods", default=f"{GUIDED},{PLAIN}")
     p.add_argument("--reference-spp", type=int, default=REFERENCE_SPP)
     p.add_argument("--quick", action="store_true",
                    help="16x12, path 64 spp, 2 repeats, reference 4096 (checks that it runs)")

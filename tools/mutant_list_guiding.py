@@ -3,6 +3,14 @@
 from tools.mutant import Mutant
 
 GUIDING = [
+    Mutant("bench-frozen-cost-over-all-samples", "benchmarks/guiding.py",
+           "    return recording, kernel_seconds * share / last\n",
+           "    return recording, kernel_seconds * share / spp\n",
+           "the bench's frozen pass cost divided over every sample of the job, not the last "
+           "iteration's: a frozen guided pass reads far cheaper than it is, and issue 41's "
+           "cost target holds on paper",
+           ("tests/test_bench_guiding.py::test_pass_costs_split_the_kernel_time_by_the_"
+            "passes_wall_time",)),
     Mutant("guide-weights-own-pixels", "integrators/guide_passes.py",
            "        other = ~colour if (~colour).any() else colour\n",
            "        other = colour\n",
