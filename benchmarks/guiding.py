@@ -145,10 +145,10 @@ def measure(scene: str = SCENE, width: int = WIDTH, height: int = HEIGHT,
             r, rel = run(m, counts[m], rep)
             out[m]["relmse"].append(rel)
             out[m]["cost"].append(clock.cost(r))
-            out[m]["kernel"].append(r.kernel_seconds)
+            out[m]["kernel"].append(clock.kernels(r))
             if parse_method(m).integrator == "vr_guided_path":
                 out[m]["final_share"].append(_final_share(r))
-                out[m]["passes"].append(pass_costs(r.kernel_seconds, r.pass_seconds,
+                out[m]["passes"].append(pass_costs(clock.kernels(r), r.pass_seconds,
                                                    counts[m]))
         log(f"[guiding] repeat {rep + 1}/{repeats}: " + ", ".join(
             f"{m} {counts[m]} spp relMSE {out[m]['relmse'][-1]:.3g} cost "

@@ -67,6 +67,7 @@ def test_cost_is_kernel_plus_host_time_and_overhead_the_rest():
     r = JobResult(np.zeros((1, 1, 3)), None, 4, 2, wall_seconds=1.0, kernel_seconds=0.25,
                   host_seconds=0.5)
     assert clock.cost(r) == 0.75 and clock.overhead(r) == 0.25 and clock.wall(r) == 1.0
+    assert clock.kernels(r) == 0.25 and clock.fixed(r) == 0.5
     assert clock.total([r, r]) == 1.5
     stale = JobResult(np.zeros((1, 1, 3)), None, 4, 2, wall_seconds=1.0)
     with pytest.raises(clock.ClockError, match="no kernel time"):

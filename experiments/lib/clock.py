@@ -61,6 +61,13 @@ def fixed(result) -> float:
     return float(result.host_seconds)
 
 
+def kernels(result) -> float:
+    """The kernel execution seconds of a render's passes: its :func:`cost` without the
+    method's host work (a method's passes costed apart, as the guiding bench's frozen and
+    recording passes are, split by their wall time)."""
+    return float(result.kernel_seconds)
+
+
 def overhead(result) -> float:
     """Seconds of a render that the clock does not count: tracing, launching, waiting (its
     wall-clock time less its cost; never negative)."""
