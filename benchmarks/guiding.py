@@ -98,15 +98,13 @@ def _final_share(result) -> float:
     return float(seconds[-1] / seconds.sum())
 
 
-def pass_costs(kernel_seconds: float, pass_seconds, spp: int) -> tuple[float, float]:
+def pass_costs(kernel_seconds: float, share: float, spp: int) -> tuple[float, float]:
     """(kernel seconds per sample of a guided job's recording passes, of its last, frozen
-    one) for a job of ``spp`` samples whose passes took ``pass_seconds`` of wall time: the
-    job's kernel time split over its passes by their wall time, the last pass holding the
-    last training iteration's samples (:func:`integrators.guide_passes.iterations`), every
-    other pass recording."""
-    seconds = np.asarray(pass_seconds, float)
+    one) for a job of ``spp`` samples whose last pass took ``share`` of its passes' wall
+    time (:func:`_final_share`): the job's kernel time split over its passes by their wall
+    time, the last pass holding the last training iteration's samples
+    (:func:`integrators.guide_passes.iterations`), every other pass recording."""
     last = guide_passes.iterations(spp)[-1]
-    share = float(seconds[-1] / seconds.sum())
     recording = kernel_seconds * (1.0 - share) / (spp - last) if spp > last else float("nan")
     return recording, kernel_seconds * share / last
 
@@ -148,8 +146,8 @@ def measure(scene: str = SCENE, width: int = WIDTH, height: int = HEIGHT,
             out[m]["kernel"].append(clock.kernels(r))
             if parse_method(m).integrator == "vr_guided_path":
                 out[m]["final_share"].append(_final_share(r))
-                out[m]["passes"].append(pass_costs(clock.kernels(r), r.pass_seconds,
-                                                   counts[m]))
+                out[m]["passes"].append(pass_costs(clock.kernels(r),
+                                                   out[m]["final_share"][-1], counts[m]))
         log(f"[guiding] repeat {rep + 1}/{repeats}: " + ", ".join(
             f"{m} {counts[m]} spp relMSE {out[m]['relmse'][-1]:.3g} cost "
             f"{out[m]['cost'][-1]:.2f} s" for m in out))

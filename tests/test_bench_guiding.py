@@ -30,8 +30,9 @@ def test_quick_measure_gives_rows_and_a_note():
 
 def test_pass_costs_split_the_kernel_time_by_the_passes_wall_time():
     """A 447-spp job trains in iterations 2, 4, ..., 64 (126 recorded samples) and renders
-    its last 321 samples frozen: kernel seconds split by the passes' wall seconds."""
-    passes = [0.1] * 6 + [2.0]          # 0.6 s of recording, 2 s frozen: 3 s of kernels
-    recording, frozen = guiding.pass_costs(3.0, passes, 447)
+    its last 321 samples frozen: kernel seconds split by the passes' wall seconds (its last
+    pass 2 s of 2.6)."""
+    share = 2.0 / 2.6                   # 0.6 s of recording, 2 s frozen: 3 s of kernels
+    recording, frozen = guiding.pass_costs(3.0, share, 447)
     assert frozen == pytest.approx(3.0 * 2.0 / 2.6 / 321)
     assert recording == pytest.approx(3.0 * 0.6 / 2.6 / 126)
