@@ -15,31 +15,14 @@ from types import SimpleNamespace
 
 import pytest
 
-import scenes
+from _suite_engine import engine_at
 from experiments.lib import counts, methods
-from experiments.lib.engine import Engine, Planned
-from experiments.lib.studies.suite import declare
-from experiments.lib.studies.suite import study as S
-from experiments.lib.study import Study
 
 
 def renders(spp: int, per_sample: float) -> list:
     """One repeat of one render of ``spp`` samples at ``per_sample`` seconds each."""
     return [[SimpleNamespace(spp=spp, kernel_seconds=spp * per_sample, host_seconds=0.0,
                              wall_seconds=0.0)]]
-
-
-def engine_at(tmp_path, budget: str, methods: str):
-    """(declaration, engine, planned with the equal-spp jobs, the equal-time budget) of a
-    quick suite on cbox at ``budget`` seconds with ``methods``."""
-    cfg = S.settings(S.parse(["--quick", "--spp", "16", "--time-budget", budget,
-                              "--methods", methods, "--scenes",
-                              scenes.path("suite/cbox.xml"), "--out", str(tmp_path)]))
-    decl = declare.declaration(cfg, declare.plan_scenes(cfg))
-    engine, planned = Engine(Study(cfg)), Planned()
-    spp_budget, time_budget = decl.budgets
-    planned.add(spp_budget.name, engine.jobs(decl, spp_budget))
-    return decl, engine, planned, time_budget
 
 
 def threshold(n: int):

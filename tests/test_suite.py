@@ -21,7 +21,7 @@ from experiments.lib.studies.suite import analysis as A
 from experiments.lib.studies.suite import bias_report
 from experiments.lib.studies.suite import declare
 from experiments.lib.studies.suite import study as S
-from test_learner_counts import engine_at
+from _suite_engine import engine_at
 
 QUICK = ["--quick", "--seed", "3"]
 FURNACE = scenes.path("suite/furnace.xml")
