@@ -9,6 +9,7 @@ from __future__ import annotations
 import html
 import json
 import shutil
+from dataclasses import replace
 from types import SimpleNamespace
 
 import numpy as np
@@ -311,10 +312,48 @@ def test_a_learning_method_is_compared_with_its_plain_counterpart():
     assert worse.learned["guided+nee"][0].value == pytest.approx(0.5)
     assert favoured.learned["guided+nee"][1] and not worse.learned["guided+nee"][1]
     assert alone.learned == {}
-    rows, mean, n = A.learned_over_plain([worse, better, favoured, alone])["guided+nee"]
+    rows, mean, n, untrained = A.learned_over_plain([worse, better, favoured, alone])["guided+nee"]
     assert [s for s, _ in rows] == ["s", "s"] and n == 2 and mean == pytest.approx(1.0)
-    rows, mean, n = A.learned_over_plain([worse, favoured])["guided+nee"]
+    assert untrained == []
+    rows, mean, n, _ = A.learned_over_plain([worse, favoured])["guided+nee"]
     assert mean == pytest.approx(0.5) and n == 1
+
+
+def test_the_learner_finding_names_the_scenes_where_it_did_not_train():
+    """Where a learner's equal-time renders stayed under its training thresholds it is its
+    plain counterpart's estimator: the finding names those scenes (their ratio is noise),
+    and names none where every cell trained (the negative control)."""
+    from experiments.lib.studies.suite import words
+    errors = {"path": list(TIGHT), "bsdf+nee": list(TIGHT), "guided+nee": [2 * x for x in TIGHT]}
+    plain = A.analyse_scene(numbers(errors))
+    n = numbers(errors)
+    cells = dict(n.cells, **{"guided+nee": replace(n.cells["guided+nee"], learns=True,
+                                                    trained=False)})
+    untrained = A.analyse_scene(replace(n, name="cheap", cells=cells))
+    assert untrained.learned["guided+nee"][2] is False and plain.learned["guided+nee"][2]
+    rows, _, _, names = A.learned_over_plain([plain, untrained])["guided+nee"]
+    assert len(rows) == 2 and names == ["cheap"]
+    text = " ".join(words.findings([plain, untrained], {}))
+    assert "did not train at its equal-time count on 1 of the 2 (cheap)" in text
+    assert "bsdf+nee's estimator" in text
+    assert "did not train" not in " ".join(words.findings([plain], {}))
+
+
+def test_a_learner_trained_where_its_equal_time_renders_did():
+    """A cell's learner trained where its equal-time count reaches the guide's thresholds
+    (2^20 samples and 256 spp on a 48x36 film: 607 spp), whatever its short equal-spp
+    renders; never below them, nor for a method that does not learn."""
+    from experiments.lib.methods import parse_method
+    from experiments.lib.studies.suite import measure
+    px, guided = 48 * 36, parse_method("guided+nee")
+
+    def finals(time_spp):
+        return {measure.TIME: [SimpleNamespace(spp=n) for n in time_spp],
+                measure.SPP: [SimpleNamespace(spp=16)] * len(time_spp)}
+    assert measure.trained(guided, finals([1587, 1600, 1590]), px)
+    assert not measure.trained(guided, finals([29, 30, 29]), px)
+    assert not measure.trained(guided, finals([600, 600, 600]), px)   # 1,036,800 < 2^20
+    assert not measure.trained(parse_method("bsdf+nee"), finals([1587] * 3), px)
 
 
 def test_an_error_below_the_references_noise_is_a_bound_not_nan():

@@ -156,4 +156,17 @@ BIAS = [
            "a learning method's costs, which vary with what each repeat learned, pooled as the "
            "machine's jitter: sunlit_room's A/A interval at hi/lo 1.7",
            ("tests/test_suite_cost_jitter.py::test_a_learning_methods_costs_stay_out_of_the_pool",)),
+    Mutant("learner-untrained-inverted", "experiments/lib/studies/suite/analysis.py",
+           "                      [s for s, _, trained in rows if not trained])",
+           "                      [s for s, _, trained in rows if trained])",
+           "the learner-over-plain finding names the scenes where the learner trained as the "
+           "ones where it did not: a real loss of a trained guide read as the cells' noise",
+           ("tests/test_suite.py::test_the_learner_finding_names_the_scenes_where_it_did_not_train",)),
+    Mutant("learner-trained-at-equal-spp", "experiments/lib/studies/suite/measure.py",
+           "    return any(method.trains(x.spp, pixels) for x in finals[TIME])",
+           "    return any(method.trains(x.spp, pixels) for x in finals[SPP])",
+           "whether a learner trained read from its equal-spp renders (a few dozen samples "
+           "per pixel, never over the guide's thresholds): every scene's learner ratio called "
+           "the cells' noise",
+           ("tests/test_suite.py::test_a_learner_trained_where_its_equal_time_renders_did",)),
 ]

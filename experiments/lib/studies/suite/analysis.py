@@ -82,6 +82,8 @@ class Cell:
     deterministic: bool = False
     block_bias: object = None     # the bias test against the reference (bias_test.CellBias)
     learns: bool = False      # a method that learns: its costs vary with what it learned
+    trained: bool = True      # its equal-time renders learned (Method.trains at their count:
+    #                           under a guide's thresholds it is its plain counterpart)
 
 
 @dataclass(frozen=True)
@@ -244,7 +246,8 @@ class SceneResult:
     power_method: str = ""        # the calibration method (or the cell with the best power)
     calibration: str = ""         # the reference's own method
     #: {learning method: (Ratio of its equal-time efficiency over its counterpart without
-    #: learning (Method.plain), whether the scene's header favours it)}
+    #: learning (Method.plain), whether the scene's header favours it, whether its
+    #: equal-time renders trained)}
     learned: dict = field(default_factory=dict)
     oracle_gain: float = math.nan   # the adaptive sampling ceiling (SceneNumbers')
 
@@ -317,7 +320,7 @@ def analyse_scene(numbers: SceneNumbers) -> SceneResult:
     share = floor_share(numbers)
     power, power_method = scene_power(cells, numbers.calibration)
     favoured = set(matching(numbers.favours, list(cells)))
-    learned = {m: (compare(m, plain), m in favoured) for m in cells
+    learned = {m: (compare(m, plain), m in favoured, cells[m].trained) for m in cells
                if (plain := _plain(m)) in cells}
     return SceneResult(numbers.name, base, results, ranking, verdict, time_ratio, share,
                        floor.known, dict(numbers.failed), power, power_method,
@@ -335,17 +338,21 @@ def _plain(name: str) -> str | None:
 
 def learned_over_plain(results: list[SceneResult]) -> dict:
     """{learning method: ([(scene, Ratio over its plain counterpart)] on the scenes whose
-    header does not favour it, the geometric mean of those that are intervals, how many)}:
-    what learning costs where it should not help (issue 31's "other bundled scenes")."""
+    header does not favour it, the geometric mean of those that are intervals, how many,
+    the scenes of those rows where its equal-time renders did not train)}: what learning
+    costs where it should not help (issue 31's "other bundled scenes"). Where it did not
+    train it is its plain counterpart's estimator, so that ratio is the two cells' noise."""
     out = {}
     for r in results:
-        for m, (ratio, favoured) in r.learned.items():
+        for m, (ratio, favoured, trained) in r.learned.items():
             if not favoured:
-                out.setdefault(m, []).append((r.name, ratio))
+                out.setdefault(m, []).append((r.name, ratio, trained))
     summary = {}
     for m, rows in out.items():
-        logs = [math.log(x.value) for _, x in rows if x.side == "" and x.value > 0]
-        summary[m] = (rows, math.exp(sum(logs) / len(logs)) if logs else math.nan, len(logs))
+        logs = [math.log(x.value) for _, x, _ in rows if x.side == "" and x.value > 0]
+        summary[m] = ([(s, x) for s, x, _ in rows],
+                      math.exp(sum(logs) / len(logs)) if logs else math.nan, len(logs),
+                      [s for s, _, trained in rows if not trained])
     return summary
 
 

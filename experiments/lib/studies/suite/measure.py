@@ -93,6 +93,14 @@ def bias_tests(cfg: Settings, sp: ScenePlan, measured: Measurements,
         out, cfg.reference_method.name)
 
 
+def trained(method, finals: dict, pixels: int) -> bool:
+    """Whether any of ``method``'s equal-time renders (``finals[TIME]``, each with its
+    ``spp``) learned from its samples on a film of ``pixels``: under a guide's training
+    thresholds its cell is its plain counterpart's estimator (:meth:`.methods.Method.trains`;
+    its equal-spp renders are too short to train anywhere)."""
+    return any(method.trains(x.spp, pixels) for x in finals[TIME])
+
+
 def measure_scene(cfg: Settings, sp: ScenePlan, measured: Measurements,
                   ref: references.Reference, flip: bool, tests: dict | None = None
                   ) -> analysis.SceneNumbers:
@@ -119,7 +127,7 @@ def measure_scene(cfg: Settings, sp: ScenePlan, measured: Measurements,
         overhead = float(np.mean([r.overhead for budget in (SPP, TIME) for r in finals[budget]]))
         cells[name] = analysis.Cell(name, runs, tuple(x / px * 1e9 for x in b), overhead,
                                     methods[name].deterministic, tested,
-                                    methods[name].learns)
+                                    methods[name].learns, trained(methods[name], finals, px))
     floor = analysis.Floor(ref.relmse_floor or 0.0,
                            float(np.mean(rej_floors)) if rej_floors else 0.0,
                            ref.mse_floor or 0.0, ref.floor_known)

@@ -114,11 +114,12 @@ def findings(results: list, failed_scenes: dict) -> list[str]:
         out.append(f"Geometric mean of the equal-time efficiency over {results[0].baseline} "
                    f"across scenes: " + ", ".join(f"{m} {g(gm[m][0])} ({gm[m][1]} scenes)"
                                                   for m in shown) + ".")
-    for m, (rows, mean, n) in analysis.learned_over_plain(results).items():
+    for m, (rows, mean, n, untrained) in analysis.learned_over_plain(results).items():
         plain = parse_method(m).plain
         out.append(f"{m} over {plain} (equal-time efficiency) on the scenes that do not "
                    f"favour it: " + ", ".join(f"{s} {x.short()}" for s, x in rows)
-                   + f"; geometric mean {g(mean)} ({n} scenes).")
+                   + f"; geometric mean {g(mean)} ({n} scenes)."
+                   + untrained_words(untrained, len(rows), plain))
     status = {}
     for r in results:
         status.setdefault(r.verdict.status, []).append(r.name)
@@ -144,6 +145,17 @@ def findings(results: list, failed_scenes: dict) -> list[str]:
     if failed_scenes:
         out.append(f"Not compared: {', '.join(failed_scenes)} (errors in the suite section).")
     return out
+
+
+def untrained_words(untrained: list, rows: int, plain: str) -> str:
+    """What the learner-over-plain finding says of the scenes where the learner's
+    equal-time renders did not train (``analysis.learned_over_plain``): there
+    it is ``plain``'s estimator, so those ratios measure nothing but the cells' noise."""
+    if not untrained:
+        return ""
+    return (f" It did not train at its equal-time count on {len(untrained)} of the {rows} "
+            f"({', '.join(untrained)}): below its training thresholds it is {plain}'s "
+            f"estimator, so those ratios are the two cells' noise.")
 
 
 def scaled(scales: dict) -> str:
