@@ -61,6 +61,17 @@ class GuidedStrategy(Strategy):
         self.set_share(np.ones(self.tree.max_units))
         self.set_recording(False)
 
+    def reset(self) -> None:
+        """Forget what was learned: a new tree of the same sizes (its box set again by the
+        next scene rendered), every share 1. A job learns from its own samples alone. A
+        tree that has not rendered yet (no box) is new already: kept (a new one costs
+        20 ms of host work, a job's cost)."""
+        tree = self.tree
+        if not tree.has_bbox:
+            return
+        self.tree = SDTree(tree.res, tree.max_leaves, tree.split_share)
+        self.set_share(np.ones(self.tree.max_units))
+
     def set_share(self, share: np.ndarray) -> None:
         """The BSDF share per unit (an evaluated array: a new one recompiles nothing)."""
         self.share = mi.Float(np.asarray(share, np.float32))

@@ -133,7 +133,8 @@ class GuidedPathIntegrator(VRPathIntegrator):
 
     and every parameter of ``vr_path`` (``max_depth``, ``rr_depth``, ``hide_emitters``,
     ``emitter_sampling``). One ``mi.render`` call trains and renders the whole job in its
-    own passes and returns the combined RGB image. See docs/guiding.md for the method, its
+    own passes, from a new guide (nothing an earlier call learned carries over), and
+    returns the combined RGB image. See docs/guiding.md for the method, its
     costs and when it loses.
     Samplers that compile the sample count into the kernel (stratified, multijitter,
     orthogonal, ldsampler) are refused: every pass would recompile.
@@ -250,7 +251,9 @@ class GuidedPathIntegrator(VRPathIntegrator):
         into renders of at most ``max_pass_spp`` (:func:`.guide_passes.renders`): a
         function of ``spp`` and the film's ``pixels`` alone; one iteration without
         training below ``min_train_spp`` or ``min_train_samples``. Starts the job's state
-        anew."""
+        anew, the guide too (:meth:`.guided.GuidedStrategy.reset`): a second job of this
+        integrator, of this scene or another, learns from its own samples alone."""
+        self.guide.reset()
         small = guide_passes.training_refusals(spp, pixels, self.min_train_spp,
                                                self.min_train_samples)
         if small:

@@ -232,3 +232,36 @@ def test_the_cosine_product_lowers_the_error_per_sample_where_light_arrives_indi
     error = {p: np.mean([np.mean(var / (ref ** 2 + 0.01)) for _, var in v])
              for p, v in runs.items()}
     assert error[False] / error[True] > 1.15, error
+
+
+def test_each_job_learns_from_its_own_samples_alone():
+    """A second ``mi.render`` with one ``vr_guided_path`` starts from a new guide: the
+    first job's tree, histograms, shares and box are gone when the next job's schedule is
+    made, and a job on another scene puts the guide's box round that scene (a guide kept
+    from the first job would train the second on the first's samples, its training not
+    counted, and look up another scene's leaves)."""
+    import integrators  # noqa: F401
+
+    def room(size):
+        return mi.load_dict({
+            "type": "scene", "light": {"type": "constant"},
+            "floor": {"type": "rectangle", "bsdf": {"type": "diffuse"},
+                      "to_world": mi.ScalarTransform4f().scale(size)},
+            "sensor": {"type": "perspective", "fov": 40,
+                       "to_world": mi.ScalarTransform4f().look_at([0, 0, 3 * size],
+                                                                  [0, 0, 0], [0, 1, 0]),
+                       "film": {"type": "hdrfilm", "width": 16, "height": 16}}})
+    integ = mi.load_dict({"type": "vr_guided_path", "max_depth": 3, "min_train_spp": 2,
+                          "min_train_samples": 1, "spatial_threshold": 10})
+    mi.render(room(1.0), integrator=integ, spp=64, seed=1)
+    tree = integ.guide.tree
+    assert tree.learned.any() and tree.leaves > 1 and tree.has_bbox
+    integ.pass_schedule(64, 256)
+    fresh = integ.guide.tree
+    assert fresh is not tree and fresh.leaves == 1 and fresh.nodes == 1
+    assert not fresh.learned.any() and not fresh.has_bbox
+    assert (fresh.share == 1).all() and (np.array(integ.guide.share) == 1).all()
+    mi.render(room(10.0), integrator=integ, spp=64, seed=2)
+    lower = np.array([dr.slice(c) for c in (integ.guide.tree.lower.x,
+                                            integ.guide.tree.lower.y)])
+    np.testing.assert_allclose(lower, [-10.2, -10.2], rtol=0.01)

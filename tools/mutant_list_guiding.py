@@ -11,6 +11,13 @@ GUIDING = [
            "cost target holds on paper",
            ("tests/test_bench_guiding.py::test_pass_costs_split_the_kernel_time_by_the_"
             "passes_wall_time",)),
+    Mutant("guide-kept-between-jobs", "integrators/guided_path.py",
+           "        self.guide.reset()\n",
+           "",
+           "a job's schedule made without a new guide: a second mi.render with one "
+           "integrator trains on the first job's samples (its training not counted) and "
+           "looks up the first scene's leaves in another scene",
+           ("tests/test_guide_model.py::test_each_job_learns_from_its_own_samples_alone",)),
     Mutant("guide-weights-own-pixels", "integrators/guide_passes.py",
            "        other = ~colour if (~colour).any() else colour\n",
            "        other = colour\n",
