@@ -237,7 +237,7 @@ def test_the_cosine_product_lowers_the_error_per_sample_where_light_arrives_indi
 def test_each_job_learns_from_its_own_samples_alone():
     """A second ``mi.render`` with one ``vr_guided_path`` starts from a new guide: the
     first job's tree, histograms, shares and box are gone when the next job's schedule is
-    made, and a job on another scene puts the guide's box round that scene (a guide kept
+    made (a guide that has not rendered is kept: a new one is 20 ms of host work), and a job on another scene puts the guide's box round that scene (a guide kept
     from the first job would train the second on the first's samples, its training not
     counted, and look up another scene's leaves)."""
     import integrators  # noqa: F401
@@ -253,6 +253,10 @@ def test_each_job_learns_from_its_own_samples_alone():
                        "film": {"type": "hdrfilm", "width": 16, "height": 16}}})
     integ = mi.load_dict({"type": "vr_guided_path", "max_depth": 3, "min_train_spp": 2,
                           "min_train_samples": 1, "spatial_threshold": 10})
+    new = mi.load_dict({"type": "vr_guided_path"})
+    untouched = new.guide.tree
+    new.pass_schedule(64, 256)          # a guide that has not rendered is new: kept
+    assert new.guide.tree is untouched
     mi.render(room(1.0), integrator=integ, spp=64, seed=1)
     tree = integ.guide.tree
     assert tree.learned.any() and tree.leaves > 1 and tree.has_bbox
