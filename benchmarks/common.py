@@ -15,7 +15,7 @@ import scenes  # noqa: E402
 from experiments.lib import methods  # noqa: E402  (strategies, the method grammar)
 from experiments.lib import samplers  # noqa: E402  (the sampler table)
 from experiments.lib import scenes as scene_loading  # noqa: E402  (`scenes`: the bundled ones)
-from experiments.lib.jobs import cpu_model  # noqa: E402  (one definition, shared)
+from experiments.lib.jobs import cpu_model, cpu_simd  # noqa: E402  (one definition, shared)
 
 #: The checkout (the benchmarks run from it: docs/benchmarks.md, results/); the one definition for
 #: the benchmarks.
@@ -162,7 +162,8 @@ def machine_info() -> dict:
         mem_gb = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**30
     except (ValueError, OSError):
         mem_gb = float("nan")
-    return {"cpu": cpu_model(), "cores": os.cpu_count(), "memory_gb": round(mem_gb, 1),
+    return {"cpu": cpu_model(), "simd": cpu_simd(), "cores": os.cpu_count(),
+            "memory_gb": round(mem_gb, 1),
             "os": platform.platform(), "python": platform.python_version(),
             "mitsuba": mi.__version__, "drjit": dr.__version__, "variant": mi.variant(),
             "libllvm": llvm, "libllvm_path": os.environ.get("DRJIT_LIBLLVM_PATH", ""),

@@ -281,7 +281,8 @@ def markdown(rows: list[list[str]], res: dict) -> str:
     s = res["settings"]
     notes = [
         "",
-        f"Measured {res['date']} on {m['cpu']}, {m['cores']} logical cores, {m['memory_gb']} GiB "
+        f"Measured {res['date']} on {m['cpu']} ({m.get('simd', 'SIMD unknown')}), "
+        f"{m['cores']} logical cores, {m['memory_gb']} GiB "
         f"({m['os']}); Mitsuba {m['mitsuba']}, Dr.Jit {m['drjit']}, libLLVM {m['libllvm']}, "
         f"variant {m['variant']}, Python {m['python']}; load average at start "
         f"{', '.join(map(str, m['load_average']))}.",

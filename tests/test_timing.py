@@ -204,3 +204,21 @@ def test_a_pilot_is_rendered_once_and_warms_the_jobs_after_it(mitsuba, monkeypat
         counts.append(len(calls))
     assert counts == [2, 1, 1], counts
     assert result.recompiled == 0 and result.compiled_passes == 0
+
+
+def test_the_reports_name_the_widest_simd_extension(tmp_path):
+    """Exact values: ``cpu_simd`` names the widest vector extension of a cpuinfo's flags
+    (the LLVM backend's kernels are that wide, so costs differ between an AVX2 and an
+    AVX-512 machine), an ARM's NEON from its Features line, "unknown" without flags or
+    without the file."""
+    from experiments.lib.jobs import cpu_simd
+    cases = {"flags\t\t: fpu sse4_2 avx avx2 avx512f avx512bw\n": "AVX-512",
+             "flags\t\t: fpu sse4_2 avx avx2 fma\n": "AVX2",
+             "flags\t\t: fpu sse4_2\n": "SSE4.2",
+             "Features\t: fp asimd evtstrm\n": "NEON",
+             "model name\t: a CPU\n": "unknown"}
+    for text, name in cases.items():
+        path = tmp_path / "cpuinfo"
+        path.write_text("processor\t: 0\n" + text)
+        assert cpu_simd(str(path)) == name
+    assert cpu_simd(str(tmp_path / "absent")) == "unknown"

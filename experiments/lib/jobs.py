@@ -150,6 +150,25 @@ def cpu_model() -> str:
     return platform.processor() or platform.machine()
 
 
+#: The CPU flags that name the widest SIMD extension Dr.Jit's LLVM backend vectorizes to
+#: (its lanes per instruction), widest first.
+SIMD_FLAGS = (("avx512f", "AVX-512"), ("avx2", "AVX2"), ("avx", "AVX"), ("sse4_2", "SSE4.2"),
+              ("asimd", "NEON"))
+
+
+def cpu_simd(cpuinfo: str = "/proc/cpuinfo") -> str:
+    """The widest SIMD extension the CPU has (the flags in ``cpuinfo``, :data:`SIMD_FLAGS`),
+    or "unknown": the LLVM backend's kernels are that wide, so the relative costs of methods
+    (and every equal-time count) differ between an AVX2 and an AVX-512 machine."""
+    try:
+        with open(cpuinfo) as f:
+            flags = next((set(line.split(":", 1)[1].split()) for line in f
+                          if line.startswith(("flags", "Features"))), set())
+    except OSError:
+        flags = set()
+    return next((name for flag, name in SIMD_FLAGS if flag in flags), "unknown")
+
+
 # ------------------------------------------------------------ accumulation
 
 @dataclass

@@ -20,7 +20,7 @@ import resource
 from . import store
 from . import viewer as viewers
 from .files import markdown_table, read_json, write_csv, write_json, write_text
-from .jobs import cpu_model
+from .jobs import cpu_model, cpu_simd
 
 SECTION = "section.json"
 
@@ -37,7 +37,7 @@ def versions(variant: str) -> dict:
     import numpy as np
     info = {"mitsuba": mi.__version__, "drjit": dr.__version__, "variant": variant,
             "python": platform.python_version(), "numpy": np.__version__,
-            "CPU": f"{cpu_model()} ({os.cpu_count()} logical cores)",
+            "CPU": f"{cpu_model()} ({os.cpu_count()} logical cores, {cpu_simd()})",
             "OS": platform.platform()}
     if variant.startswith("llvm"):
         try:
