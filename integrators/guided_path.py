@@ -134,7 +134,9 @@ class GuidedPathIntegrator(VRPathIntegrator):
     and every parameter of ``vr_path`` (``max_depth``, ``rr_depth``, ``hide_emitters``,
     ``emitter_sampling``). One ``mi.render`` call trains and renders the whole job in its
     own passes, from a new guide (nothing an earlier call learned carries over), and
-    returns the combined RGB image. See docs/guiding.md for the method, its
+    returns the combined RGB image. Nested in another integrator (Mitsuba's ``moment`` or
+    ``aov``), which calls its ``sample`` and not its ``render``, it cannot train: it
+    renders plain BSDF sampling (``vr_path``'s bsdf strategy) and warns. See docs/guiding.md for the method, its
     costs and when it loses.
     Samplers that compile the sample count into the kernel (stratified, multijitter,
     orthogonal, ldsampler) are refused: every pass would recompile.
@@ -205,6 +207,9 @@ class GuidedPathIntegrator(VRPathIntegrator):
         #: A driver renders the passes, one ``mi.render`` call each, between
         #: :meth:`pass_schedule` and :meth:`combine` (else :meth:`render` drives them).
         self._driven = False
+        #: Inside this integrator's own :meth:`render` (else another integrator calls its
+        #: ``sample``: :meth:`_nested`).
+        self._rendering = False
 
     # ------------------------------------------------------------------- render side
 
@@ -216,12 +221,28 @@ class GuidedPathIntegrator(VRPathIntegrator):
                 f"into the kernel, so every training pass would recompile; valid choices: "
                 f"independent or a sampler that does not (halton, zsobol), not "
                 f"{', '.join(BAKES_SPP.values())}")
+        if not self._rendering:
+            self._nested()
+            return None
         tree = self.guide.tree
         if not tree.has_bbox:
             tree.set_bbox(scene.bbox())
         if not self.recording:      # a kernel without records (compiled once, cached)
             return None
         return Recorder(tree, dr.width(ray.o), self.record_depth, self.guide.recording)
+
+    def _nested(self) -> None:
+        """Another integrator calls this one's ``sample`` (Mitsuba's ``moment`` or ``aov``
+        nesting it): no passes of its own, so nothing to learn from. It renders plain BSDF
+        sampling (``vr_path``'s bsdf strategy, roulette and kernel), records nothing, and
+        says so."""
+        warnings.warn("vr_guided_path: called by another integrator (its sample(), not its "
+                      "own render), it cannot train: plain BSDF sampling (vr_path's bsdf "
+                      "strategy). The guide learns in the passes of its own mi.render: make "
+                      "it the scene's integrator to guide", stacklevel=3)
+        self._set_recording(False)
+        self._stopped = True
+        self.sampling_strategy = strategies.get("bsdf")
 
     def _roulette(self):
         """The guided roulette while the guide is in use (``roulette`` adjoint), else None
@@ -377,9 +398,13 @@ class GuidedPathIntegrator(VRPathIntegrator):
         (:meth:`_render_job`); the combined RGB image (H, W, 3). Between a driver's
         :meth:`pass_schedule` and :meth:`combine` (the experiments' executor), each call
         renders one pass, its image with the moment AOVs."""
-        if self._driven or not develop:
-            return super().render(scene, sensor, seed, spp, develop, evaluate)
-        return self._render_job(scene, sensor, seed, spp)
+        self._rendering = True
+        try:
+            if self._driven or not develop:
+                return super().render(scene, sensor, seed, spp, develop, evaluate)
+            return self._render_job(scene, sensor, seed, spp)
+        finally:
+            self._rendering = False
 
     def _render_job(self, scene, sensor, seed: int, spp: int) -> mi.TensorXf:
         """Every pass of :meth:`pass_schedule` with :meth:`after_pass` between them, then

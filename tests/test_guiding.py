@@ -760,3 +760,23 @@ def test_a_large_film_records_in_renders_that_fit_the_cap():
     assert integ._passes[-1][1] == integ._iterations[-1] > 4
     small = mi.load_dict({"type": "vr_guided_path"}).pass_schedule(1024, 64 * 48)
     assert max(small[:-1]) == 64                  # a small film keeps max_pass_spp
+
+
+def test_nested_in_another_integrator_it_renders_plain_bsdf_sampling_and_says_so():
+    """Nested in Mitsuba's ``moment`` integrator (as Mitsuba's render tests nest ``path``)
+    ``vr_guided_path`` has no passes of its own: it warns that it cannot train, records
+    nothing (at 48 x 48 and 1024 spp its records would be 504 MiB, over the cap, and the
+    render would fail) and renders what ``vr_path``'s bsdf strategy renders, with the same
+    seed the same image."""
+    def nested(inner):
+        s = mi.cornell_box()
+        s["sensor"]["film"].update(width=48, height=48, rfilter={"type": "box"})
+        s["integrator"] = {"type": "moment", "nested": inner}
+        return mi.load_dict(s)
+    common = {"emitter_sampling": True, "max_depth": 3}
+    with pytest.warns(UserWarning, match="called by another integrator.*cannot train"):
+        guided = np.array(mi.render(nested({"type": "vr_guided_path", **common}), spp=1024,
+                                    seed=3))
+    plain = np.array(mi.render(nested({"type": "vr_path", "strategy": "bsdf", **common}),
+                               spp=1024, seed=3))
+    np.testing.assert_allclose(guided[..., :3], plain[..., :3], rtol=1e-5, atol=1e-6)

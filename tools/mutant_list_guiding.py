@@ -18,6 +18,14 @@ GUIDING = [
            "integrator trains on the first job's samples (its training not counted) and "
            "looks up the first scene's leaves in another scene",
            ("tests/test_guide_model.py::test_each_job_learns_from_its_own_samples_alone",)),
+    Mutant("guide-nested-records", "integrators/guided_path.py",
+           "        if not self._rendering:\n",
+           "        if False:\n",
+           "vr_guided_path nested in another integrator (Mitsuba's moment or aov) records "
+           "every sample it never learns from: silently untrained, and over the records' cap "
+           "at a large count the render fails with advice about max_pass_spp",
+           ("tests/test_guiding.py::test_nested_in_another_integrator_it_renders_plain_bsdf_"
+            "sampling_and_says_so",)),
     Mutant("guide-weights-own-pixels", "integrators/guide_passes.py",
            "        other = ~colour if (~colour).any() else colour\n",
            "        other = colour\n",
