@@ -22,6 +22,7 @@ import drjit as dr
 import mitsuba as mi
 
 from . import guided_path, moments
+from .path import seed_value
 
 #: Default ``relmse_eps``: the offset of the relative error's denominator, as the
 #: experiments' relMSE has it (``experiments.lib.metrics.RELMSE_EPS``).
@@ -80,7 +81,9 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
     The per-pixel counts are not a power of two nor equal: the ``independent`` sampler
     only, and a ``box`` filter (each sample in its own pixel); the film's developed image
     is returned without AOVs. After a render, ``last_counts`` holds every pixel's samples
-    (pilot and final, row-major): where the budget went.
+    (pilot and final, row-major): where the budget went. Nested in another integrator
+    that calls its ``sample`` (Mitsuba's ``moment``, ``aov``) it is refused: that call
+    would skip the pilot and the counts.
     """
 
     def __init__(self, props: mi.Properties):
@@ -196,6 +199,14 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
         dr.eval(total, squares)
         return total, squares
 
+    def sample(self, scene, sampler, ray, medium=None, active=True):
+        """Refused: an integrator that nests this one and calls its ``sample`` (Mitsuba's
+        ``moment``) would skip the pilot and the per-pixel counts of :meth:`render`."""
+        raise ValueError("vr_adaptive: called by another integrator (its sample(), not its "
+                         "own render): its pilot and per-pixel counts need its own render; "
+                         "make vr_adaptive the scene's integrator and nest the other one in "
+                         "it, not it in another")
+
     def aov_names(self):
         return []
 
@@ -231,7 +242,7 @@ def combine(pilot: mi.Color3f, n_pilot: mi.Float, final: mi.Color3f, n_final: mi
 
 def _other_seed(seed) -> int:
     """The final pass's seed: another stream than the pilot's."""
-    return (int(seed) * 0x9E3779B1 + 0x7F4A7C15) & 0xFFFFFFFF
+    return (seed_value(seed) * 0x9E3779B1 + 0x7F4A7C15) & 0xFFFFFFFF
 
 
 def _blur(x: mi.Float, width: int, height: int) -> mi.Float:

@@ -21,7 +21,7 @@ from . import guide_passes, guide_quadtree, guide_record, moments, strategies
 from .guide_record import Recorder
 from .guide_roulette import Roulette
 from .guided import GuidedStrategy
-from .path import VRPathIntegrator
+from .path import VRPathIntegrator, seed_value
 from .sequence_sampler import SequenceSampler
 
 #: The values of the ``roulette`` parameter.
@@ -134,9 +134,10 @@ class GuidedPathIntegrator(VRPathIntegrator):
     and every parameter of ``vr_path`` (``max_depth``, ``rr_depth``, ``hide_emitters``,
     ``emitter_sampling``). One ``mi.render`` call trains and renders the whole job in its
     own passes, from a new guide (nothing an earlier call learned carries over), and
-    returns the combined RGB image. Nested in another integrator (Mitsuba's ``moment`` or
-    ``aov``), which calls its ``sample`` and not its ``render``, it cannot train: it
-    renders plain BSDF sampling (``vr_path``'s bsdf strategy) and warns. See docs/guiding.md for the method, its
+    returns the combined RGB image (nested in Mitsuba's ``aov``, which calls it, the
+    image too). Nested in an integrator that calls its ``sample`` and not its ``render``
+    (Mitsuba's ``moment``), it cannot train: it renders plain BSDF sampling (``vr_path``'s
+    bsdf strategy) and warns. See docs/guiding.md for the method, its
     costs and when it loses.
     Samplers that compile the sample count into the kernel (stratified, multijitter,
     orthogonal, ldsampler) are refused: every pass would recompile.
@@ -232,14 +233,17 @@ class GuidedPathIntegrator(VRPathIntegrator):
         return Recorder(tree, dr.width(ray.o), self.record_depth, self.guide.recording)
 
     def _nested(self) -> None:
-        """Another integrator calls this one's ``sample`` (Mitsuba's ``moment`` or ``aov``
-        nesting it): no passes of its own, so nothing to learn from. It renders plain BSDF
-        sampling (``vr_path``'s bsdf strategy, roulette and kernel), records nothing, and
-        says so."""
-        warnings.warn("vr_guided_path: called by another integrator (its sample(), not its "
-                      "own render), it cannot train: plain BSDF sampling (vr_path's bsdf "
-                      "strategy). The guide learns in the passes of its own mi.render: make "
-                      "it the scene's integrator to guide", stacklevel=3)
+        """Another integrator calls this one's ``sample`` outside its ``render``: no passes
+        of its own, so nothing to learn from. That call renders plain BSDF sampling
+        (``vr_path``'s bsdf strategy, roulette and kernel) and records nothing. Where no job
+        of its own has rendered (Mitsuba's ``moment`` nesting it: its whole image is
+        untrained) it says so; Mitsuba's ``aov`` renders the nested integrator's own job
+        for the image and calls ``sample`` for the AOVs alone."""
+        if not self._iterations:
+            warnings.warn("vr_guided_path: called by another integrator (its sample(), not "
+                          "its own render), it cannot train: plain BSDF sampling (vr_path's "
+                          "bsdf strategy). The guide learns in the passes of its own "
+                          "mi.render: make it the scene's integrator to guide", stacklevel=3)
         self._set_recording(False)
         self._stopped = True
         self.sampling_strategy = strategies.get("bsdf")
@@ -448,7 +452,7 @@ class GuidedPathIntegrator(VRPathIntegrator):
 
 def _pass_seed(seed: int, index: int) -> int:
     """The seed of pass ``index`` of a job seeded ``seed`` (a stream of its own per pass)."""
-    return (int(seed) * 0x9E3779B1 + (index + 1) * 0x85EBCA77) & 0xFFFFFFFF
+    return (seed_value(seed) * 0x9E3779B1 + (index + 1) * 0x85EBCA77) & 0xFFFFFFFF
 
 
 mi.register_integrator("vr_guided_path", GuidedPathIntegrator)

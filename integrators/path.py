@@ -26,6 +26,12 @@ RR_MAX_PROBABILITY = 0.95
 # the BSDFs of a scene: one ``dr.dispatch`` over the BSDF instances for strategies that
 # ask for it, and there the fallback to the BSDF's own sampling on delta lobes.
 
+def seed_value(seed) -> int:
+    """A render's ``seed`` as a Python int: ``mi.render`` takes an int or a ``mi.UInt32``,
+    and an integrator that nests this one (Mitsuba's ``aov``) passes its ``UInt32`` on."""
+    return int(seed) if isinstance(seed, int) else int(dr.slice(mi.UInt32(seed)))
+
+
 def _has_delta_lobe(bsdf) -> bool:
     """BSDFs with a Dirac delta lobe (mirrors, smooth dielectrics, ``plastic``, ``null``)
     cannot be hit by a sampled direction: every strategy uses their own sampling."""

@@ -184,6 +184,18 @@ def test_what_per_pixel_counts_cannot_serve_is_refused(change, words):
     assert words in raised(lambda: mi.render(scene, spp=16))
 
 
+@pytest.mark.parametrize("outer", [{"type": "moment"}, {"type": "aov", "aovs": "dd.y:depth"}])
+def test_nested_in_another_integrator_it_is_refused_by_name(outer):
+    """Mitsuba's ``moment`` (and, for its AOVs, ``aov``) call a nested integrator's
+    ``sample``, which would skip the pilot and the per-pixel counts: a clear refusal that
+    says what to nest in what (not a pure virtual function called, nor plain samples)."""
+    d = glossy()
+    scene = mi.load_dict({**d, "integrator": {**outer, "inner": ADAPTIVE}})
+    words = raised(lambda: mi.render(scene, spp=16))
+    assert "vr_adaptive: called by another integrator" in words
+    assert "make vr_adaptive the scene's integrator" in words
+
+
 def raised(fn) -> str:
     """The messages of the exception ``fn`` raises and of its causes (``mi.render`` wraps
     an integrator's error in its own)."""

@@ -780,3 +780,26 @@ def test_nested_in_another_integrator_it_renders_plain_bsdf_sampling_and_says_so
     plain = np.array(mi.render(nested({"type": "vr_path", "strategy": "bsdf", **common}),
                                spp=1024, seed=3))
     np.testing.assert_allclose(guided[..., :3], plain[..., :3], rtol=1e-5, atol=1e-6)
+
+
+def test_nested_in_mitsubas_aov_integrator_its_image_is_its_trained_job():
+    """Mitsuba's ``aov`` integrator calls the nested integrator's own ``render`` (with a
+    ``mi.UInt32`` seed) for the image and its ``sample`` for the AOVs: the image is the
+    trained job's, the one the integrator renders at the top level with the same seed, and
+    nothing warns that it could not train."""
+    import warnings
+    d = {"type": "vr_guided_path", "emitter_sampling": True, "max_depth": 4,
+         "min_train_spp": 2, "min_train_samples": 1}
+
+    def scene(integrator):
+        s = mi.cornell_box()
+        s["sensor"]["film"].update(width=16, height=16, rfilter={"type": "box"})
+        s["integrator"] = integrator
+        return mi.load_dict(s)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        aov = np.array(mi.render(scene({"type": "aov", "aovs": "dd.y:depth", "g": d}),
+                                 spp=64, seed=5))
+    top = np.array(mi.render(scene(d), spp=64, seed=5))
+    assert aov.shape[:2] == (16, 16) and aov.shape[-1] > 3
+    np.testing.assert_allclose(aov[..., :3], top[..., :3], rtol=1e-4, atol=1e-6)

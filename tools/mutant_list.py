@@ -236,6 +236,13 @@ MUTANTS = [
            "the fourth central moment read from single-precision sums taken at face value: "
            "smooth pixels' rounding read as heavy tails",
            ("tests/test_error_tails.py",)),
+    Mutant("adaptive-nested-plain", "integrators/adaptive.py",
+           "        raise ValueError(\"vr_adaptive: called by another integrator (its sample(), not its \"\n",
+           "        return self.nested.sample(scene, sampler, ray, medium, active)\n"
+           "        raise ValueError(\"vr_adaptive: called by another integrator (its sample(), not its \"\n",
+           "vr_adaptive nested in Mitsuba's moment hands out its nested integrator's plain "
+           "samples: no pilot, no counts, and no word of it",
+           ("tests/test_adaptive.py::test_nested_in_another_integrator_it_is_refused_by_name",)),
     Mutant("precision-scale-linear", "experiments/lib/studies/suite/precision.py",
            "    scale = (error / precision) ** 2",
            "    scale = error / precision",

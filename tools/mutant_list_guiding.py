@@ -26,6 +26,20 @@ GUIDING = [
            "at a large count the render fails with advice about max_pass_spp",
            ("tests/test_guiding.py::test_nested_in_another_integrator_it_renders_plain_bsdf_"
             "sampling_and_says_so",)),
+    Mutant("render-seed-python-only", "integrators/path.py",
+           "    return int(seed) if isinstance(seed, int) else int(dr.slice(mi.UInt32(seed)))\n",
+           "    return int(seed)\n",
+           "a render's seed taken as a Python int only: nested in Mitsuba's aov, which passes "
+           "a mi.UInt32 seed on, vr_guided_path and vr_adaptive fail with a TypeError",
+           ("tests/test_guiding.py::test_nested_in_mitsubas_aov_integrator_its_image_is_its_"
+            "trained_job",)),
+    Mutant("guide-aov-warns", "integrators/guided_path.py",
+           "        if not self._iterations:\n",
+           "        if True:\n",
+           "nested in Mitsuba's aov, whose image is the trained job's, vr_guided_path still "
+           "warns that it cannot train (aov calls its sample for the AOVs): a false alarm",
+           ("tests/test_guiding.py::test_nested_in_mitsubas_aov_integrator_its_image_is_its_"
+            "trained_job",)),
     Mutant("guide-weights-own-pixels", "integrators/guide_passes.py",
            "        other = ~colour if (~colour).any() else colour\n",
            "        other = colour\n",
