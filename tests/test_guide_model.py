@@ -237,9 +237,10 @@ def test_the_cosine_product_lowers_the_error_per_sample_where_light_arrives_indi
 def test_each_job_learns_from_its_own_samples_alone():
     """A second ``mi.render`` with one ``vr_guided_path`` starts from a new guide: the
     first job's tree, histograms, shares and box are gone when the next job's schedule is
-    made (a guide that has not rendered is kept: a new one is 20 ms of host work), and a job on another scene puts the guide's box round that scene (a guide kept
-    from the first job would train the second on the first's samples, its training not
-    counted, and look up another scene's leaves)."""
+    made (a guide that has not rendered is kept: a new one is 20 ms of host work), and a
+    job on another scene puts the guide's box round that scene (a guide kept from the
+    first job would train the second on the first's samples, its training not counted,
+    and look up another scene's leaves)."""
     import integrators  # noqa: F401
 
     def room(size):
