@@ -265,14 +265,14 @@ def _unbiased(a: Side, b: Side, rounding: float):
             Side(full[1], tuple(h[1] for h in halves), b.samples))
 
 
-def detectable(test, a, b, alpha: float) -> float:
+def detectable(test, a, b, alpha: float, z: float = POWER_Z) -> float:
     """Smallest x such that ``a`` scaled by 1 + x and by 1 - x both make the expected
     statistic of some comparison of ``test`` reach its critical value (at the measured
-    degrees of freedom) plus POWER_Z; inf if none does up to x = 1. ``a`` and ``b`` have
+    degrees of freedom) plus ``z`` (:data:`POWER_Z`); inf if none does up to x = 1. ``a`` and ``b`` have
     the common means (no bias): scaling ``a`` scales its means and variances as a
     uniform relative bias would. ``test(a, b)`` gives (statistics, degrees of freedom);
     ``a.scaled(factor)`` the scaled side (:class:`Side`, or :class:`.bias_image.Sums`)."""
-    crit = _crit(alpha, test(a, b)[1]) + POWER_Z
+    crit = _crit(alpha, test(a, b)[1]) + z
 
     def margin(factor):
         return np.max(np.abs(test(a.scaled(factor), b)[0]) - crit)
