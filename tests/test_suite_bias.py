@@ -117,15 +117,16 @@ def test_heavy_tailed_blocks_are_tested_by_the_image_sum_with_its_size_and_power
     """Rare large values rule most blocks' variances (the per-block and pooled tests lose
     their size there) but not the image sum's (about 660 hits over the image, a relative
     standard error of 4%): the cell is tested by its image sum (bias_image). Size: no
-    right cell flagged in 20 seeds at the run's level; power: a 30% darkening flagged in
-    at least 18 of 20 (the stated detectable bias, 26% in these seeds, under it)."""
+    right cell flagged in 20 seeds at the run's level; power: a 32% darkening flagged in
+    at least 18 of 20 (the stated detectable bias, 28-30% in these seeds at the image
+    test's margin, bias_image.POWER_Z, under it)."""
     flagged = found = 0
     for seed in range(SEEDS):
         right = heavy_cell(np.random.default_rng(3000 + seed))
-        wrong = heavy_cell(np.random.default_rng(4000 + seed), 0.7)
+        wrong = heavy_cell(np.random.default_rng(4000 + seed), 0.68)
         assert right.scope == "image" and right.tail_share > suite_bias.TAILS_SHARE
         assert right.status != "untestable" and right.term_share <= bias_image.MAX_TERM_SHARE
-        assert right.detectable < 0.3, right.detectable
+        assert right.detectable < 0.32, right.detectable
         flagged += right.biased is True
         found += wrong.biased is True
     assert flagged == 0 and found >= 0.9 * SEEDS, (flagged, found)
