@@ -162,25 +162,45 @@ def cross_weights(variances: list, spps: list) -> np.ndarray:
     return out
 
 
+def pooled(images: list, m2s: list, spps: list, idx: list) -> tuple:
+    """(per-pixel mean, mean square, samples per pixel) of the renders ``idx`` (per-pixel
+    means ``images``, mean squares ``m2s``, ``spps`` samples per pixel) pooled by their
+    samples; one render is itself."""
+    if len(idx) == 1:
+        return images[idx[0]], m2s[idx[0]], spps[idx[0]]
+    n = sum(spps[i] for i in idx)
+    return (sum(images[i] * spps[i] for i in idx) / n,
+            sum(m2s[i] * spps[i] for i in idx) / n, n)
+
+
+def weighted(images: list, m2s: list, spps: list, groups: list) -> tuple:
+    """(the combined image, the groups' weights per pixel) of renders with per-pixel means
+    ``images``, mean squares ``m2s`` and ``spps`` samples per pixel: the renders of each
+    group (a list of indices: the renders of one estimator) pooled by their samples
+    (:func:`pooled`), then the groups weighted by :func:`cross_weights` (from the mean over
+    the other checkerboard colour's pixels and the channels of each group's
+    :func:`pixel_variance`). One group (a job that did not train, or stopped before a unit
+    learned) is its pooled mean, with no weights to estimate (nor mean squares read)."""
+    if len(groups) == 1:
+        mean = pooled(images, m2s, spps, groups[0])[0]
+        return mean, np.ones((1,) + mean.shape[:2] + (1,))
+    pools = [pooled(images, m2s, spps, idx) for idx in groups]
+    weights = cross_weights([pixel_variance(*p) for p in pools], [p[2] for p in pools])
+    return sum(w * p[0] for w, p in zip(weights, pools)), weights
+
+
+def weighted_variance(images: list, m2s: list, spps: list, groups: list,
+                      weights: np.ndarray) -> np.ndarray:
+    """Per pixel and channel, the variance of the image :func:`weighted` combined from the
+    renders' ``groups`` with ``weights``, the weights taken as fixed: sum_g w_g^2 x
+    :func:`pixel_variance` of group g pooled (:func:`pooled`)."""
+    return sum(w * w * pixel_variance(*pooled(images, m2s, spps, idx))
+               for w, idx in zip(weights, groups))
+
+
 def combine(images: list, m2s: list, spps: list, groups: list):
     """(the combined image, the groups' weights per pixel, its per-pixel variance) of
     renders with per-pixel means ``images``, mean squares ``m2s`` and ``spps`` samples per
-    pixel: the renders of each group (a list of indices: the renders of one estimator)
-    pooled by their samples, then the groups weighted by :func:`cross_weights` (from the
-    mean over the other checkerboard colour's pixels and the channels of each group's
-    :func:`pixel_variance`); the variance is that of the combined image per pixel and
-    channel, the weights taken as fixed."""
-    means, pixels, counts = [], [], []
-    for idx in groups:
-        n = sum(spps[i] for i in idx)
-        mean = sum(images[i] * spps[i] for i in idx) / n
-        m2 = sum(m2s[i] * spps[i] for i in idx) / n
-        means.append(mean)
-        pixels.append(pixel_variance(mean, m2, n))
-        counts.append(n)
-    # one estimator (a job that did not train, or stopped before a unit learned): its
-    # pooled mean, no weights to estimate
-    weights = cross_weights(pixels, counts) if len(groups) > 1 else \
-        np.ones((1,) + means[0].shape[:2] + (1,))
-    variance = sum(w * w * p for w, p in zip(weights, pixels))
-    return sum(w * m for w, m in zip(weights, means)), weights, variance
+    pixel (:func:`weighted`, :func:`weighted_variance`)."""
+    image, weights = weighted(images, m2s, spps, groups)
+    return image, weights, weighted_variance(images, m2s, spps, groups, weights)

@@ -196,9 +196,8 @@ class GuidedPathIntegrator(VRPathIntegrator):
         self._passes = []       # (iteration, samples per pixel) of each render
         self._estimator = []    # per iteration: -1 plain BSDF sampling, else the
                                 # iteration whose refinement rendered it
-        self._mean, self._m2, self._spp = [], [], []   # per render done: its image, its
-                                                       # mean squares, its samples
-        self._m34 = []          # per render done: its mean cubes and fourth powers
+        self._raw, self._spp = [], []   # per render done: its image (every channel: the
+                                        # moments' AOVs too, :meth:`_moments`), its samples
         self._groups = []       # the renders pooled per estimator (:meth:`combine`)
         self._stopped = False   # training stopped (or never started): vr_path's kernel
         #: Per refinement, the predicted gain of its shares (None: nothing measured).
@@ -289,8 +288,7 @@ class GuidedPathIntegrator(VRPathIntegrator):
         most = min(self.max_pass_spp,
                    max(1, guide_record.most_spp(pixels, self.record_depth)))
         self._passes = guide_passes.renders(self._iterations, most, not small)
-        self._m2, self._mean, self._spp, self.gains = [], [], [], []
-        self._m34, self._groups = [], []
+        self._raw, self._spp, self.gains, self._groups = [], [], [], []
         self.weights, self.variance = None, None
         self._estimator = [-1] * len(self._iterations)
         trains = len(self._iterations) > 1       # one iteration has nothing to learn for
@@ -302,16 +300,12 @@ class GuidedPathIntegrator(VRPathIntegrator):
         return [n for _, n in self._passes]
 
     def after_pass(self, index: int, image, spp: int) -> list | None:
-        """Keep the pass's per-pixel mean square; after an iteration's last render (not
-        the last iteration's), refine the guide from its records (:meth:`_refine`). Where
-        training stops there, the renders left are one render of all their samples
-        (:func:`.guide_passes.merged_rest`), returned as the new rest of the schedule
-        (None: the schedule stands)."""
-        image = np.array(image, dtype=np.float64)
-        m2, m3, m4 = np.split(image[..., -len(MOMENT_AOVS):], 3, axis=-1)
-        self._m2.append(m2)
-        self._m34.append((m3, m4))
-        self._mean.append(image[..., :3])
+        """Keep the pass's image (its moments' AOVs with it); after an iteration's last
+        render (not the last iteration's), refine the guide from its records
+        (:meth:`_refine`). Where training stops there, the renders left are one render of
+        all their samples (:func:`.guide_passes.merged_rest`), returned as the new rest of
+        the schedule (None: the schedule stands)."""
+        self._raw.append(np.asarray(image, dtype=np.float64))
         self._spp.append(spp)
         k = self._passes[index][0]
         last_of_iteration = index + 1 == len(self._passes) or self._passes[index + 1][0] != k
@@ -338,7 +332,8 @@ class GuidedPathIntegrator(VRPathIntegrator):
         tree.refine(self.spatial_threshold * np.sqrt(2.0 ** k), self.bsdf_fraction)
         idx = [i for i, (it, _) in enumerate(self._passes) if it == k]
         gain = guide_passes.predicted_gain(
-            tree.moment_sums, *guide_passes.pixel_moments(self._mean, self._m2, self._spp, idx))
+            tree.moment_sums, *guide_passes.pixel_moments(self._moments(0), self._moments(1),
+                                                          self._spp, idx))
         # no unit learned anything (every record dark: all its light found by NEE): the
         # guide is the BSDF's own sampling, no gain
         self.gains.append(1.0 if gain is None and not tree.learned.any() else gain)
@@ -364,9 +359,10 @@ class GuidedPathIntegrator(VRPathIntegrator):
         groups = [[i for i, (it, _) in enumerate(self._passes)
                    if self._estimator[it] == e and i < len(images)]
                   for e in dict.fromkeys(self._estimator)]
-        image, self.weights, self.variance = guide_passes.combine(images, self._m2, spps,
-                                                                   groups)
-        self._groups = groups
+        # one render: its image, no mean squares read (the job did not train)
+        m2s = self._moments(1) if len(images) > 1 else [None]
+        image, self.weights = guide_passes.weighted(images, m2s, spps, groups)
+        self._groups, self.variance = groups, None
         self._driven = False
         return image
 
@@ -377,7 +373,12 @@ class GuidedPathIntegrator(VRPathIntegrator):
         (each pixel's are read from other pixels' samples). The experiments' per-pixel
         errors use it for this method (:func:`experiments.lib.execute.render_passes`):
         the spread of its passes would treat the untrained and the trained ones as one
-        estimator."""
+        estimator. Measurement, not the method's work: computed when asked for, so that a
+        plain ``mi.render`` and the clock (:mod:`experiments.lib.execute` times
+        :meth:`combine` alone) do not pay for it."""
+        if self.variance is None:
+            self.variance = guide_passes.weighted_variance(
+                self._moments(0), self._moments(1), self._spp, self._groups, self.weights)
         return self.variance
 
     def combined_moments(self) -> list:
@@ -390,10 +391,18 @@ class GuidedPathIntegrator(VRPathIntegrator):
         for w, idx in zip(self.weights, self._groups):
             n = sum(self._spp[i] for i in idx)
             pooled = [sum(a[i] * self._spp[i] for i in idx) / n
-                      for a in (self._mean, self._m2, [m[0] for m in self._m34],
-                                [m[1] for m in self._m34])]
+                      for a in map(self._moments, range(4))]
             out.append((w, n, *pooled))
         return out
+
+    def _moments(self, power: int) -> list:
+        """Per render done, the per-pixel mean of its samples' radiance to the power
+        ``power`` + 1 (0: its image, 1: its mean squares, then cubes and fourth powers),
+        RGB: views of the images :meth:`after_pass` kept."""
+        if power == 0:
+            return [image[..., :3] for image in self._raw]
+        at = -len(MOMENT_AOVS) + 3 * (power - 1)
+        return [image[..., at:at + 3 if at + 3 < 0 else None] for image in self._raw]
 
     # ------------------------------------------------------------ one mi.render call
 

@@ -424,11 +424,32 @@ def test_combined_image_and_its_variance_by_hand():
     image 0.2 + 1.6 = 1.8; its variance 0.04 x 1 + 0.64 x 0.25 = 0.2."""
     integ = mi.load_dict({"type": "vr_guided_path"})
     integ._passes, integ._estimator, integ._spp = [(0, 2), (1, 4)], [-1, 0], [2, 4]
-    integ._m2 = [np.full((1, 1, 3), 2.0), np.full((1, 1, 3), 4.75)]
     images = [np.full((1, 1, 3), 1.0), np.full((1, 1, 3), 2.0)]
+    # each render's image as after_pass keeps it: RGB, then the mean squares, cubes and
+    # fourth powers (the cubes and fourth powers do not enter here)
+    integ._raw = [np.concatenate([im, np.full((1, 1, 3), m2), np.zeros((1, 1, 6))], axis=-1)
+                  for im, m2 in zip(images, (2.0, 4.75))]
     image = integ.combine(images, [2, 4])
     assert np.allclose(integ.weights.ravel(), [0.2, 0.8])
     assert np.allclose(image, 1.8) and np.allclose(integ.combined_variance(), 0.2)
+
+
+def test_combined_moments_pool_each_groups_renders_by_their_samples():
+    """combined_moments reads each render's moments from the channels after_pass keeps
+    (RGB, then the guiding_m2, m3, m4 AOVs): one group of two renders of 2 and 6 samples,
+    whose channels hold k + 10 p (k the channel's place, p the render), pooled 1 : 3."""
+    integ = mi.load_dict({"type": "vr_guided_path"})
+    raw = [np.arange(12.0)[None, None, :] + 10 * p for p in range(2)]
+    with pytest.warns(UserWarning, match="no training"):
+        integ.pass_schedule(8, 1)
+    integ._passes, integ._estimator = [(0, 2), (0, 6)], [-1]
+    for i, (image, n) in enumerate(zip(raw, (2, 6))):
+        integ.after_pass(i, image, n)
+    integ.combine([image[..., :3] for image in raw], [2, 6])
+    [(w, n, *moments)] = integ.combined_moments()
+    assert n == 8 and np.all(w == 1.0)
+    for power, m in enumerate(moments):
+        assert np.allclose(m, np.arange(3.0 * power, 3.0 * power + 3) + 7.5), (power, m)
 
 
 def test_the_executor_takes_the_combined_variance():

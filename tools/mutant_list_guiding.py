@@ -49,8 +49,8 @@ GUIDING = [
            ("tests/test_guide_weights.py::test_cross_weights_keep_the_combined_image_"
             "unbiased",)),
     Mutant("guide-one-estimator-off-by-one", "integrators/guide_passes.py",
-           "    weights = cross_weights(pixels, counts) if len(groups) > 1 else \\\n",
-           "    weights = cross_weights(pixels, counts) if len(groups) > 2 else \\\n",
+           "    if len(groups) == 1:\n",
+           "    if len(groups) <= 2:\n",
            "the one-estimator shortcut (one weight of 1, no cross weights) taken for two "
            "estimators too: the second one's renders are dropped from the image, which is "
            "then noisier than the variance it states",
@@ -266,6 +266,13 @@ GUIDING = [
            "the guided integrator's variance of its combined image not used: the suite's "
            "per-pixel errors of guided+nee lost (its errors from 3 repeats, bounds only)",
            ("tests/test_guiding.py::test_the_executor_takes_the_combined_variance",)),
+    Mutant("guide-moments-misread", "integrators/guided_path.py",
+           "        at = -len(MOMENT_AOVS) + 3 * (power - 1)\n",
+           "        at = -len(MOMENT_AOVS) + 3 * power\n",
+           "each render's moments read one AOV group too far (the cubes as the mean squares): "
+           "the combined variance and its stated tails wrong",
+           ("tests/test_guiding.py::test_combined_moments_pool_each_groups_renders_by_their_"
+            "samples",)),
     Mutant("guided-render-untrained", "integrators/guided_path.py",
            "        if self._driven or not develop:",
            "        if True:",
@@ -291,5 +298,12 @@ GUIDING = [
            "        if False:",
            "a pilot rendered for a learning method that cannot train at its budget: its count "
            "rests on one render's cost (grazing: 97 or 174 spp by the machine's spell)",
+           ("tests/test_learner_counts.py::test_a_learner_that_cannot_train_at_its_budget_renders_no_pilot",)),
+    Mutant("learner-untrained-count-exact", "experiments/lib/engine.py",
+           "            return plain if trains(rounded) else rounded",
+           "            return plain",
+           "a learning method that does not train at its budget counted exactly, not rounded "
+           "as the plain method it then is: another count (and, not a power of two, a render "
+           "kernel 1.7% dearer per sample) for the same estimator",
            ("tests/test_learner_counts.py::test_a_learner_that_cannot_train_at_its_budget_renders_no_pilot",)),
 ]

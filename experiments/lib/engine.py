@@ -162,7 +162,8 @@ class Engine:
         ``seconds`` at the pilot's cost per sample, exact (:func:`.counts.learner_spp`,
         which also decides a budget between its training regimes). Where even the count
         the ``measured`` renders give does not train, the method is its plain counterpart
-        at that count, and that count (from every repeat's renders, not one pilot's) is its
+        at that count, and that count (from every repeat's renders, not one pilot's,
+        rounded as a plain method's is where that count does not train either) is its
         count: no pilot. Elsewhere their cost per sample gives too many samples: they were
         too short to train and cost what plain BSDF sampling costs, while a render that
         trains records, refines and guides, at about :data:`LEARNER_COST` times the cost
@@ -178,7 +179,10 @@ class Engine:
             return slot.method.trains(spp, pixels)
         plain = counts.equal_time_spp(seconds, measured, False, budget.max_spp)
         if not trains(plain):       # it does not train at its budget: their cost is its cost
-            return plain
+            # and it is a plain method, counted as one (rounded where the budget rounds)
+            rounded = counts.equal_time_spp(seconds, measured, budget.power_of_two,
+                                            budget.max_spp)
+            return plain if trains(rounded) else rounded
         fewer = max(1, int(plain / LEARNER_COST))
         spp = fewer if trains(fewer) == trains(plain) else plain
         job = self.study.job(f"{declaration.key(declaration, cell)}/pilot", slot.method, spp,

@@ -66,7 +66,7 @@ import numpy as np
 
 from . import figure_pool
 from .jobs import Job, JobResult, cpu_model, derive_seed
-from .multipass import MultiPass, combined, replaced_rest, stated_tails
+from .multipass import MultiPass, replaced_rest, stated, stated_tails
 from .methods import Depth, Method
 from .scenes import load_scene, load_sensor, scene_hash
 from .store import JobStore
@@ -383,8 +383,10 @@ def render_passes(view: View, integrator, job: Job) -> Timed:
     variance_var = None
     if multi:
         start = time.thread_time()
-        mean, sq, passes = combined(integrator, images, spps, done)
+        mean = integrator.combine(images, spps)
         host += time.thread_time() - start
+        # its per-pixel variance is measurement (as vr_moments' is), not the method's work
+        mean, sq, passes = stated(integrator, mean, done)
         variance_var = stated_tails(integrator) if passes > 1 else None
     else:
         passes = done if per_sample else len(times)

@@ -3,8 +3,8 @@
 :class:`MultiPass` is the protocol (a method that learns between passes, or combines
 them: ``vr_guided_path``); :func:`replaced_rest` checks the passes a method's hook
 returns; :func:`combined` turns its passes into the job's image and its per-pixel
-variance, :func:`stated_tails` says how sure that variance is (measurement, untimed). The
-executor (:mod:`.execute`) renders the passes.
+variance (:func:`stated`), :func:`stated_tails` says how sure that variance is (both
+measurement, untimed). The executor (:mod:`.execute`) renders the passes.
 """
 from __future__ import annotations
 
@@ -64,13 +64,20 @@ def replaced_rest(schedule: list, index: int, rest: list) -> list:
 
 
 def combined(integrator, images: list, spps: list, done: int) -> tuple:
-    """(image, sq, passes) of a :class:`MultiPass` method's job from its passes' images.
-    Its passes are not samples of one estimator (a guide's untrained and trained passes):
-    one pass of the combined image, so that no per-pixel variance comes from their
-    spread, unless the method states its own (``combined_variance``), written as every
-    sample a pass of sq so that :meth:`.jobs.Accumulator.variance_of_mean` returns it:
-    sq = n mean^2 + V n (n - 1)."""
-    mean = np.asarray(integrator.combine(images, spps), dtype=np.float64)
+    """(image, sq, passes) of a :class:`MultiPass` method's job from its passes' images:
+    its ``combine`` (:func:`stated`)."""
+    return stated(integrator, integrator.combine(images, spps), done)
+
+
+def stated(integrator, image, done: int) -> tuple:
+    """(image, sq, passes) of a :class:`MultiPass` method's job of ``done`` samples per
+    pixel whose ``combine`` returned ``image``. Its passes are not samples of one
+    estimator (a guide's untrained and trained passes): one pass of the combined image, so
+    that no per-pixel variance comes from their spread, unless the method states its own
+    (``combined_variance``), written as every sample a pass of sq so that
+    :meth:`.jobs.Accumulator.variance_of_mean` returns it: sq = n mean^2 + V n (n - 1).
+    Measurement, not the method's work: the executor does not count its time."""
+    mean = np.asarray(image, dtype=np.float64)
     sq, passes = done * mean * mean, 1
     variance = getattr(integrator, "combined_variance", None)
     if variance is not None and done > 1:
