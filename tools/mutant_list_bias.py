@@ -169,4 +169,23 @@ BIAS = [
            "per pixel, never over the guide's thresholds): every scene's learner ratio called "
            "the cells' noise",
            ("tests/test_suite.py::test_a_learner_trained_where_its_equal_time_renders_did",)),
+    Mutant("reach-ignored", "experiments/lib/studies/suite/bias_test.py",
+           "            if c.status == \"biased\" and samples[name] * reach(name) < REACH_MIN else c",
+           "            if c.status == \"biased\" and samples[name] < REACH_MIN else c",
+           "a biased verdict kept whatever the method's reach of the scene's narrowest lobe: "
+           "uniform+nee on Mitsuba's rough dielectric (Beckmann 0.02) called 54% biased, "
+           "though correct",
+           ("tests/test_bias_reach.py::test_only_a_biased_verdict_below_the_reach_is_void",)),
+    Mutant("reach-glass-crossed-once", "experiments/lib/scene_probes.py",
+           "        reach = min(reach, r * r if strategies.transmits(bsdf) else r)",
+           "        reach = min(reach, r)",
+           "a path through a closed glass object counted as crossing one narrow lobe, not two: "
+           "its reach overstated by the lobe's (1/400 on rough_glass)",
+           ("tests/test_bias_reach.py::test_a_path_crosses_a_glass_object_twice",)),
+    Mutant("reach-core-whole-lobe", "experiments/lib/scene_probes.py",
+           "        core = order[:np.searchsorted(carried, CORE_SHARE * carried[-1]) + 1]",
+           "        core = order",
+           "the core taken as the whole lobe (every BSDF draw): the reach of uniform sampling "
+           "on a diffuse BSDF reads 1, not 1 - 1/sqrt(2)",
+           ("tests/test_bias_reach.py::test_core_reach_of_known_lobes",)),
 ]

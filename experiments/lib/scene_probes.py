@@ -129,3 +129,55 @@ def first_hit_sampling(scene, bsdf, shape, k: int = 16, seed: int = 0,
                              mi.Point2f(u[1], u[2]), hit)
     hit_np = np.array(hit)
     return np.array(si.wi.z)[hit_np], (np.array(ds.weight) == 0).all(axis=0)[hit_np]
+
+
+#: Incidence cosines at which :func:`core_reach` probes a BSDF (the largest reach counts).
+REACH_COSINES = (1.0, 0.7, 0.4, 0.1)
+#: The share of a BSDF's albedo that its core carries (:func:`core_reach`).
+CORE_SHARE = 0.5
+
+
+def core_reach(bsdf, strategy: str, n: int = 1 << 16, seed: int = 0) -> float:
+    """The probability that ``strategy`` (a registered ``vr_path`` strategy, by its own
+    ``pdf``) draws a direction in the *core* of ``bsdf``'s non-delta lobes at one vertex:
+    the directions of highest BSDF density that carry :data:`CORE_SHARE` of its albedo
+    (found among ``n`` draws of the BSDF's own sampling, as ``E_bsdf[1_core p / p_bsdf]``),
+    the largest over the incidence cosines :data:`REACH_COSINES`. The BSDF's own sampling
+    reaches about 0.5, uniform sampling on a diffuse BSDF 1 - 1/sqrt(2) = 0.293, on a rough
+    dielectric of GGX roughness 0.1 about 2.6e-3, on one of Beckmann 0.02 about 5e-5. 1
+    where the BSDF has no non-delta lobe (every strategy samples a delta lobe by the
+    BSDF's own sampling)."""
+    from integrators import strategies
+    pdf = strategies.get(check_strategy(strategy)).pdf
+    u = np.random.default_rng(seed).random((3, n))
+    ctx, best = mi.BSDFContext(), 0.0
+    for cos in REACH_COSINES:
+        si = dr.zeros(mi.SurfaceInteraction3f, n)
+        si.wi = mi.Vector3f(dr.full(mi.Float, np.sqrt(1.0 - cos * cos), n), 0.0,
+                            dr.full(mi.Float, cos, n))
+        si.uv = mi.Point2f(0.5, 0.5)
+        bs, weight = bsdf.sample(ctx, si, mi.Float(u[0]), mi.Point2f(u[1], u[2]))
+        p = np.array(pdf(bsdf, ctx, si, bs.wo, True))
+        p_bsdf, w = np.array(bs.pdf), luminance(np.array(weight).T)
+        lobe = (p_bsdf > 0) & (w > 0) & ~np.array(
+            mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta), bool)
+        if not lobe.any():
+            continue
+        order = np.argsort(-p_bsdf[lobe])
+        carried = np.cumsum(w[lobe][order])
+        core = order[:np.searchsorted(carried, CORE_SHARE * carried[-1]) + 1]
+        best = max(best, float(np.sum(p[lobe][core] / p_bsdf[lobe][core]) / n))
+    return best if best > 0 else 1.0
+
+
+def path_reach(scene, strategy: str) -> float:
+    """The least probability, over ``scene``'s BSDFs, that a path drawn by ``strategy``
+    passes through a BSDF's core (:func:`core_reach`): squared for a BSDF that transmits
+    (a path through a closed glass object crosses two of its surfaces). An upper bound
+    on the share of samples that reach the light that BSDF's narrowest lobe carries."""
+    from integrators import strategies
+    reach = 1.0
+    for bsdf in dict.fromkeys(s.bsdf() for s in scene.shapes() if s.bsdf() is not None):
+        r = core_reach(bsdf, strategy)
+        reach = min(reach, r * r if strategies.transmits(bsdf) else r)
+    return reach

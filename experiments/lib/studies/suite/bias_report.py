@@ -31,7 +31,12 @@ UNTESTABLE = {"deterministic": "a deterministic sampler (no independent renders)
               "no_power": "no power (its image sum's variance known, but not even a bias of "
                           "100% would be found at the run's budget)",
               "calibration": "its calibration failed (the method that renders the reference "
-                             "did not pass its own test on this scene)"}
+                             "did not pass its own test on this scene)",
+              "unreached_lobe": "an unreached lobe (flagged, but its strategy draws the core "
+                                "of the scene's narrowest lobe so rarely that all its samples "
+                                f"pass through it fewer than {bias_test.REACH_MIN:g} times: a "
+                                "correct estimator misses that light, and nothing in its "
+                                "samples tells that from a bias)"}
 BIAS_FINDING = (
     "Bias test (every cell against its scene's reference, per {{ block }}x{{ block }} block "
     "and channel and pooled over the image, Welch, {{ level | pct }} family-wise over the run): "

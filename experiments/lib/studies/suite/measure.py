@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from ... import metrics, references
+from ... import metrics, references, scene_probes
 from ...declaration import Cell
 from ...measurements import Measurements
 from . import analysis, bias_test, errors
@@ -77,20 +77,32 @@ def bias_tests(cfg: Settings, sp: ScenePlan, measured: Measurements,
     cell's renders at both budgets (and ``more``: {method: [Run]}, more renders at its
     equal-time count, :mod:`.bias_renders`) against the reference's ``chunks`` (None: the
     user's EXR) at the level ``alpha`` per cell, the test's own calibration applied
-    (:func:`.bias_test.calibrated`)."""
+    (:func:`.bias_test.calibrated`), and a biased verdict kept only where the cell's samples
+    could reach the light of the scene's narrowest lobe (:func:`.bias_test.unreached`)."""
     failed = measured.failed_on(sp.name)
     methods = {m.name: m for m in measured.declaration.methods if m.name not in sp.left_out}
-    out = {}
+    out, samples = {}, {}
     for name in [n for n in methods if n not in failed]:
         extra = (more or {}).get(name, [])
         renders = [[(x.image, x.spp, x.variance, x.variance_var, x.third)
                     for x in measured.final(Cell(sp.name, name, budget)) +
                     (extra if budget == TIME else [])] for budget in (SPP, TIME)]
+        samples[name] = sp.width * sp.height * sum(r[1] for b in renders for r in b)
         out[name] = dataclasses.replace(
             bias_test.check_cell(methods[name], renders, chunks, sp.box, sp.box,
                                  cfg.reference_method, alpha), extra=len(extra))
-    return out if sp.user_ref is not None else bias_test.calibrated(
-        out, cfg.reference_method.name)
+    if sp.user_ref is None:
+        out = bias_test.calibrated(out, cfg.reference_method.name)
+    return bias_test.unreached(out, samples, lambda name: reach(sp, methods[name]))
+
+
+def reach(sp: ScenePlan, method) -> float:
+    """The share of ``method``'s paths that can pass through the core of the narrowest
+    lobe of ``sp``'s scene (:func:`.scene_probes.path_reach`, by the strategy it draws
+    directions with: a learning method's plain counterpart's, Mitsuba's path the BSDF's
+    own)."""
+    strategy = "bsdf" if method.strategy is None or method.learns else method.strategy
+    return scene_probes.path_reach(scene_probes.probe_scene(sp.path, 16, 12), strategy)
 
 
 def trained(method, finals: dict, pixels: int) -> bool:
