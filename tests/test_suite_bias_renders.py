@@ -15,6 +15,7 @@ import math
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 from experiments.lib import bias_image
 from experiments.lib.declaration import Cell
@@ -28,6 +29,13 @@ from test_suite_bias import ALPHA, SEEDS, C, FakeMethod, H, W, renders
 RARE, RARE_MEAN, RARE_Q = 10, 5.0, 0.001
 #: The equal-time count of the synthetic cell.
 SPP = 1024
+
+
+@pytest.fixture(autouse=True)
+def reach_every_lobe(monkeypatch):
+    """The scene here is a stand-in with no file: every cell's samples reach every lobe
+    (measure.reach, tested in tests/test_bias_reach.py)."""
+    monkeypatch.setattr(measure, "reach", lambda sp, method: 1.0)
 
 
 def own_renders(rng, mu, rare, k, spp, factor=1.0):
