@@ -87,7 +87,7 @@ def bias_tests(cfg: Settings, sp: ScenePlan, measured: Measurements,
         renders = [[(x.image, x.spp, x.variance, x.variance_var, x.third)
                     for x in measured.final(Cell(sp.name, name, budget)) +
                     (extra if budget == TIME else [])] for budget in (SPP, TIME)]
-        samples[name] = sp.width * sp.height * sum(r[1] for b in renders for r in b)
+        samples[name] = sum(r[1] * r[0].shape[0] * r[0].shape[1] for b in renders for r in b)
         out[name] = dataclasses.replace(
             bias_test.check_cell(methods[name], renders, chunks, sp.box, sp.box,
                                  cfg.reference_method, alpha), extra=len(extra))
