@@ -150,12 +150,14 @@ def findings(results: list, failed_scenes: dict) -> list[str]:
 def untrained_words(untrained: list, rows: int, plain: str) -> str:
     """What the learner-over-plain finding says of the scenes where the learner's
     equal-time renders did not train (``analysis.learned_over_plain``): there
-    it is ``plain``'s estimator, so those ratios measure nothing but the cells' noise."""
+    it is ``plain``'s estimator at ``plain``'s count, so those ratios measure the cells'
+    noise and its host work per job."""
     if not untrained:
         return ""
     return (f" It did not train at its equal-time count on {len(untrained)} of the {rows} "
             f"({', '.join(untrained)}): below its training thresholds it is {plain}'s "
-            f"estimator, so those ratios are the two cells' noise.")
+            f"estimator at {plain}'s count, so those ratios are the two cells' noise and "
+            f"its host work per job (a few hundredths of a millisecond).")
 
 
 def scaled(scales: dict) -> str:
