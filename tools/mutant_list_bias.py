@@ -188,4 +188,19 @@ BIAS = [
            "the core taken as the whole lobe (every BSDF draw): the reach of uniform sampling "
            "on a diffuse BSDF reads 1, not 1 - 1/sqrt(2)",
            ("tests/test_bias_reach.py::test_core_reach_of_known_lobes",)),
+    Mutant("round-chosen-from-equal-time", "experiments/lib/studies/suite/bias_renders.py",
+           "        worst = [predicted_error(measured.final(Cell(sp.name, n, declare.SPP)), ref,",
+           "        worst = [predicted_error(measured.final(Cell(sp.name, n, declare.TIME)), ref,",
+           "the A/A pair's round chosen from its equal-time renders' own errors: more renders "
+           "pooled into a cell because its first draws caught a rare bright sample (its "
+           "error biased low, optional stopping)",
+           ("tests/test_suite_precision_round.py::test_the_round_is_chosen_from_the_equal_spp_"
+            "renders_alone",)),
+    Mutant("round-renders-not-pooled", "experiments/lib/studies/suite/measure.py",
+           "    maps = [errors.pixel_map(x.variance, ref.image) for x in list(runs) + list(extra)]",
+           "    maps = [errors.pixel_map(x.variance, ref.image) for x in list(runs)]",
+           "the A/A pair's round rendered but left out of its expected error: its cost paid, "
+           "its interval as wide as before",
+           ("tests/test_suite_precision_round.py::test_the_rounds_renders_join_the_expected_"
+            "error_and_not_the_costs",)),
 ]

@@ -267,7 +267,7 @@ def _errors(runs: Runs, floor: Floor) -> dict:
     out = {k: stats.excess_interval(getattr(runs, k), getattr(floor, k))
            for k in ("relmse", "relmse_rejected", "mse")}
     if runs.expected:         # the pixels' variances: no floor, thousands of terms
-        out["relmse"] = errors.estimate(*runs.expected, len(runs.relmse))
+        out["relmse"] = errors.estimate(*runs.expected, len(runs.each) or len(runs.relmse))
     out["flip"] = (stats.mean_interval(runs.flip) if runs.flip and min(runs.flip) > 0
                    else stats.Estimate(math.nan, math.nan, math.nan, len(runs.flip)))
     return out

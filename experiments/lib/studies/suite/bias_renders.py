@@ -1,17 +1,27 @@
-"""More renders where a cell's bias test is void: one more round for heavy-tailed cells.
+"""More renders where a cell's verdict is unsure: one more round, for two reasons.
 
-A cell whose rare large samples void its bias test (:mod:`.bias_test`: reason
-``heavy_tails``: its image sum's variance rests on too few degrees of freedom, the sum is
-skewed, or one render's pixel rules it) renders :data:`MORE` times the run's repeats again
-at its equal-time count, and is tested again with them beside its equal-time renders (the
-same count, the same estimator: only more samples, so that one sample rules less). They are
-a declaration of their own over the engine (job keys ``suite-bias/SCENE/METHOD/bias``:
-their seeds differ from every other render's), in no comparison: the equal-time errors and
-efficiencies read the suite's renders alone. One round, and not for a cell it cannot help
-(:func:`hopeless`: an estimator of infinite variance, rough_glass sampled by the cosine):
-a cell whose tails stay heavy stays untestable. What the round cost is the suite's "bias
-renders" wall time (its timing line); each cell's extra renders are in summary.json
-(``bias_extra_renders``).
+* **Its bias test is void.** A cell whose rare large samples void its bias test
+  (:mod:`.bias_test`: reason ``heavy_tails``: its image sum's variance rests on too few
+  degrees of freedom, the sum is skewed, or one render's pixel rules it) renders
+  :data:`MORE` times the run's repeats again at its equal-time count, and is tested again
+  with them beside its equal-time renders (the same count, the same estimator: only more
+  samples, so that one sample rules less). Not for a cell it cannot help (:func:`hopeless`:
+  an estimator of infinite variance, rough_glass sampled by the cosine): a cell whose tails
+  stay heavy stays untestable. Its errors read the suite's renders alone: it was chosen by
+  what its equal-time renders drew, and pooling more renders into a cell because its
+  first draws caught a rare bright sample would bias its error low (optional stopping).
+* **The A/A pair's error is unsure** (:func:`imprecise`): where the precision rule's factor
+  is capped (:data:`.precision.MAX_PRECISION_SCALE`) and the equal-spp renders of the
+  baseline or of the timed pair (:data:`.analysis.TIMED_PAIR`) predict their equal-time
+  error known to worse than :data:`.precision.PRECISION`, all of them render the round, and
+  its renders join their equal-time errors (not their costs: the round is timed apart from
+  the suite's interleaved renders). Chosen from the equal-spp renders alone, never from
+  the equal-time errors, so the pooled error stays unbiased; it is tested with them too.
+
+The round is a declaration of its own over the engine (job keys
+``suite-bias/SCENE/METHOD/bias``: their seeds differ from every other render's). What it
+cost is the suite's "more renders" wall time (its timing line); each cell's extra renders
+are in summary.json (``bias_extra_renders``, ``error_extra_renders``).
 """
 from __future__ import annotations
 
@@ -20,7 +30,7 @@ import math
 
 from ... import bias_image
 from ...declaration import Budget, Cell, Declaration
-from . import declare, precision
+from . import analysis, declare, errors, precision
 
 #: More renders of a void cell, in multiples of the run's repeats (three cold default runs:
 #: 7, 7 and 8 cells rendered again, 2, 1 and 3 of them testable then; 3 x the repeats cleared
@@ -55,6 +65,55 @@ def void(tests: dict) -> dict:
                    if t.reason == "heavy_tails" and not hopeless(t)]
         if methods:
             out[scene] = methods
+    return out
+
+
+def predicted_error(spp_runs: list, ref, count: int) -> float | None:
+    """The relative standard error of a cell's pooled expected relMSE at ``count`` samples
+    per pixel, predicted from its equal-spp runs (:class:`~...measurements.Run` values with
+    their pixels' variances) against the reference image ``ref``: it falls as one over the
+    square root of the samples. None without pixel variances or an error."""
+    maps = [errors.pixel_map(r.variance, ref) for r in spp_runs]
+    if not maps or any(m is None for m in maps):
+        return None
+    value, var = errors.pooled(maps, [errors.pixel_map_variance(r.variance_var, ref)
+                                      for r in spp_runs])
+    if not (value > 0 and math.isfinite(var)):
+        return None
+    return math.sqrt(var) / value * math.sqrt(spp_runs[0].spp / count)
+
+
+def imprecise(cfg: declare.Settings, plans: list, measured, reference_of) -> dict:
+    """{scene: [method]} of the baseline and the timed pair (those of them rendered with
+    their pixels' variances) on every scene of ``plans`` where one of them, predicted from
+    its equal-spp renders at its equal-time count (:func:`predicted_error`, against
+    ``reference_of(plan)``'s image: the reference at its smallest size, as the precision
+    rule reads it, so that a rerun or a longer reference decides alike), has its error
+    known to worse than :data:`.precision.PRECISION`: the precision rule's factor was
+    capped there."""
+    out = {}
+    pair = (cfg.baseline.name,) + analysis.TIMED_PAIR
+    for sp in plans:
+        failed = measured.failed_on(sp.name)
+        names = [m.name for m in cfg.methods if m.name in pair and m.name not in sp.left_out
+                 and m.name not in failed and precision.precise(m, sp.box)]
+        if not names:
+            continue
+        ref = reference_of(sp).image
+        worst = [predicted_error(measured.final(Cell(sp.name, n, declare.SPP)), ref,
+                                 measured.final(Cell(sp.name, n, declare.TIME))[0].spp)
+                 for n in names]
+        if any(e is not None and e > precision.PRECISION for e in worst):
+            out[sp.name] = names
+    return out
+
+
+def union(*cells: dict) -> dict:
+    """{scene: [method]} of every cell in any of ``cells``, in order, once."""
+    out = {}
+    for c in cells:
+        for scene, names in c.items():
+            out[scene] = list(dict.fromkeys(out.get(scene, []) + list(names)))
     return out
 
 

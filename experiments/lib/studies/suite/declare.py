@@ -200,8 +200,11 @@ def declaration(cfg: Settings, plans: list[ScenePlan]) -> Declaration:
                                        cfg.reference_max_seconds))
 
 
-def reference_of(refs: references.ReferenceStore, sp: ScenePlan) -> references.Reference:
-    """The scene's reference: the user's EXR, or every chunk the store holds."""
+def reference_of(refs: references.ReferenceStore, sp: ScenePlan,
+                 smallest: bool = False) -> references.Reference:
+    """The scene's reference: the user's EXR, or every chunk the store holds (``smallest``:
+    its first :data:`~...references.MIN_CHUNKS`, the same in every run, as the precision
+    rule reads it)."""
     if sp.user_ref is not None:
         return references.Reference.from_exr(sp.user_ref)
-    return refs.read(sp.ref, None)
+    return refs.read(sp.ref, references.MIN_CHUNKS * sp.ref.chunk if smallest else None)

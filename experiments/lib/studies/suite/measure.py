@@ -38,10 +38,12 @@ def comparable(cfg: Settings, sp: ScenePlan, failed: dict) -> str:
 
 
 def _runs(runs: list, ref: references.Reference, b: list[float],
-          flip: str, costs: tuple = ()) -> tuple[analysis.Runs, float]:
+          flip: str, costs: tuple = (), extra: list = ()) -> tuple[analysis.Runs, float]:
     """The numbers of one budget's repeats (the engine's :class:`~...measurements.Run` values;
-    ``costs``: the cell's cost per sample of every render, per budget), and the
-    reference's own expected relMSE over the pixels the rejected relMSE kept."""
+    ``costs``: the cell's cost per sample of every render, per budget; ``extra``: more
+    renders of the same count whose pixel variances join the expected error alone,
+    :func:`.bias_renders.imprecise`), and the reference's own expected relMSE over the
+    pixels the rejected relMSE kept."""
     fmap = ref.floor_map()
     rel, rej, rej_floor, mse, secs, means, mvars, flips = ([] for _ in range(8))
     for run, per_spp in zip(runs, b):
@@ -59,8 +61,9 @@ def _runs(runs: list, ref: references.Reference, b: list[float],
         flips = [metrics.flip_mean(x.image, ref.image) for x in runs]
     elif flip == "first":
         flips = [metrics.flip_mean(runs[0].image, ref.image)]
-    maps = [errors.pixel_map(x.variance, ref.image) for x in runs]
-    tails = [errors.pixel_map_variance(x.variance_var, ref.image) for x in runs]
+    maps = [errors.pixel_map(x.variance, ref.image) for x in list(runs) + list(extra)]
+    tails = [errors.pixel_map_variance(x.variance_var, ref.image)
+             for x in list(runs) + list(extra)]
     expected = errors.pooled(maps, tails) if all(m is not None for m in maps) else ()
     each = tuple(float(m.mean()) for m in maps) if expected else ()
     top = errors.top_share(maps) if expected else 0.0
@@ -114,12 +117,14 @@ def trained(method, finals: dict, pixels: int) -> bool:
 
 
 def measure_scene(cfg: Settings, sp: ScenePlan, measured: Measurements,
-                  ref: references.Reference, flip: bool, tests: dict | None = None
-                  ) -> analysis.SceneNumbers:
+                  ref: references.Reference, flip: bool, tests: dict | None = None,
+                  extra: dict | None = None) -> analysis.SceneNumbers:
     """The numbers of one scene from the engine's ``measured`` (FLIP only when ``flip``: it
     costs the most), each cell's bias test from ``tests`` (:func:`bias_tests`; None: not
-    tested). Time per sample per repeat: the cost (:func:`.clock.cost`, in the engine's
-    runs) of the repeat's renders at both budgets over their samples."""
+    tested), ``extra`` ({method: [Run]}: more renders at a cell's equal-time count that
+    join its expected error, :func:`.bias_renders.imprecise`). Time per sample per repeat:
+    the cost (:func:`.clock.cost`, in the engine's runs) of the repeat's renders at both
+    budgets over their samples."""
     cells, rej_floors = {}, []
     failed = measured.failed_on(sp.name)
     methods = {m.name: m for m in measured.declaration.methods if m.name not in sp.left_out}
@@ -132,7 +137,8 @@ def measure_scene(cfg: Settings, sp: ScenePlan, measured: Measurements,
         for budget, key in ((TIME, "equal_time"), (SPP, "equal_spp")):
             mode = ("none" if not flip else cfg.flip if budget == TIME or
                     cfg.flip == "all" else "none")
-            runs[key], fl = _runs(finals[budget], ref, b, mode, costs)
+            runs[key], fl = _runs(finals[budget], ref, b, mode, costs,
+                                  (extra or {}).get(name, ()) if budget == TIME else ())
             rej_floors.append(fl)
         px = sp.width * sp.height
         tested = (tests or {}).get(name)

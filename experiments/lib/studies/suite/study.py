@@ -327,14 +327,19 @@ def run_suite(cfg: declare.Settings) -> dict:
         chunks = {sp.name: bias_test.reference_chunks(refs, sp.bias_ref) for sp in compared}
         tests = {sp.name: measure.bias_tests(cfg, sp, measured, chunks[sp.name], level)
                  for sp in compared}
-    # a cell whose tails void its test renders on, once (bias_renders)
-    more = timer.time("bias renders", bias_renders.render, engine, cfg, compared, measured,
-                      bias_renders.void(tests))
+    # a cell whose tails void its test, and the A/A pair where its error is unsure, render
+    # on, once (bias_renders); the pair's round joins its errors
+    unsure = bias_renders.imprecise(cfg, compared, measured,
+                                    lambda sp: declare.reference_of(refs, sp, True))
+    more = timer.time("more renders", bias_renders.render, engine, cfg, compared, measured,
+                      bias_renders.union(bias_renders.void(tests), unsure))
     with timer.part("analysis"):
         for sp in [sp for sp in compared if sp.name in more]:
             tests[sp.name] = measure.bias_tests(cfg, sp, measured, chunks[sp.name], level,
                                                 more[sp.name])
-        outcomes = [outcome(cfg, sp, measured, refs, tests[sp.name]) for sp in compared]
+        outcomes = [outcome(cfg, sp, measured, refs, tests[sp.name],
+                            {m: r for m, r in more.get(sp.name, {}).items()
+                             if m in unsure.get(sp.name, ())}) for sp in compared]
     allocations = timer.time("allocation figures", report.adaptive_blocks, cfg, compared,
                              measured, {o.plan.name: o.reference.image for o in outcomes})
     return report.write(cfg, engine.study, plans, outcomes, measured, timer, guides,
@@ -342,11 +347,11 @@ def run_suite(cfg: declare.Settings) -> dict:
 
 
 def outcome(cfg: declare.Settings, sp: declare.ScenePlan, measured, refs,
-            tests: dict) -> report.SceneOutcome:
-    """One scene's numbers (FLIP and its cells' bias ``tests`` included), analysis and
-    viewer."""
+            tests: dict, extra: dict | None = None) -> report.SceneOutcome:
+    """One scene's numbers (FLIP, its cells' bias ``tests`` and the ``extra`` renders that
+    join their errors included), analysis and viewer."""
     ref = declare.reference_of(refs, sp)
-    numbers = measure.measure_scene(cfg, sp, measured, ref, True, tests)
+    numbers = measure.measure_scene(cfg, sp, measured, ref, True, tests, extra)
     result = analysis.analyse_scene(numbers)
     return report.SceneOutcome(sp, numbers, result, ref,
                                report.viewer_block(cfg, sp, measured, result, ref))

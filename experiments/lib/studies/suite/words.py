@@ -8,7 +8,7 @@ from __future__ import annotations
 from ... import metrics, prose, scenes, stats
 from ...execute import VIEW_CACHE
 from ...methods import parse_method
-from . import analysis, declare, precision
+from . import analysis, bias_renders, declare, precision
 from .bias_report import bias_finding, names
 
 g = stats.g
@@ -188,7 +188,11 @@ def intro(cfg, plans, scales: dict) -> str:
         f"larger of its header's budget and what the baseline's error needs to be known to "
         f"{precision.PRECISION:.1%} from its equal-spp renders, at most "
         f"{precision.MAX_PRECISION_SCALE}x: {scaled(scales)}), independent seeds (a "
-        f"deterministic sampler once). "
+        f"deterministic sampler once). Where that factor is capped and the equal-spp "
+        f"renders still predict the baseline's or {analysis.TIMED_PAIR[0]}'s error known to "
+        f"worse than {precision.PRECISION:.1%}, both render {bias_renders.MORE} x the "
+        f"repeats again at their equal-time counts, and their errors (not their costs) pool "
+        f"those renders too (the 'repeats' of suite/cells.csv count them). "
         f"Time per sample: the execution time of the renders' kernels (Dr.Jit's kernel "
         f"history: the sample work, without the per-call cost of tracing the integrator and "
         f"launching kernels, listed as 'per call') over their samples, per repeat summed "
