@@ -91,3 +91,25 @@ def test_the_suites_rough_glass_keeps_its_uniform_verdicts():
                            "alpha": 0.02, "int_ior": "bk7"})
     assert 64 * 36 * 1024 * 8 * scene_probes.core_reach(narrow, "uniform") ** 2 \
         < bias_test.REACH_MIN / 10
+
+
+def test_a_strategy_whose_reach_cannot_be_probed_keeps_its_verdict():
+    """A registered strategy without a ``pdf`` (the base class's raises): the reach is
+    infinite, so a biased verdict stands, and a warning names the method and why; a
+    method of a built-in strategy is probed."""
+    from integrators import strategies
+    from experiments.lib.methods import parse_method
+    from experiments.lib.studies.suite import declare, measure
+
+    class NoPdf(strategies.Strategy):
+        def sample(self, bsdf, ctx, si, sample1, sample2, active):
+            raise NotImplementedError
+
+    strategies.register("test_no_pdf", NoPdf)
+    try:
+        sp = declare.ScenePlan("rough_glass", "scenes/suite/rough_glass.xml")
+        with pytest.warns(UserWarning, match="test_no_pdf.*could not be probed"):
+            assert measure.reach(sp, parse_method("test_no_pdf")) == math.inf
+        assert measure.reach(sp, parse_method("uniform")) < 1e-4
+    finally:
+        strategies.unregister("test_no_pdf")

@@ -11,10 +11,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 
 import numpy as np
 
-from ... import metrics, references, scene_probes
+from ... import metrics, names, references, scene_probes
 from ...declaration import Cell
 from ...measurements import Measurements
 from . import analysis, bias_test, errors
@@ -103,9 +104,15 @@ def reach(sp: ScenePlan, method) -> float:
     """The share of ``method``'s paths that can pass through the core of the narrowest
     lobe of ``sp``'s scene (:func:`.scene_probes.path_reach`, by the strategy it draws
     directions with: a learning method's plain counterpart's, Mitsuba's path the BSDF's
-    own)."""
+    own). Where the probe fails (a strategy without a ``pdf``), infinite: the verdict
+    stands, and a warning says why."""
     strategy = "bsdf" if method.strategy is None or method.learns else method.strategy
-    return scene_probes.path_reach(scene_probes.probe_scene(sp.path, 16, 12), strategy)
+    try:
+        return scene_probes.path_reach(scene_probes.probe_scene(sp.path, 16, 12), strategy)
+    except Exception as e:  # noqa: BLE001  (the verdict stands, with the reason)
+        warnings.warn(f"suite: the reach of {method.name} on {sp.name} could not be probed "
+                      f"({names.one_line(e)}): its biased verdict stands")
+        return math.inf
 
 
 def trained(method, finals: dict, pixels: int) -> bool:
