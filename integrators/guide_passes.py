@@ -165,12 +165,12 @@ def cross_weights(variances: list, spps: list) -> np.ndarray:
 def pooled(images: list, m2s: list, spps: list, idx: list) -> tuple:
     """(per-pixel mean, mean square, samples per pixel) of the renders ``idx`` (per-pixel
     means ``images``, mean squares ``m2s``, ``spps`` samples per pixel) pooled by their
-    samples; one render is itself."""
+    samples; one render is itself. Mean squares given as None are not pooled (None)."""
     if len(idx) == 1:
         return images[idx[0]], m2s[idx[0]], spps[idx[0]]
     n = sum(spps[i] for i in idx)
-    return (sum(images[i] * spps[i] for i in idx) / n,
-            sum(m2s[i] * spps[i] for i in idx) / n, n)
+    m2 = None if m2s[idx[0]] is None else sum(m2s[i] * spps[i] for i in idx) / n
+    return sum(images[i] * spps[i] for i in idx) / n, m2, n
 
 
 def weighted(images: list, m2s: list, spps: list, groups: list) -> tuple:

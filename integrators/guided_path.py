@@ -359,8 +359,9 @@ class GuidedPathIntegrator(VRPathIntegrator):
         groups = [[i for i, (it, _) in enumerate(self._passes)
                    if self._estimator[it] == e and i < len(images)]
                   for e in dict.fromkeys(self._estimator)]
-        # one render: its image, no mean squares read (the job did not train)
-        m2s = self._moments(1) if len(images) > 1 else [None]
+        # one estimator (the job did not train, or learned nothing): its pooled image, no
+        # mean squares read
+        m2s = self._moments(1) if len(groups) > 1 else [None] * len(images)
         image, self.weights = guide_passes.weighted(images, m2s, spps, groups)
         self._groups, self.variance = groups, None
         self._driven = False
