@@ -71,16 +71,13 @@ def void(tests: dict) -> dict:
 def predicted_error(spp_runs: list, ref, count: int) -> float | None:
     """The relative standard error of a cell's pooled expected relMSE at ``count`` samples
     per pixel, predicted from its equal-spp runs (:class:`~...measurements.Run` values with
-    their pixels' variances) against the reference image ``ref``: it falls as one over the
-    square root of the samples. None without pixel variances or an error."""
+    their pixels' variances) against the reference image ``ref``
+    (:func:`.precision.predicted`). None without pixel variances or an error."""
     maps = [errors.pixel_map(r.variance, ref) for r in spp_runs]
     if not maps or any(m is None for m in maps):
         return None
-    value, var = errors.pooled(maps, [errors.pixel_map_variance(r.variance_var, ref)
-                                      for r in spp_runs])
-    if not (value > 0 and math.isfinite(var)):
-        return None
-    return math.sqrt(var) / value * math.sqrt(spp_runs[0].spp / count)
+    return precision.predicted(maps, [errors.pixel_map_variance(r.variance_var, ref)
+                                      for r in spp_runs], spp_runs[0].spp, count)
 
 
 def imprecise(cfg: declare.Settings, plans: list, measured, reference_of) -> dict:

@@ -89,9 +89,16 @@ class Precision:
                 acc.add_result(r)
             maps.append(errors.pixel_map(acc.variance_of_mean(), ref))
             tails.append(errors.pixel_map_variance(acc.variance_of_variance(), ref))
-        value, var = errors.pooled(maps, tails)
-        if not (value > 0 and math.isfinite(var)):
-            return None
-        spp = sum(r.spp for r in runs[0])
         count = counts.equal_time_spp(timed.seconds, runs, timed.power_of_two, timed.max_spp)
-        return math.sqrt(var) / value * math.sqrt(spp / count)
+        return predicted(maps, tails, sum(r.spp for r in runs[0]), count)
+
+
+def predicted(maps: list, tails: list, spp: int, count: int) -> float | None:
+    """The relative standard error of a cell's pooled expected relMSE
+    (:func:`.errors.pooled` of its renders' pixel ``maps`` and their ``tails``, each render
+    of ``spp`` samples per pixel) at ``count`` samples per pixel: it falls as one over the
+    square root of the samples. None without an error."""
+    value, var = errors.pooled(maps, tails)
+    if not (value > 0 and math.isfinite(var)):
+        return None
+    return math.sqrt(var) / value * math.sqrt(spp / count)
