@@ -95,3 +95,14 @@ def test_the_rounds_renders_join_the_expected_error_and_not_the_costs():
     alone, _ = measure._runs(first, ref, [1e-9] * 3, "none")
     assert alone.expected[0] == pytest.approx(float(np.mean(own[:3])), rel=1e-12)
     assert math.isfinite(got.expected[1]) and got.expected[1] < alone.expected[1]
+
+
+def test_each_round_serves_the_reason_it_was_chosen_for():
+    """The round's renders of a cell go to its bias test where its test was void, to its
+    errors where the pair's error was unsure, each only there (exact selections)."""
+    more = {"path": ["p"], "bsdf+nee": ["b"], "cosine": ["c"]}
+    void, unsure = ["cosine", "path"], ["bsdf+nee", "path"]
+    assert bias_renders.only(more, void) == {"path": ["p"], "cosine": ["c"]}
+    assert bias_renders.only(more, unsure) == {"path": ["p"], "bsdf+nee": ["b"]}
+    assert bias_renders.union({"s": void}, {"s": unsure}) == \
+        {"s": ["cosine", "path", "bsdf+nee"]}

@@ -16,7 +16,8 @@
   error known to worse than :data:`.precision.PRECISION`, all of them render the round, and
   its renders join their equal-time errors (not their costs: the round is timed apart from
   the suite's interleaved renders). Chosen from the equal-spp renders alone, never from
-  the equal-time errors, so the pooled error stays unbiased; it is tested with them too.
+  the equal-time errors, so the pooled error stays unbiased. Its bias test reads the
+  suite's renders: the round's "renders again" are the void cells' alone.
 
 The round is a declaration of its own over the engine (job keys
 ``suite-bias/SCENE/METHOD/bias``: their seeds differ from every other render's). What it
@@ -103,6 +104,12 @@ def imprecise(cfg: declare.Settings, plans: list, measured, reference_of) -> dic
         if any(e is not None and e > precision.PRECISION for e in worst):
             out[sp.name] = names
     return out
+
+
+def only(runs: dict, methods) -> dict:
+    """``runs`` ({method: [Run]}) of ``methods`` alone: a cell's round serves the reason
+    it was chosen for (a void cell's test, the pair's errors), never the other."""
+    return {m: r for m, r in runs.items() if m in methods}
 
 
 def union(*cells: dict) -> dict:

@@ -331,15 +331,17 @@ def run_suite(cfg: declare.Settings) -> dict:
     # on, once (bias_renders); the pair's round joins its errors
     unsure = bias_renders.imprecise(cfg, compared, measured,
                                     lambda sp: declare.reference_of(refs, sp, True))
+    void = bias_renders.void(tests)
     more = timer.time("more renders", bias_renders.render, engine, cfg, compared, measured,
-                      bias_renders.union(bias_renders.void(tests), unsure))
+                      bias_renders.union(void, unsure))
     with timer.part("analysis"):
-        for sp in [sp for sp in compared if sp.name in more]:
+        for sp in [sp for sp in compared if sp.name in void and sp.name in more]:
             tests[sp.name] = measure.bias_tests(cfg, sp, measured, chunks[sp.name], level,
-                                                more[sp.name])
+                                                bias_renders.only(more[sp.name],
+                                                                  void[sp.name]))
         outcomes = [outcome(cfg, sp, measured, refs, tests[sp.name],
-                            {m: r for m, r in more.get(sp.name, {}).items()
-                             if m in unsure.get(sp.name, ())}) for sp in compared]
+                            bias_renders.only(more.get(sp.name, {}), unsure.get(sp.name, ())))
+                    for sp in compared]
     allocations = timer.time("allocation figures", report.adaptive_blocks, cfg, compared,
                              measured, {o.plan.name: o.reference.image for o in outcomes})
     return report.write(cfg, engine.study, plans, outcomes, measured, timer, guides,
