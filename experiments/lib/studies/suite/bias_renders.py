@@ -21,8 +21,9 @@
 
 The round is a declaration of its own over the engine (job keys
 ``suite-bias/SCENE/METHOD/bias``: their seeds differ from every other render's). What it
-cost is the suite's "more renders" wall time (its timing line); each cell's extra renders
-are in summary.json (``bias_extra_renders``, ``error_extra_renders``).
+cost is the suite's "more renders" wall time (its timing line); a void cell's extra
+renders are in summary.json (``bias_extra_renders``), the pair's in the renders that
+suite/cells.csv's "repeats" counts for its equal-time errors.
 """
 from __future__ import annotations
 
