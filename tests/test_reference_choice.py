@@ -138,8 +138,9 @@ def test_the_default_run_tries_the_best_samplers_method_unless_a_reference_is_gi
 def test_paths_reference_renders_on_while_one_chunks_pixel_rules_its_spread(monkeypatch):
     """One pixel of one chunk far above the others holds a third of path's spread (every image
     test on the scene void): its reference is doubled while that holds and the whole costs
-    at most reference_choice.AGAINST_SECONDS; smooth chunks, or a reference too dear,
-    render nothing more."""
+    at most the reference's extension budget (reference_max_seconds, at least
+    reference_choice.AGAINST_SECONDS); smooth chunks, or a reference too dear, render
+    nothing more."""
     rng = np.random.default_rng(3)
     smooth = chunks(rng, 16, 0.2)
     firefly = smooth.copy()
@@ -168,7 +169,7 @@ def test_paths_reference_renders_on_while_one_chunks_pixel_rules_its_spread(monk
 
     monkeypatch.setattr(bias_test, "reference_chunks", lambda refs, spec: refs.images)
     spec = SimpleNamespace(info=None, depth=None, width=W, height=H, method=PATH)
-    cfg = SimpleNamespace(reference_typical_spp=None)
+    cfg = SimpleNamespace(reference_typical_spp=None, reference_max_seconds=0.0)
     store = Store(firefly, 0.001)
     reference_choice._render_on(FakeStudy(), cfg, store, spec)
     assert rendered[:2] == [2 * 8 * 16, 4 * 8 * 16]            # doubled while it rules
@@ -180,3 +181,63 @@ def test_paths_reference_renders_on_while_one_chunks_pixel_rules_its_spread(monk
     store = Store(firefly.copy(), reference_choice.AGAINST_SECONDS / 16)   # 16 chunks: all of it
     reference_choice._render_on(FakeStudy(), cfg, store, spec)
     assert rendered == []
+    # the same reference within the extension budget that path's reference would get
+    # anyway where the candidate fails: rendered on
+    cfg.reference_max_seconds = 4.5 * reference_choice.AGAINST_SECONDS
+    reference_choice._render_on(FakeStudy(), cfg, store, spec)
+    assert rendered[:1] == [2 * 8 * 16]
+    rendered.clear()
+    store = Store(firefly.copy(), cfg.reference_max_seconds / 16)       # dearer than that
+    reference_choice._render_on(FakeStudy(), cfg, store, spec)
+    assert rendered == []
+
+
+def test_a_candidate_whose_own_tails_void_its_test_renders_on_until_it_is_testable(
+        monkeypatch):
+    """veach_mis: the candidate's few chunks held a rare bright path, so its test was void
+    (heavy tails) and path's reference stayed, too noisy. A void test doubles the candidate
+    and tests again, within the reference's extension budget; a test that fails, or a
+    candidate too dear to double, renders nothing more (no second try at a rejection)."""
+    rng = np.random.default_rng(5)
+    firefly = chunks(rng, 16, 0.2)
+    firefly[2, 3, 4] += 40.0
+    paths = chunks(rng, 16, 0.2)
+
+    class Store:                  # the candidate's chunks, spp and seconds per chunk
+        def __init__(self, images, seconds):
+            self.images, self.seconds = images, seconds
+
+        def read(self, spec, spp):
+            n = len(self.images)
+            return SimpleNamespace(spp=8 * n, seconds=self.seconds * n)
+
+    rendered = []
+
+    class FakeStudy:
+        def reference_jobs(self, info, depth, resolution, spp, method, typical):
+            return spp
+
+        def run(self, spp, label):        # the new chunks hold no firefly
+            rendered.append(spp)
+            store.images = np.concatenate([store.images, chunks(rng, spp // 8 - len(
+                store.images), 0.2)])
+
+    monkeypatch.setattr(bias_test, "reference_chunks", lambda refs, spec: refs.images)
+    spec = SimpleNamespace(info=None, depth=None, width=W, height=H, method=ZSOBOL)
+    sp = SimpleNamespace(bias_ref=SimpleNamespace(method=PATH), box=True)
+    cfg = SimpleNamespace(reference_typical_spp=None, reference_max_seconds=6.0)
+    store = Store(firefly.copy(), 0.001)
+    first = bias_test.check_reference(firefly, paths, ZSOBOL, PATH, True, LEVEL)
+    assert first.reason == "heavy_tails"                # the premise: void at first
+    test = reference_choice._tested(FakeStudy(), cfg, store, spec, paths, sp)
+    assert rendered and rendered[0] == 2 * 8 * 16
+    assert test.status == "unbiased"
+    # too dear to double within the budget: the void test stands
+    rendered.clear()
+    store = Store(firefly.copy(), 6.0 / 16)
+    test = reference_choice._tested(FakeStudy(), cfg, store, spec, paths, sp)
+    assert rendered == [] and test.reason == "heavy_tails"
+    # a candidate that differs (10% high) is not rendered on
+    store = Store(chunks(rng, 16, 0.2, 1.1), 0.001)
+    test = reference_choice._tested(FakeStudy(), cfg, store, spec, paths, sp)
+    assert rendered == [] and test.status == "biased"

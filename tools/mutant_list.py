@@ -348,6 +348,19 @@ MUTANTS = [
            "path's reference, which every cell's bias test on a stand-in's scene reads, left at "
            "its first size however one chunk's pixel rules it",
            ("tests/test_reference_choice.py",)),
+    Mutant("candidate-void-kept", "experiments/lib/studies/suite/reference_choice.py",
+           '        if test.reason != "heavy_tails" or k == AGAINST_DOUBLINGS or \\\n',
+           '        if True or k == AGAINST_DOUBLINGS or \\\n',
+           "a candidate reference whose own few chunks hold one rare bright path left void, "
+           "not rendered on: the scene keeps path's noisier reference (veach_mis in two cold "
+           "runs)",
+           ("tests/test_reference_choice.py::test_a_candidate_whose_own_tails_void_its_test_renders_on_until_it_is_testable",)),
+    Mutant("candidate-rejection-retried", "experiments/lib/studies/suite/reference_choice.py",
+           '        if test.reason != "heavy_tails" or k == AGAINST_DOUBLINGS or \\\n',
+           '        if test.status == "unbiased" or k == AGAINST_DOUBLINGS or \\\n',
+           "a candidate reference that failed its test rendered on and tested again: a second "
+           "try at every rejection raises the chance of adopting a wrong reference",
+           ("tests/test_reference_choice.py::test_a_candidate_whose_own_tails_void_its_test_renders_on_until_it_is_testable",)),
     # ------------------------------------------------------------ adaptive sampling
     Mutant("adaptive-by-variance", "integrators/adaptive.py",
            "        return (self._counts(dr.sqrt(own), budget, size),",
