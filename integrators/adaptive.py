@@ -32,7 +32,7 @@ PILOT_SHARE = 0.25
 #: Default ``min_share``: every pixel's floor, as a share of the final pass's average count.
 MIN_SHARE = 0.1
 #: The share of a pixel's own pilot in the relative variance its count is read from (the
-#: rest its 8 neighbours'): docs/adaptive.md.
+#: rest its 8 neighbours'): docs/methodology.md, "Adaptive sampling".
 OWN_SHARE = 0.5
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import html
 import json
 import shutil
+import math
 from dataclasses import replace
 from types import SimpleNamespace
 
@@ -317,6 +318,38 @@ def test_a_learning_method_is_compared_with_its_plain_counterpart():
     assert untrained == []
     rows, mean, n, _ = A.learned_over_plain([worse, favoured])["guided+nee"]
     assert mean == pytest.approx(0.5) and n == 1
+
+
+def test_an_adaptive_method_is_compared_with_its_twin_on_every_scene():
+    """bsdf+nee+adaptive against bsdf+nee (the same estimator, its samples alike in every
+    pixel) on every scene that renders both, favoured or not: a third of the error at equal
+    time is 3 times the efficiency, twice the error a half; the finding names the scene
+    where it loses at the interval's level and none where it does not (negative control);
+    a scene without the twin has no ratio."""
+    from experiments.lib.methods import parse_method
+    from experiments.lib.studies.suite import words
+    assert parse_method("bsdf+nee+adaptive").unadapted == "bsdf+nee"
+    assert parse_method("path+adaptive").unadapted == "path"
+    assert parse_method("bsdf+nee").unadapted is None
+    # path (the baseline) at twice bsdf+nee's error: a ratio over it would read 6, not 3
+    better = A.analyse_scene(replace(numbers({"path": [2 * x for x in TIGHT],
+                                              "bsdf+nee": list(TIGHT),
+                                              "bsdf+nee+adaptive": [x / 3 for x in TIGHT]},
+                                             favours=("bsdf+nee+adaptive",), over=("path",)),
+                                     name="better"))
+    worse = A.analyse_scene(replace(numbers({"path": list(TIGHT), "bsdf+nee": list(TIGHT),
+                                             "bsdf+nee+adaptive": [2 * x for x in TIGHT]}),
+                                    name="worse"))
+    alone = A.analyse_scene(numbers({"path": list(TIGHT), "bsdf+nee+adaptive": list(TIGHT)}))
+    assert better.adapted["bsdf+nee+adaptive"].value == pytest.approx(3.0)
+    assert alone.adapted == {}
+    rows, mean, n = A.adapted_over_plain([better, worse, alone])["bsdf+nee+adaptive"]
+    assert [s for s, _ in rows] == ["better", "worse"] and n == 2
+    assert mean == pytest.approx(math.sqrt(1.5))
+    text = " ".join(words.findings([better, worse], {}))
+    assert "bsdf+nee+adaptive over bsdf+nee (equal-time efficiency): better 3" in text
+    assert "it loses on worse." in text
+    assert "it loses on no scene." in " ".join(words.findings([better], {}))
 
 
 def test_the_learner_finding_names_the_scenes_where_it_did_not_train():

@@ -70,13 +70,15 @@ def test_run_all_passes_the_preset_on_to_the_suite(tmp_path):
     assert "--preset" not in run_all.sub_argv(args, suite)
 
 
-def test_make_full_adds_the_adaptive_method_to_the_suite(tmp_path):
-    """``make full`` (run_all --full) passes --full on to the suite, whose default methods
-    then include bsdf+nee+adaptive; the default run's do not, and given methods win."""
+def test_the_default_run_renders_the_adaptive_method_and_given_methods_win(tmp_path):
+    """The suite's default methods include bsdf+nee+adaptive, in ``make run`` and in
+    ``make full`` alike (run_all --full passes the suite nothing: it has no --full), and
+    methods given explicitly win."""
     suite = next(s for s in studies.ordered() if s.name == S.NAME)
-    args = run_all.cli.parse_args(run_all.build_parser(), ["--full", "--out", str(tmp_path)])
-    full = S.parse(run_all.sub_argv(args, suite))
-    assert S.ADAPTIVE_METHOD in full.methods
-    assert S.ADAPTIVE_METHOD not in S.parse(["--out", str(tmp_path)]).methods
-    given = S.parse(["--full", "--methods", "bsdf,path", "--out", str(tmp_path)])
+    for extra in ([], ["--full"]):
+        args = run_all.cli.parse_args(run_all.build_parser(), extra + ["--out", str(tmp_path)])
+        argv = run_all.sub_argv(args, suite)
+        assert "--full" not in argv
+        assert S.ADAPTIVE_METHOD in S.parse(argv).methods
+    given = S.parse(["--methods", "bsdf,path", "--out", str(tmp_path)])
     assert given.methods == ["bsdf", "path"]

@@ -400,6 +400,13 @@ MUTANTS = [
            "the adaptive ceiling divides by the mean relative deviation, not its square: "
            "the ceiling then follows the image's brightness",
            ("tests/test_suite_errors.py::test_the_adaptive_ceiling_is_the_oracle_allocations_gain",)),
+    Mutant("adaptive-over-baseline", "experiments/lib/studies/suite/analysis.py",
+           '    adapted = {m: compare(m, twin) for m in cells if (twin := _twin(m, "unadapted")) in cells}',
+           '    adapted = {m: compare(m, base) for m in cells if (twin := _twin(m, "unadapted")) in cells}',
+           "the adaptive method's finding compares it with the baseline (path), not with its "
+           "twin that samples every pixel alike: what adaptive sampling gains is then mixed "
+           "with what its strategy gains",
+           ("tests/test_suite.py::test_an_adaptive_method_is_compared_with_its_twin_on_every_scene",)),
     # ------------------------------------------------------------ the suite's reference
     Mutant("reference-unproven", "experiments/lib/studies/suite/reference_choice.py",
            '        if test.status == "unbiased":',

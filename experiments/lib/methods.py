@@ -113,6 +113,13 @@ class Method:
         return "bsdf" + self.name[len(self.strategy):] if self.learns else None
 
     @property
+    def unadapted(self) -> str | None:
+        """An adaptive method's twin that spends its samples alike in every pixel: the
+        same name without ``+adaptive`` (``bsdf+nee+adaptive`` -> ``bsdf+nee``); None for
+        a method that is not adaptive."""
+        return self.name[:-len(ADAPTIVE) - 1] if self.adaptive else None
+
+    @property
     def sampler_spec(self) -> samplers.SamplerSpec:
         return samplers.get(self.sampler)
 

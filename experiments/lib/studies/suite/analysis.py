@@ -250,6 +250,9 @@ class SceneResult:
     #: equal-time renders trained)}
     learned: dict = field(default_factory=dict)
     oracle_gain: float = math.nan   # the adaptive sampling ceiling (SceneNumbers')
+    #: {adaptive method: Ratio of its equal-time efficiency over its twin that samples
+    #: every pixel alike (Method.unadapted)}
+    adapted: dict = field(default_factory=dict)
 
     @property
     def reference_adequate(self) -> bool:
@@ -321,17 +324,20 @@ def analyse_scene(numbers: SceneNumbers) -> SceneResult:
     power, power_method = scene_power(cells, numbers.calibration)
     favoured = set(matching(numbers.favours, list(cells)))
     learned = {m: (compare(m, plain), m in favoured, cells[m].trained) for m in cells
-               if (plain := _plain(m)) in cells}
+               if (plain := _twin(m, "plain")) in cells}
+    adapted = {m: compare(m, twin) for m in cells if (twin := _twin(m, "unadapted")) in cells}
     return SceneResult(numbers.name, base, results, ranking, verdict, time_ratio, share,
                        floor.known, dict(numbers.failed), power, power_method,
-                       numbers.calibration, learned, numbers.oracle_gain)
+                       numbers.calibration, learned, numbers.oracle_gain, adapted)
 
 
-def _plain(name: str) -> str | None:
-    """A cell's learning method's counterpart without learning (:attr:`.Method.plain`);
-    None for a label outside the method grammar (an analysis fed other cells' names)."""
+def _twin(name: str, kind: str) -> str | None:
+    """A cell's method's counterpart without learning (``kind`` "plain",
+    :attr:`.Method.plain`) or without adaptive sampling ("unadapted",
+    :attr:`.Method.unadapted`); None for a label outside the method grammar (an analysis
+    fed other cells' names)."""
     try:
-        return parse_method(name).plain
+        return getattr(parse_method(name), kind)
     except ValueError:
         return None
 
@@ -353,6 +359,21 @@ def learned_over_plain(results: list[SceneResult]) -> dict:
         summary[m] = ([(s, x) for s, x, _ in rows],
                       math.exp(sum(logs) / len(logs)) if logs else math.nan, len(logs),
                       [s for s, _, trained in rows if not trained])
+    return summary
+
+
+def adapted_over_plain(results: list[SceneResult]) -> dict:
+    """{adaptive method: ([(scene, Ratio over its twin that samples every pixel alike)],
+    the geometric mean of those that are intervals, how many)}: what adaptive sampling
+    gains, or costs, on every scene that renders both."""
+    out = {}
+    for r in results:
+        for m, ratio in r.adapted.items():
+            out.setdefault(m, []).append((r.name, ratio))
+    summary = {}
+    for m, rows in out.items():
+        logs = [math.log(x.value) for _, x in rows if x.side == "" and x.value > 0]
+        summary[m] = (rows, math.exp(sum(logs) / len(logs)) if logs else math.nan, len(logs))
     return summary
 
 

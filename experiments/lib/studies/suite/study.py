@@ -79,20 +79,19 @@ PRESETS = {
 
 # ------------------------------------------------------------------ options
 
-#: The adaptive modifier's method that ``--full`` (``make full``) adds to the default
-#: methods: :data:`.analysis.TIMED_PAIR`'s first method with its samples where the
-#: relative error is. Not in the default run: its kernels cost a cold ``make run`` about
-#: 20 s (docs/methodology.md, "Adaptive sampling").
+#: The adaptive modifier's method among the default methods: :data:`.analysis.TIMED_PAIR`'s
+#: first method with its samples where the relative error is (docs/methodology.md,
+#: "Adaptive sampling").
 ADAPTIVE_METHOD = f"{analysis.TIMED_PAIR[0]}+adaptive"
 
 
-def default_methods(full: bool = False) -> list[str]:
+def default_methods() -> list[str]:
     """Every vr_path strategy with and without NEE, every strategy that learns (its own
-    integrator, e.g. ``guided``) with NEE only, with ``full`` ``bsdf+nee`` made adaptive
+    integrator, e.g. ``guided``) with NEE only, ``bsdf+nee`` made adaptive
     (:data:`ADAPTIVE_METHOD`), then Mitsuba's path."""
     return [n for s in strategies() for n in
             ((s, f"{s}+nee") if integrator_type(s) == "vr_path" else (f"{s}+nee",))] + \
-        ([ADAPTIVE_METHOD] if full else []) + ["path"]
+        [ADAPTIVE_METHOD, "path"]
 
 
 def scene_files(text: str) -> list[str]:
@@ -186,8 +185,6 @@ def build_parser() -> cli.Parser:
                    help="FLIP of the first repeat at equal time only (the images shown), or "
                         "of every repeat at both budgets (an interval; HDR-FLIP costs 0.1-1 s "
                         "of CPU per 64x48 image)")
-    p.add_argument("--full", action="store_true",
-                   help=f"also {ADAPTIVE_METHOD} among the default methods (make full)")
     p.add_argument("--quick", action="store_true",
                    help="tiny run for tests: " + ", ".join(f"{k} {v}" for k, v in
                                                           QUICK_DEFAULTS.items()))
@@ -242,8 +239,7 @@ def parse(argv=None):
                     value = cli.method_list(value)
                 setattr(args, key, value)
     files_list = args.scenes or bundled.suite()
-    full = args.full and "methods" not in args.explicit and not args.quick
-    methods = default_methods(full=True) if full else list(args.methods)
+    methods = list(args.methods)
     args.best_note = "methods as given (--methods)"
     args.precise_reference = None
     if "methods" not in args.explicit and not args.quick:

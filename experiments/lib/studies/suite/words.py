@@ -120,6 +120,8 @@ def findings(results: list, failed_scenes: dict) -> list[str]:
                    f"favour it: " + ", ".join(f"{s} {x.short()}" for s, x in rows)
                    + f"; geometric mean {g(mean)} ({n} scenes)."
                    + untrained_words(untrained, len(rows), plain))
+    for m, (rows, mean, n) in analysis.adapted_over_plain(results).items():
+        out.append(adapted_words(m, rows, mean, n))
     status = {}
     for r in results:
         status.setdefault(r.verdict.status, []).append(r.name)
@@ -145,6 +147,18 @@ def findings(results: list, failed_scenes: dict) -> list[str]:
     if failed_scenes:
         out.append(f"Not compared: {', '.join(failed_scenes)} (errors in the suite section).")
     return out
+
+
+def adapted_words(method: str, rows: list, mean: float, n: int) -> str:
+    """The adaptive method over its twin that samples every pixel alike
+    (``analysis.adapted_over_plain``): per scene, then where it is below 1 at the interval's
+    level (:meth:`.ratios.Ratio.less`: it loses there)."""
+    twin = parse_method(method).unadapted
+    loses = [s for s, x in rows if x.less()]
+    return (f"{method} over {twin} (equal-time efficiency): "
+            + ", ".join(f"{s} {x.short()}" for s, x in rows)
+            + f"; geometric mean {g(mean)} ({n} scenes); "
+            + (f"it loses on {', '.join(loses)}." if loses else "it loses on no scene."))
 
 
 def untrained_words(untrained: list, rows: int, plain: str) -> str:
