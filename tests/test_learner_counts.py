@@ -115,3 +115,28 @@ def test_a_learner_that_cannot_train_at_its_budget_renders_no_pilot(tmp_path, mo
     monkeypatch.setattr(methods.Method, "trains", lambda self, spp, pixels: self.learns)
     assert engine.count(decl, time_budget, slot, planned) in (49, 50)
     assert [j.pilot for j in rendered] == [True]
+
+
+def test_an_adaptive_methods_count_is_exact_and_from_a_pilot(tmp_path, monkeypatch):
+    """bsdf+nee+adaptive: its short renders carry its fixed work per job (two passes, the
+    allocation's kernels), 2 ms each here on top of 1 ms per 100 samples, so they give a
+    count that is short; a pilot at that count gives the count the budget buys at its cost,
+    exact, not rounded to a power of two (rounded, it rendered half its twin's count on
+    four of nine scenes). Negative control: the plain twin's count is still rounded."""
+    decl, engine, planned, time_budget = engine_at(tmp_path, "0.02",
+                                                   "path,bsdf+nee,bsdf+nee+adaptive")
+    rendered = []
+    monkeypatch.setattr(engine.study, "results", lambda jobs: [SimpleNamespace(
+        spp=j.spp, host_seconds=0.0, wall_seconds=0.0,
+        kernel_seconds=j.spp * 1e-5 + (2e-3 if j.method.adaptive else 0.0)) for j in jobs])
+    monkeypatch.setattr(engine.study, "run", lambda jobs, label="": rendered.extend(jobs))
+    adaptive = next(s for s in engine.slots(decl) if s.method.name == "bsdf+nee+adaptive")
+    plain = next(s for s in engine.slots(decl) if s.method.name == "bsdf+nee")
+    # its 16-spp renders cost 2.16 ms: 0.02 s buys 148 spp at that cost; the pilot at 148
+    # costs 3.48 ms, so 0.02 s buys 850 spp at its cost (1800 at the marginal cost)
+    count = engine.count(decl, time_budget, adaptive, planned)
+    assert [(j.pilot, j.spp) for j in rendered] == [(True, 148)]
+    assert count == int(0.02 / ((148 * 1e-5 + 2e-3) / 148)) == 850
+    rendered.clear()
+    assert engine.count(decl, time_budget, plain, planned) == 2048
+    assert rendered == []

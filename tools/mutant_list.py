@@ -400,6 +400,18 @@ MUTANTS = [
            "the adaptive ceiling divides by the mean relative deviation, not its square: "
            "the ceiling then follows the image's brightness",
            ("tests/test_suite_errors.py::test_the_adaptive_ceiling_is_the_oracle_allocations_gain",)),
+    Mutant("adaptive-count-rounded", "experiments/lib/engine.py",
+           "        return counts.equal_time_spp(seconds, piloted, False, budget.max_spp)\n",
+           "        return counts.equal_time_spp(seconds, piloted, budget.power_of_two, budget.max_spp)\n",
+           "an adaptive method's equal-time count rounded to a power of two as a plain "
+           "method's: it rendered half its twin's count on four of nine scenes",
+           ("tests/test_learner_counts.py::test_an_adaptive_methods_count_is_exact_and_from_a_pilot",)),
+    Mutant("adaptive-count-unpiloted", "experiments/lib/engine.py",
+           "        if slot.method.adaptive:\n",
+           "        if False:\n",
+           "an adaptive method counted from its short renders' cost, whose fixed work per job "
+           "spread over their few samples gives too few",
+           ("tests/test_learner_counts.py::test_an_adaptive_methods_count_is_exact_and_from_a_pilot",)),
     Mutant("adaptive-over-baseline", "experiments/lib/studies/suite/analysis.py",
            '    adapted = {m: compare(m, twin) for m in cells if (twin := _twin(m, "unadapted")) in cells}',
            '    adapted = {m: compare(m, base) for m in cells if (twin := _twin(m, "unadapted")) in cells}',
