@@ -400,9 +400,9 @@ MUTANTS = [
            "the adaptive ceiling divides by the mean relative deviation, not its square: "
            "the ceiling then follows the image's brightness",
            ("tests/test_suite_errors.py::test_the_adaptive_ceiling_is_the_oracle_allocations_gain",)),
-    Mutant("adaptive-count-rounded", "experiments/lib/engine.py",
-           "        return counts.equal_time_spp(seconds, piloted, False, budget.max_spp)\n",
-           "        return counts.equal_time_spp(seconds, piloted, budget.power_of_two, budget.max_spp)\n",
+    Mutant("adaptive-count-rounded", "experiments/lib/engine_pilots.py",
+           "    return counts.equal_time_spp(seconds, piloted, False, budget.max_spp)\n",
+           "    return counts.equal_time_spp(seconds, piloted, budget.power_of_two, budget.max_spp)\n",
            "an adaptive method's equal-time count rounded to a power of two as a plain "
            "method's: it rendered half its twin's count on four of nine scenes",
            ("tests/test_learner_counts.py::test_an_adaptive_methods_count_is_exact_and_from_a_pilot",)),

@@ -16,7 +16,7 @@ that they fan out) the engine
    the cost per sample an earlier budget measured (:mod:`.counts`), times the scene's
    factor (its own, or a :class:`~.declaration.TimeScale` policy's, decided once after the
    earlier budgets), and for a method that learns or samples adaptively from a pilot render
-   at that count (:meth:`Engine.pilot`, :meth:`Engine.adaptive_count`), exact; or the counts
+   at that count (:meth:`Engine.pilot`, :func:`.engine_pilots.adaptive_count`), exact; or the counts
    of an earlier run (``--replay-counts``);
 4. where the declaration says so, records a failing cell and goes on
    (``isolate_failures``), and extends a reference too noisy for the comparison
@@ -35,7 +35,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass, field
 
-from . import counts, engine_references
+from . import counts, engine_pilots, engine_references
 from .declaration import (Budget, Cell, Declaration, ReferenceFloor, SceneSetup,  # noqa: F401
                           Sweep, TimeScale, default_key)
 from .execute import VIEW_CACHE
@@ -155,34 +155,9 @@ class Engine:
         if slot.method.learns:
             return self.pilot(declaration, budget, slot, measured, seconds)
         if slot.method.adaptive:
-            return self.adaptive_count(declaration, budget, slot, measured, seconds)
+            return engine_pilots.adaptive_count(self, declaration, budget, slot, measured,
+                                                seconds)
         return counts.equal_time_spp(seconds, measured, budget.power_of_two, budget.max_spp)
-
-    def adaptive_count(self, declaration: Declaration, budget: Budget, slot: Slot,
-                       measured: list, seconds: float) -> int:
-        """An adaptive method's equal-time count (:attr:`.methods.Method.adaptive`): the
-        count that costs ``seconds`` at the cost per sample of a pilot render, exact. Never
-        rounded to a power of two: its per-pixel counts are neither equal nor powers of
-        two, so the rounding buys nothing, and rounded it rendered half its twin's count on
-        four of nine scenes (its pilot pass, a share of the count, then half as long). The
-        pilot renders the count the ``measured`` renders give: their few samples spread its
-        fixed work per job (two passes, the allocation's kernels) over too few samples, so
-        their count is short."""
-        spp = counts.equal_time_spp(seconds, measured, False, budget.max_spp)
-        piloted = [self._pilot_render(declaration, budget, slot, spp)]
-        return counts.equal_time_spp(seconds, piloted, False, budget.max_spp)
-
-    def _pilot_render(self, declaration: Declaration, budget: Budget, slot: Slot,
-                      spp: int) -> list:
-        """The results of a pilot render of ``slot``'s method at ``spp`` for ``budget``:
-        kept in the store (:attr:`.jobs.Job.pilot`) and in no comparison."""
-        cell = slot.cell(budget.name)
-        job = self.study.job(f"{declaration.key(declaration, cell)}/pilot", slot.method, spp,
-                             pilot=True,
-                             sample_moments=declaration.moments(slot.method, slot.setup),
-                             **self._options(declaration, cell, slot.setup))
-        self.study.run([job], f"{declaration.name}: pilot")
-        return self.study.results([job])
 
     def pilot(self, declaration: Declaration, budget: Budget, slot: Slot, measured: list,
               seconds: float) -> int:
@@ -213,7 +188,7 @@ class Engine:
             return plain if trains(rounded) else rounded
         fewer = max(1, int(plain / LEARNER_COST))
         spp = fewer if trains(fewer) == trains(plain) else plain
-        piloted = [self._pilot_render(declaration, budget, slot, spp)]
+        piloted = [engine_pilots.render(self, declaration, budget, slot, spp)]
         count = counts.equal_time_spp(seconds, piloted, False, budget.max_spp)
         return counts.learner_spp(seconds, spp, count, trains, piloted, measured)
 
