@@ -34,6 +34,9 @@ MIN_SHARE = 0.1
 #: The share of a pixel's own pilot in the relative variance its count is read from (the
 #: rest its 8 neighbours'): docs/methodology.md, "Adaptive sampling".
 OWN_SHARE = 0.5
+#: Default ``min_gain``: the allocation's gain predicted from the pilot below which every
+#: pixel gets the same count (docs/methodology.md, "Adaptive sampling").
+MIN_GAIN = 1.3
 
 
 class AdaptiveIntegrator(mi.SamplingIntegrator):
@@ -61,6 +64,14 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
      * - min_spp
        - |int|
        - Fewest samples per pixel of the final pass. (Default: 1)
+     * - min_gain
+       - |float|
+       - The gain at equal samples that the pilot predicts for its allocation,
+         mean(r^2) / mean(r)^2 over the pixels' relative deviations r it allocates by,
+         below which the final pass gives every pixel the same count, rendered by the
+         nested integrator itself: where the pixels' errors hardly differ, or a pilot of
+         few samples cannot tell them apart, moving samples gains less than it costs.
+         1: always allocate. (Default: 1.3)
      * - relmse_eps
        - |float|
        - Offset of the relative error's denominator: a pixel's relative variance is
@@ -99,6 +110,9 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
         self.min_spp = int(props.get("min_spp", 1))
         self.min_share = float(props.get("min_share", MIN_SHARE))
         self.relmse_eps = float(props.get("relmse_eps", RELMSE_EPS))
+        self.min_gain = float(props.get("min_gain", MIN_GAIN))
+        #: The last render's predicted gain (:meth:`allocate`) and whether it allocated.
+        self.last_gain, self.last_allocated = None, None
         if not 0.0 < self.pilot_share < 1.0:
             raise ValueError(f"vr_adaptive: pilot_share must be in (0, 1), got "
                              f"{self.pilot_share}")
@@ -109,6 +123,8 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
                              f"{self.min_share}")
         if not self.relmse_eps >= 0.0:
             raise ValueError(f"vr_adaptive: relmse_eps must be >= 0, got {self.relmse_eps}")
+        if not self.min_gain >= 1.0:
+            raise ValueError(f"vr_adaptive: min_gain must be >= 1, got {self.min_gain}")
 
     # ------------------------------------------------------------ the render
     def render(self, scene, sensor=0, seed=0, spp=0, develop=True, evaluate=True):
@@ -135,11 +151,29 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
         total, squares = self._pass(scene, sensor, sampler, seed, counts, pilot * pixels)
         mean = total / n_pilot
         counts, planned = self.allocate(mean, squares / n_pilot, pilot, final * pixels, size)
+        self.last_allocated = self.last_gain >= self.min_gain
+        if not self.last_allocated:
+            image = self._uniform(scene, sensor, seed, total, pilot, final)
+            self.last_counts = dr.full(mi.UInt32, spp, pixels)
+            return mi.TensorXf(dr.ravel(image), shape=(int(size.y), int(size.x), 3))
         n = int(dr.sum(counts)[0]) if dr.width(counts) else 0
         rest, _ = self._pass(scene, sensor, sampler, _other_seed(seed), counts, n)
         image = combine(total, n_pilot, rest, mi.Float(counts), mi.Float(planned))
         self.last_counts = counts + pilot
         return mi.TensorXf(dr.ravel(image), shape=(int(size.y), int(size.x), 3))
+
+    def _uniform(self, scene, sensor, seed, total: mi.Color3f, pilot: int,
+                 final: int) -> mi.Color3f:
+        """The image where the pilot predicts too little gain (:attr:`min_gain`): the
+        nested integrator's own render of ``final`` samples per pixel (its kernel, no
+        per-pixel counts), pooled with the pilot's sums ``total`` by their samples. The
+        weights are fixed given the decision, which reads every pixel's pilot, a pixel's
+        own in a share of one over the pixel count."""
+        sampler = sensor.sampler()
+        rendered = self.nested.render(scene, sensor, seed=_other_seed(seed), spp=final)
+        sampler.set_sample_count(pilot + final)
+        rest = mi.Color3f(*[dr.ravel(rendered[..., c]) for c in range(3)])
+        return (total + rest * float(final)) / float(pilot + final)
 
     def allocate(self, mean: mi.Color3f, second: mi.Float, pilot: int, budget: int,
                  size) -> tuple[mi.UInt32, mi.UInt32]:
@@ -148,13 +182,16 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
         relative standard deviation of one sample (its luminance's: the square root of
         var / (mean^2 + ``relmse_eps``), :data:`OWN_SHARE` the pixel's own and the rest the
         mean over its 8 neighbours; for the second, the neighbours' mean alone), rounded
-        down."""
+        down. Also sets :attr:`last_gain`, the allocation's predicted gain at equal samples,
+        mean(r^2) / mean(r)^2 over the pixels' relative deviations r it allocates by."""
         lum = mi.luminance(mean)
         var = dr.maximum(second - dr.square(lum), 0.0) * dr.opaque(mi.Float,
                                                                        pilot / (pilot - 1.0))
         relative = var / dr.maximum(dr.square(lum) + self.relmse_eps, 1e-24)
         neighbours = _blur(relative, int(size.x), int(size.y))
         own = dr.fma(OWN_SHARE, relative - neighbours, neighbours)
+        deviation = dr.mean(dr.sqrt(own))[0]
+        self.last_gain = float(dr.mean(own)[0] / deviation ** 2) if deviation > 0 else 1.0
         return (self._counts(dr.sqrt(own), budget, size),
                 self._counts(dr.sqrt(neighbours), budget, size))
 
@@ -213,7 +250,7 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
     def to_string(self):
         return (f"AdaptiveIntegrator[nested={self.nested}, pilot_share={self.pilot_share}, "
                 f"min_share={self.min_share}, min_spp={self.min_spp}, "
-                f"relmse_eps={self.relmse_eps}]")
+                f"min_gain={self.min_gain}, relmse_eps={self.relmse_eps}]")
 
 
 def _check(film, sampler) -> None:

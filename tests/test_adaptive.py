@@ -58,8 +58,28 @@ def glossy() -> dict:
                       "emitter": {"type": "area", "radiance": {"type": "rgb", "value": 33}}}}
 
 
+def even() -> dict:
+    """A diffuse sphere on a diffuse floor under a constant sky, 32 x 32: every pixel's
+    relative error about alike (the pilot predicts little gain), the camera looking down
+    so that no pixel sees the sky (whose pixels have no error at all)."""
+    return {"type": "scene",
+            "sensor": {"type": "perspective", "fov": 30,
+                       "to_world": T().look_at(origin=[0, 4, 1], target=[0, -0.5, 0],
+                                               up=[0, 1, 0]),
+                       "film": {"type": "hdrfilm", "width": 32, "height": 32,
+                                "rfilter": {"type": "box"}}},
+            "floor": {"type": "rectangle",
+                      "to_world": T().translate([0, -0.5, 0]).rotate([1, 0, 0], -90).scale(3),
+                      "bsdf": {"type": "diffuse"}},
+            "ball": {"type": "sphere", "radius": 0.5, "bsdf": {"type": "diffuse"}},
+            "sky": {"type": "constant", "radiance": {"type": "rgb", "value": 1.0}}}
+
+
 NESTED = {"type": "vr_path", "strategy": "bsdf", "emitter_sampling": True, "max_depth": 4}
-ADAPTIVE = {"type": "vr_adaptive", "nested": NESTED}
+#: min_gain 1: the allocation always runs (its own tests); the default, which may render
+#: every pixel alike, has its own (test_where_the_pilot_predicts_little_gain_...)
+ADAPTIVE = {"type": "vr_adaptive", "nested": NESTED, "min_gain": 1.0}
+ADAPTIVE_DEFAULT = {"type": "vr_adaptive", "nested": NESTED}
 PATH = {"type": "path", "max_depth": 4}
 PATH_DEFAULT = {"type": "path"}
 LEVELS = (_blocks.sidak(SIGNIFICANCE / 2, 3 * 16), _blocks.sidak(SIGNIFICANCE / 2, 3))
@@ -79,6 +99,24 @@ def test_adaptive_agrees_with_path_per_block(scene):
     agreement = _blocks.agree(images, reference, *LEVELS)
     assert agreement.passed, agreement.describe()
     assert agreement.detectable < 0.05, agreement.detectable
+
+
+def test_where_the_pilot_predicts_little_gain_every_pixel_gets_the_same_count():
+    """Under a constant sky the pixels' relative errors hardly differ, and the pilot (8 of
+    32 spp) predicts a gain under min_gain: every pixel renders 32 samples, the rest by
+    the nested integrator's own render, and the image still agrees with path per block.
+    Negative control: on the glossy scene, whose highlight holds the variance, it
+    allocates (its predicted gain over min_gain, the counts unequal)."""
+    integ = mi.load_dict(ADAPTIVE_DEFAULT)
+    mi.render(mi.load_dict(even()), integrator=integ, spp=32, seed=1)
+    assert integ.last_gain < adaptive.MIN_GAIN and not integ.last_allocated
+    assert np.all(np.array(integ.last_counts) == 32)
+    agreement = _blocks.agree(blocks(even(), ADAPTIVE_DEFAULT, 32, 3),
+                              blocks(even(), PATH, 128, 1), *LEVELS)
+    assert agreement.passed, agreement.describe()
+    mi.render(mi.load_dict(glossy()), integrator=integ, spp=32, seed=1)
+    assert integ.last_gain >= adaptive.MIN_GAIN and integ.last_allocated
+    assert len(np.unique(np.array(integ.last_counts))) > 1
 
 
 def test_the_pilot_counted_twice_is_found(monkeypatch):
@@ -213,6 +251,8 @@ def test_bad_parameters_are_refused_with_their_values():
         mi.load_dict({**ADAPTIVE, "pilot_share": 1.5})
     with pytest.raises(Exception, match="min_share must be in"):
         mi.load_dict({**ADAPTIVE, "min_share": 1.0})
+    with pytest.raises(Exception, match="min_gain must be >= 1, got 0.5"):
+        mi.load_dict({**ADAPTIVE, "min_gain": 0.5})
     with pytest.raises(Exception, match="min_spp must be >= 1"):
         mi.load_dict({**ADAPTIVE, "min_spp": 0})
     with pytest.raises(Exception, match="learns between"):

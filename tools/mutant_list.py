@@ -400,6 +400,19 @@ MUTANTS = [
            "the adaptive ceiling divides by the mean relative deviation, not its square: "
            "the ceiling then follows the image's brightness",
            ("tests/test_suite_errors.py::test_the_adaptive_ceiling_is_the_oracle_allocations_gain",)),
+    Mutant("adaptive-gain-ignored", "integrators/adaptive.py",
+           "        self.last_allocated = self.last_gain >= self.min_gain\n",
+           "        self.last_allocated = True\n",
+           "samples moved between pixels where the pilot predicts too little gain for the "
+           "move (small_light and cbox at their equal-time counts: a pilot of 11 samples per "
+           "pixel, 0.89 to 0.99 of bsdf+nee)",
+           ("tests/test_adaptive.py::test_where_the_pilot_predicts_little_gain_every_pixel_gets_the_same_count",)),
+    Mutant("adaptive-uniform-pilot-dropped-from-count", "integrators/adaptive.py",
+           "        return (total + rest * float(final)) / float(pilot + final)\n",
+           "        return (total + rest * float(final)) / float(final)\n",
+           "where every pixel gets the same count, the pilot's sums pooled with the final "
+           "render's but divided by the final render's samples alone: the image too bright",
+           ("tests/test_adaptive.py::test_where_the_pilot_predicts_little_gain_every_pixel_gets_the_same_count",)),
     Mutant("adaptive-count-rounded", "experiments/lib/engine_pilots.py",
            "    return counts.equal_time_spp(seconds, piloted, False, budget.max_spp)\n",
            "    return counts.equal_time_spp(seconds, piloted, budget.power_of_two, budget.max_spp)\n",
