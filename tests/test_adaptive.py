@@ -36,43 +36,40 @@ def cbox() -> dict:
     return d
 
 
+def ball_on_floor(origin: list, target: list, fov: float, ball: dict, light: dict) -> dict:
+    """A sphere of radius 0.5 with ``ball``'s BSDF on a diffuse floor, lit by ``light``
+    (named entries), seen from ``origin`` over a 32 x 32 film with a box filter."""
+    return {"type": "scene",
+            "sensor": {"type": "perspective", "fov": fov,
+                       "to_world": T().look_at(origin=origin, target=target, up=[0, 1, 0]),
+                       "film": {"type": "hdrfilm", "width": 32, "height": 32,
+                                "rfilter": {"type": "box"}}},
+            "floor": {"type": "rectangle",
+                      "to_world": T().translate([0, -0.5, 0]).rotate([1, 0, 0], -90).scale(3),
+                      "bsdf": {"type": "diffuse"}},
+            "ball": {"type": "sphere", "radius": 0.5, "bsdf": ball}, **light}
+
+
 def glossy() -> dict:
     """A rough-metal sphere (alpha 0.2) over a diffuse floor under a sphere light of radius
     0.3, 32 x 32: the highlight's pixels hold most of the variance, where the allocation
     matters, and tails light enough for the per-block test (a light of radius 0.1 and
     alpha 0.05: tail share 0.64, the plain method failed 6 of 20 seeds, the test's size
     void; here 0 of 12 for both, tail share 0.15 and 0.12)."""
-    return {"type": "scene",
-            "sensor": {"type": "perspective", "fov": 40,
-                       "to_world": T().look_at(origin=[0, 1.2, 4], target=[0, 0.2, 0],
-                                               up=[0, 1, 0]),
-                       "film": {"type": "hdrfilm", "width": 32, "height": 32,
-                                "rfilter": {"type": "box"}}},
-            "floor": {"type": "rectangle",
-                      "to_world": T().translate([0, -0.5, 0]).rotate([1, 0, 0], -90).scale(3),
-                      "bsdf": {"type": "diffuse"}},
-            "ball": {"type": "sphere", "radius": 0.5,
-                     "bsdf": {"type": "roughconductor", "alpha": 0.2}},
-            "light": {"type": "sphere", "radius": 0.3,
-                      "to_world": T().translate([1.0, 1.6, 1.0]),
-                      "emitter": {"type": "area", "radiance": {"type": "rgb", "value": 33}}}}
+    return ball_on_floor([0, 1.2, 4], [0, 0.2, 0], 40, {"type": "roughconductor", "alpha": 0.2},
+                         {"light": {"type": "sphere", "radius": 0.3,
+                                    "to_world": T().translate([1.0, 1.6, 1.0]),
+                                    "emitter": {"type": "area",
+                                                "radiance": {"type": "rgb", "value": 33}}}})
 
 
 def even() -> dict:
     """A diffuse sphere on a diffuse floor under a constant sky, 32 x 32: every pixel's
     relative error about alike (the pilot predicts little gain), the camera looking down
     so that no pixel sees the sky (whose pixels have no error at all)."""
-    return {"type": "scene",
-            "sensor": {"type": "perspective", "fov": 30,
-                       "to_world": T().look_at(origin=[0, 4, 1], target=[0, -0.5, 0],
-                                               up=[0, 1, 0]),
-                       "film": {"type": "hdrfilm", "width": 32, "height": 32,
-                                "rfilter": {"type": "box"}}},
-            "floor": {"type": "rectangle",
-                      "to_world": T().translate([0, -0.5, 0]).rotate([1, 0, 0], -90).scale(3),
-                      "bsdf": {"type": "diffuse"}},
-            "ball": {"type": "sphere", "radius": 0.5, "bsdf": {"type": "diffuse"}},
-            "sky": {"type": "constant", "radiance": {"type": "rgb", "value": 1.0}}}
+    return ball_on_floor([0, 4, 1], [0, -0.5, 0], 30, {"type": "diffuse"},
+                         {"sky": {"type": "constant",
+                                  "radiance": {"type": "rgb", "value": 1.0}}})
 
 
 NESTED = {"type": "vr_path", "strategy": "bsdf", "emitter_sampling": True, "max_depth": 4}

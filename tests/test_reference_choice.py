@@ -135,6 +135,34 @@ def test_the_default_run_tries_the_best_samplers_method_unless_a_reference_is_gi
         S.parse(base + ["--reference-method", "nonsense"])
 
 
+class ChunkStore:
+    """A reference as ``refs.read`` and ``reference_chunks`` see it: its chunks (8 spp
+    each) and the seconds each took."""
+
+    def __init__(self, images, seconds):
+        self.images, self.seconds = images, seconds
+
+    def read(self, spec, spp):
+        n = len(self.images)
+        return SimpleNamespace(spp=8 * n, seconds=self.seconds * n)
+
+
+class RenderOn:
+    """A study whose reference renders add smooth chunks to its ``store`` (no firefly), and
+    which records the samples asked for (``rendered``)."""
+
+    def __init__(self, rng):
+        self.rng, self.store, self.rendered = rng, None, []
+
+    def reference_jobs(self, info, depth, resolution, spp, method, typical):
+        return spp
+
+    def run(self, spp, label):
+        self.rendered.append(spp)
+        self.store.images = np.concatenate([self.store.images, chunks(
+            self.rng, spp // 8 - len(self.store.images), 0.2)])
+
+
 def test_paths_reference_renders_on_while_one_chunks_pixel_rules_its_spread(monkeypatch):
     """One pixel of one chunk far above the others holds a third of path's spread (every image
     test on the scene void): its reference is doubled while that holds and the whole costs
@@ -148,47 +176,31 @@ def test_paths_reference_renders_on_while_one_chunks_pixel_rules_its_spread(monk
     assert reference_choice.top_share(smooth) < 0.01
     assert reference_choice.top_share(firefly) > 0.3
 
-    class Store:             # path's reference: its chunks, spp and seconds per chunk
-        def __init__(self, images, seconds):
-            self.images, self.seconds = images, seconds
-
-        def read(self, spec, spp):
-            n = len(self.images)
-            return SimpleNamespace(spp=8 * n, seconds=self.seconds * n)
-
-    rendered = []
-
-    class FakeStudy:
-        def reference_jobs(self, info, depth, resolution, spp, method, typical):
-            return spp
-
-        def run(self, spp, label):       # the new chunks are smooth
-            rendered.append(spp)
-            store.images = np.concatenate([store.images, chunks(rng, spp // 8 - len(
-                store.images), 0.2)])
+    study = RenderOn(rng)
+    rendered = study.rendered
 
     monkeypatch.setattr(bias_test, "reference_chunks", lambda refs, spec: refs.images)
     spec = SimpleNamespace(info=None, depth=None, width=W, height=H, method=PATH)
     cfg = SimpleNamespace(reference_typical_spp=None, reference_max_seconds=0.0)
-    store = Store(firefly, 0.001)
-    reference_choice._render_on(FakeStudy(), cfg, store, spec)
+    study.store = store = ChunkStore(firefly, 0.001)
+    reference_choice._render_on(study, cfg, store, spec)
     assert rendered[:2] == [2 * 8 * 16, 4 * 8 * 16]            # doubled while it rules
     assert reference_choice.top_share(store.images) <= bias_image.MAX_TERM_SHARE
     rendered.clear()
-    store = Store(smooth, 0.001)
-    reference_choice._render_on(FakeStudy(), cfg, store, spec)
+    study.store = store = ChunkStore(smooth, 0.001)
+    reference_choice._render_on(study, cfg, store, spec)
     assert rendered == []
-    store = Store(firefly.copy(), reference_choice.AGAINST_SECONDS / 16)   # 16 chunks: all of it
-    reference_choice._render_on(FakeStudy(), cfg, store, spec)
+    study.store = store = ChunkStore(firefly.copy(), reference_choice.AGAINST_SECONDS / 16)   # 16 chunks: all of it
+    reference_choice._render_on(study, cfg, store, spec)
     assert rendered == []
     # the same reference within the extension budget that path's reference would get
     # anyway where the candidate fails: rendered on
     cfg.reference_max_seconds = 4.5 * reference_choice.AGAINST_SECONDS
-    reference_choice._render_on(FakeStudy(), cfg, store, spec)
+    reference_choice._render_on(study, cfg, store, spec)
     assert rendered[:1] == [2 * 8 * 16]
     rendered.clear()
-    store = Store(firefly.copy(), cfg.reference_max_seconds / 16)       # dearer than that
-    reference_choice._render_on(FakeStudy(), cfg, store, spec)
+    study.store = store = ChunkStore(firefly.copy(), cfg.reference_max_seconds / 16)       # dearer than that
+    reference_choice._render_on(study, cfg, store, spec)
     assert rendered == []
 
 
@@ -203,41 +215,25 @@ def test_a_candidate_whose_own_tails_void_its_test_renders_on_until_it_is_testab
     firefly[2, 3, 4] += 40.0
     paths = chunks(rng, 16, 0.2)
 
-    class Store:                  # the candidate's chunks, spp and seconds per chunk
-        def __init__(self, images, seconds):
-            self.images, self.seconds = images, seconds
-
-        def read(self, spec, spp):
-            n = len(self.images)
-            return SimpleNamespace(spp=8 * n, seconds=self.seconds * n)
-
-    rendered = []
-
-    class FakeStudy:
-        def reference_jobs(self, info, depth, resolution, spp, method, typical):
-            return spp
-
-        def run(self, spp, label):        # the new chunks hold no firefly
-            rendered.append(spp)
-            store.images = np.concatenate([store.images, chunks(rng, spp // 8 - len(
-                store.images), 0.2)])
+    study = RenderOn(rng)
+    rendered = study.rendered
 
     monkeypatch.setattr(bias_test, "reference_chunks", lambda refs, spec: refs.images)
     spec = SimpleNamespace(info=None, depth=None, width=W, height=H, method=ZSOBOL)
     sp = SimpleNamespace(bias_ref=SimpleNamespace(method=PATH), box=True)
     cfg = SimpleNamespace(reference_typical_spp=None, reference_max_seconds=6.0)
-    store = Store(firefly.copy(), 0.001)
+    study.store = store = ChunkStore(firefly.copy(), 0.001)
     first = bias_test.check_reference(firefly, paths, ZSOBOL, PATH, True, LEVEL)
     assert first.reason == "heavy_tails"                # the premise: void at first
-    test = reference_choice._tested(FakeStudy(), cfg, store, spec, paths, sp)
+    test = reference_choice._tested(study, cfg, store, spec, paths, sp)
     assert rendered and rendered[0] == 2 * 8 * 16
     assert test.status == "unbiased"
     # too dear to double within the budget: the void test stands
     rendered.clear()
-    store = Store(firefly.copy(), 6.0 / 16)
-    test = reference_choice._tested(FakeStudy(), cfg, store, spec, paths, sp)
+    study.store = store = ChunkStore(firefly.copy(), 6.0 / 16)
+    test = reference_choice._tested(study, cfg, store, spec, paths, sp)
     assert rendered == [] and test.reason == "heavy_tails"
     # a candidate that differs (10% high) is not rendered on
-    store = Store(chunks(rng, 16, 0.2, 1.1), 0.001)
-    test = reference_choice._tested(FakeStudy(), cfg, store, spec, paths, sp)
+    study.store = store = ChunkStore(chunks(rng, 16, 0.2, 1.1), 0.001)
+    test = reference_choice._tested(study, cfg, store, spec, paths, sp)
     assert rendered == [] and test.status == "biased"
