@@ -322,9 +322,11 @@ def test_the_allocation_figure_reads_the_counts_the_render_used():
     where the pilot saw no deviation (its pixels get the floor)."""
     from experiments.lib import adaptive_figures
     info = read_scene(scenes.path("suite/phong_highlight.xml"))
-    counts = adaptive_figures.allocation(scenes.path("suite/phong_highlight.xml"), 48, 36,
+    chosen = adaptive_figures.allocation(scenes.path("suite/phong_highlight.xml"), 48, 36,
                                          parse_method("bsdf+nee+adaptive"), 64, 3,
                                          effective_depth(info))
+    assert chosen.allocated and chosen.gain >= adaptive.MIN_GAIN
+    counts = chosen.counts
     pilot = round(64 * adaptive.PILOT_SHARE)
     least = int(adaptive.MIN_SHARE * (64 - pilot))
     assert counts.shape == (36, 48) and counts.min() >= pilot + least

@@ -21,9 +21,17 @@ from . import figure_pool  # noqa: E402
 from .methods import Depth, Method  # noqa: E402
 
 
+@dataclasses.dataclass(frozen=True)
+class Allocation:
+    """Where one render of an adaptive method put its samples."""
+    counts: np.ndarray      # every pixel's samples (H, W), pilot and final pass
+    gain: float             # the allocation's gain its pilot predicted (``last_gain``)
+    allocated: bool         # whether it allocated (else every pixel the same count)
+
+
 def allocation(scene_path: str, width: int, height: int, method: Method, spp: int,
-               seed: int = 1, depth: Depth = Depth()) -> np.ndarray:
-    """Every pixel's samples (H, W) in one render of the adaptive ``method`` at ``spp``."""
+               seed: int = 1, depth: Depth = Depth()) -> Allocation:
+    """Where one render of the adaptive ``method`` at ``spp`` put its samples."""
     import mitsuba as mi
     from .scenes import load_scene
     spec = method.integrator_dict(depth)
@@ -36,7 +44,8 @@ def allocation(scene_path: str, width: int, height: int, method: Method, spp: in
                        depth)
     integ = mi.load_dict(spec)
     mi.render(scene, integrator=integ, spp=spp, seed=seed)
-    return np.array(integ.last_counts, dtype=np.float64).reshape(height, width)
+    return Allocation(np.array(integ.last_counts, dtype=np.float64).reshape(height, width),
+                      float(integ.last_gain), bool(integ.last_allocated))
 
 
 def draw(stem: str, counts: np.ndarray, maps: list[tuple[str, np.ndarray]],

@@ -255,8 +255,9 @@ def adaptive_blocks(cfg, plans, measured, refs: dict) -> dict:
             stem = os.path.join(cfg.out, NAME, "adaptive", f"{sp.name}-{m.name}")
             spp = measured.final(Cell(sp.name, m.name, TIME))[0].spp
             try:
-                counts = adaptive_figures.allocation(sp.path, sp.width, sp.height, m, spp,
+                chosen = adaptive_figures.allocation(sp.path, sp.width, sp.height, m, spp,
                                                      cfg.seed, sp.depth)
+                counts = chosen.counts
                 adaptive_figures.draw(stem, counts, list(zip(shown, error_maps(
                     sp, measured, shown, refs[sp.name]))), f"{sp.name}: where {m} samples")
             except Exception as error:      # noqa: BLE001 (a figure never stops the suite)
@@ -267,7 +268,9 @@ def adaptive_blocks(cfg, plans, measured, refs: dict) -> dict:
             out.setdefault(sp.name, []).append(report.image(
                 f"{NAME}/adaptive/{sp.name}-{m.name}.png",
                 f"{sp.name}: where {m} puts its samples (one render at its equal-time count, "
-                f"{spp} spp on average: {counts.min():.0f} to {counts.max():.0f} per pixel), "
+                f"{spp} spp on average: {counts.min():.0f} to {counts.max():.0f} per pixel; "
+                f"its pilot predicted a gain of {chosen.gain:.2f} at equal samples"
+                f"{'' if chosen.allocated else ', too little to allocate: every pixel alike'}), "
                 f"beside the per-pixel relMSE at equal time (mean over the repeats) of "
                 f"{' and '.join(shown)}. PDF: {NAME}/adaptive/{sp.name}-{m.name}.pdf"))
     return out
