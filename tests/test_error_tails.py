@@ -152,7 +152,7 @@ def test_a_method_that_states_its_groups_moments_states_how_sure_its_variance_is
         x = rng.lognormal(0.0, 1.0, (2, 3, 3, n))
         groups.append((w, n, *[np.mean(x ** k, axis=-1) for k in (1, 2, 3, 4)]))
     method = _TwoGroups(groups)
-    mean, sq, passes = multipass.combined(method, [None, None], [16, 64], 80)
+    mean, sq, passes = multipass.stated(method, method.combine([None, None], [16, 64]), 80)
     vv = multipass.stated_tails(method)
     expect = sum(w ** 4 * jobs.variance_of_variance(m1, m2, m3, m4, n)
                  for w, n, m1, m2, m3, m4 in groups)

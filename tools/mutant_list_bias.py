@@ -157,8 +157,8 @@ BIAS = [
            "machine's jitter: sunlit_room's A/A interval at hi/lo 1.7",
            ("tests/test_suite_cost_jitter.py::test_a_learning_methods_costs_stay_out_of_the_pool",)),
     Mutant("learner-untrained-inverted", "experiments/lib/studies/suite/analysis.py",
-           "                      [s for s, _, trained in rows if not trained])",
-           "                      [s for s, _, trained in rows if trained])",
+           "                [s for s, _, trained in rows if not trained]) for m, rows in out.items()}",
+           "                [s for s, _, trained in rows if trained]) for m, rows in out.items()}",
            "the learner-over-plain finding names the scenes where the learner trained as the "
            "ones where it did not: a real loss of a trained guide read as the cells' noise",
            ("tests/test_suite.py::test_the_learner_finding_names_the_scenes_where_it_did_not_train",)),

@@ -2,9 +2,9 @@
 
 :class:`MultiPass` is the protocol (a method that learns between passes, or combines
 them: ``vr_guided_path``); :func:`replaced_rest` checks the passes a method's hook
-returns; :func:`combined` turns its passes into the job's image and its per-pixel
-variance (:func:`stated`), :func:`stated_tails` says how sure that variance is (both
-measurement, untimed). The executor (:mod:`.execute`) renders the passes.
+returns; :func:`stated` gives the image its ``combine`` returned and its per-pixel
+variance, :func:`stated_tails` says how sure that variance is (both measurement,
+untimed). The executor (:mod:`.execute`) renders the passes.
 """
 from __future__ import annotations
 
@@ -63,12 +63,6 @@ def replaced_rest(schedule: list, index: int, rest: list) -> list:
     return list(schedule[:index + 1]) + list(rest)
 
 
-def combined(integrator, images: list, spps: list, done: int) -> tuple:
-    """(image, sq, passes) of a :class:`MultiPass` method's job from its passes' images:
-    its ``combine`` (:func:`stated`)."""
-    return stated(integrator, integrator.combine(images, spps), done)
-
-
 def stated(integrator, image, done: int) -> tuple:
     """(image, sq, passes) of a :class:`MultiPass` method's job of ``done`` samples per
     pixel whose ``combine`` returned ``image``. Its passes are not samples of one
@@ -87,7 +81,7 @@ def stated(integrator, image, done: int) -> tuple:
 
 
 def stated_tails(integrator) -> np.ndarray | None:
-    """How sure the variance that a :class:`MultiPass` method states after :func:`combined`
+    """How sure the variance that a :class:`MultiPass` method states after :func:`stated`
     is, where it also states its groups' moments (``combined_moments``: weight, samples
     and the means of x, x^2, x^3, x^4 per group of independent samples): the sum over the
     groups of weight^4 x :func:`.jobs.variance_of_variance`; None otherwise. Measurement,

@@ -353,13 +353,8 @@ def learned_over_plain(results: list[SceneResult]) -> dict:
         for m, (ratio, favoured, trained) in r.learned.items():
             if not favoured:
                 out.setdefault(m, []).append((r.name, ratio, trained))
-    summary = {}
-    for m, rows in out.items():
-        logs = [math.log(x.value) for _, x, _ in rows if x.side == "" and x.value > 0]
-        summary[m] = ([(s, x) for s, x, _ in rows],
-                      math.exp(sum(logs) / len(logs)) if logs else math.nan, len(logs),
-                      [s for s, _, trained in rows if not trained])
-    return summary
+    return {m: ([(s, x) for s, x, _ in rows], *geometric_mean([x for _, x, _ in rows]),
+                [s for s, _, trained in rows if not trained]) for m, rows in out.items()}
 
 
 def adapted_over_plain(results: list[SceneResult]) -> dict:
@@ -370,11 +365,14 @@ def adapted_over_plain(results: list[SceneResult]) -> dict:
     for r in results:
         for m, ratio in r.adapted.items():
             out.setdefault(m, []).append((r.name, ratio))
-    summary = {}
-    for m, rows in out.items():
-        logs = [math.log(x.value) for _, x in rows if x.side == "" and x.value > 0]
-        summary[m] = (rows, math.exp(sum(logs) / len(logs)) if logs else math.nan, len(logs))
-    return summary
+    return {m: (rows, *geometric_mean([x for _, x in rows])) for m, rows in out.items()}
+
+
+def geometric_mean(ratios: list) -> tuple[float, int]:
+    """(the geometric mean of the ``ratios`` (:class:`.ratios.Ratio`) that are intervals,
+    not bounds, and positive; how many; nan and 0 where none is)."""
+    logs = [math.log(x.value) for x in ratios if x.side == "" and x.value > 0]
+    return (math.exp(sum(logs) / len(logs)) if logs else math.nan), len(logs)
 
 
 def scene_power(cells: dict, calibration: str) -> tuple:
@@ -396,11 +394,10 @@ def geometric_means(results: list[SceneResult]) -> dict:
     scenes where it is an interval, not a bound; how many scenes)}."""
     gm = {}
     for m in dict.fromkeys(m for r in results for m in r.cells):
-        logs = [math.log(r.cells[m].relative["equal_time"].value) for r in results
-                if m in r.cells and r.cells[m].relative["equal_time"].side == ""
-                and r.cells[m].relative["equal_time"].value > 0]
-        if logs:
-            gm[m] = (math.exp(sum(logs) / len(logs)), len(logs))
+        mean, n = geometric_mean([r.cells[m].relative["equal_time"] for r in results
+                                  if m in r.cells])
+        if n:
+            gm[m] = (mean, n)
     return gm
 
 

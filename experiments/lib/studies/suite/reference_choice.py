@@ -56,16 +56,23 @@ def _render_on(study, cfg: Settings, refs, spec) -> None:
     """Double ``path``'s reference ``spec`` while :func:`top_share` of its chunks is over
     the gate and the whole costs at most the reference's extension budget (at least
     :data:`AGAINST_SECONDS`; at most :data:`AGAINST_DOUBLINGS` times)."""
-    budget = max(AGAINST_SECONDS, cfg.reference_max_seconds)
     for _ in range(AGAINST_DOUBLINGS):
-        ref = refs.read(spec, None)
-        chunks = bias_test.reference_chunks(refs, spec)
-        if top_share(chunks) <= bias_image.MAX_TERM_SHARE or \
-                2 * ref.seconds > budget:
+        if top_share(bias_test.reference_chunks(refs, spec)) <= bias_image.MAX_TERM_SHARE \
+                or not _doubled(study, cfg, refs, spec):
             return
-        study.run(study.reference_jobs(spec.info, spec.depth, (spec.width, spec.height),
-                                       2 * ref.spp, spec.method, cfg.reference_typical_spp),
-                  "suite: references")
+
+
+def _doubled(study, cfg: Settings, refs, spec) -> bool:
+    """Render the reference ``spec`` to twice its samples where the whole then costs at
+    most the reference's extension budget (``reference_max_seconds``, at least
+    :data:`AGAINST_SECONDS`); whether it did."""
+    ref = refs.read(spec, None)
+    if 2 * ref.seconds > max(AGAINST_SECONDS, cfg.reference_max_seconds):
+        return False
+    study.run(study.reference_jobs(spec.info, spec.depth, (spec.width, spec.height),
+                                   2 * ref.spp, spec.method, cfg.reference_typical_spp),
+              "suite: references")
+    return True
 
 
 def candidate(cfg: Settings, sp: ScenePlan):
@@ -121,17 +128,12 @@ def _tested(study, cfg: Settings, refs, spec, paths: np.ndarray, sp: ScenePlan):
     bright path (veach_mis' small lights on its glossy plates), and the candidate, once
     adopted, is extended towards its floor anyway. Only a void test renders on, never a
     failed one."""
-    budget = max(AGAINST_SECONDS, cfg.reference_max_seconds)
     for k in range(AGAINST_DOUBLINGS + 1):
         test = bias_test.check_reference(bias_test.reference_chunks(refs, spec), paths,
                                          spec.method, sp.bias_ref.method, sp.box, 1.0 - LEVEL)
-        ref = refs.read(spec, None)
         if test.reason != "heavy_tails" or k == AGAINST_DOUBLINGS or \
-                2 * ref.seconds > budget:
+                not _doubled(study, cfg, refs, spec):
             return test
-        study.run(study.reference_jobs(spec.info, spec.depth, (spec.width, spec.height),
-                                       2 * ref.spp, spec.method, cfg.reference_typical_spp),
-                  "suite: references")
     return test
 
 

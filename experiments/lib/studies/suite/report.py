@@ -15,7 +15,6 @@ import numpy as np
 
 from ... import figures, files, metrics, references, report, stats
 from ...declaration import Cell
-from ...methods import ADAPTIVE
 from . import analysis, bias_report, bias_test, declare, words
 from .bias_report import BLOCK_HEADER, bias_words, block_bias_rows
 from .declare import NAME, ORDER, TIME, TITLE
@@ -251,7 +250,7 @@ def adaptive_blocks(cfg, plans, measured, refs: dict) -> dict:
         for m in cfg.methods:
             if not m.adaptive or m.name not in ran:
                 continue
-            shown = [n for n in (m.name[:-len("+" + ADAPTIVE)], m.name) if n in ran]
+            shown = [n for n in (m.unadapted, m.name) if n in ran]
             stem = os.path.join(cfg.out, NAME, "adaptive", f"{sp.name}-{m.name}")
             spp = measured.final(Cell(sp.name, m.name, TIME))[0].spp
             try:
