@@ -29,6 +29,9 @@ from .path import seed_value
 RELMSE_EPS = 0.01
 #: Default ``pilot_share``: the share of the samples the pilot spends, every pixel alike.
 PILOT_SHARE = 0.25
+#: The fewest pilot samples per pixel: two in each half, whose variances
+#: :meth:`AdaptiveIntegrator.predicted_gain` reads.
+MIN_PILOT = 4
 #: Default ``min_share``: every pixel's floor, as a share of the final pass's average count.
 MIN_SHARE = 0.1
 #: The share of a pixel's own pilot in the relative variance its count is read from (the
@@ -55,7 +58,7 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
      * - pilot_share
        - |float|
        - Share of the samples per pixel spent on the pilot pass, which every pixel gets
-         alike, at least 2 samples per pixel. (Default: 0.25)
+         alike, at least 4 samples per pixel. (Default: 0.25)
      * - min_share
        - |float|
        - Share of the final pass's average samples per pixel that every pixel gets at
@@ -66,12 +69,13 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
        - Fewest samples per pixel of the final pass. (Default: 1)
      * - min_gain
        - |float|
-       - The gain at equal samples that the pilot predicts for its allocation,
-         mean(r^2) / mean(r)^2 over the pixels' relative deviations r it allocates by,
-         below which the final pass gives every pixel the same count, rendered by the
-         nested integrator itself: where the pixels' errors hardly differ, or a pilot of
-         few samples cannot tell them apart, moving samples gains less than it costs.
-         1: always allocate. (Default: 1.3)
+       - The gain at equal samples that the pilot predicts for the render, below which
+         the final pass gives every pixel the same count, rendered by the nested
+         integrator itself: where the pixels' errors hardly differ, or a pilot of few
+         samples cannot tell them apart, moving samples gains less than it costs. The
+         prediction is cross-validated: the counts allocated from one half of each
+         pixel's pilot samples, judged by the other half's variances (the pilot's noise
+         is no gain). 0: always allocate. (Default: 1.3)
      * - relmse_eps
        - |float|
        - Offset of the relative error's denominator: a pixel's relative variance is
@@ -123,8 +127,8 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
                              f"{self.min_share}")
         if not self.relmse_eps >= 0.0:
             raise ValueError(f"vr_adaptive: relmse_eps must be >= 0, got {self.relmse_eps}")
-        if not self.min_gain >= 1.0:
-            raise ValueError(f"vr_adaptive: min_gain must be >= 1, got {self.min_gain}")
+        if not self.min_gain >= 0.0:
+            raise ValueError(f"vr_adaptive: min_gain must be >= 0, got {self.min_gain}")
 
     # ------------------------------------------------------------ the render
     def render(self, scene, sensor=0, seed=0, spp=0, develop=True, evaluate=True):
@@ -135,27 +139,27 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
         if spp:
             sampler.set_sample_count(spp)     # as Mitsuba's render(): the count it ran
         spp = sampler.sample_count()
-        pilot = max(2, round(spp * self.pilot_share))
+        pilot, final = split(spp, self.pilot_share)
         size = film.crop_size()
         pixels = int(size.x) * int(size.y)
-        final = spp - pilot
         if final < self.min_spp:
             raise ValueError(f"vr_adaptive: {spp} spp leaves the final pass {final} samples "
                              f"per pixel after a pilot of {pilot} (pilot_share "
-                             f"{self.pilot_share}, at least 2), fewer than min_spp "
+                             f"{self.pilot_share}, at least {MIN_PILOT}), fewer than min_spp "
                              f"{self.min_spp}: render more samples")
         # counts enter the kernels as opaque values: one kernel for every count (a
         # literal would compile new kernels whenever spp changes, e.g. after a warm-up)
         n_pilot = dr.opaque(mi.Float, pilot)
         counts = dr.opaque(mi.UInt32, pilot, pixels)
-        total, squares = self._pass(scene, sensor, sampler, seed, counts, pilot * pixels)
-        mean = total / n_pilot
-        counts, planned = self.allocate(mean, squares / n_pilot, pilot, final * pixels, size)
+        total, halves = self._pass(scene, sensor, sampler, seed, counts, pilot * pixels, True)
+        self.last_gain = self.predicted_gain(halves, pilot, final * pixels, size)
         self.last_allocated = self.last_gain >= self.min_gain
         if not self.last_allocated:
             image = self._uniform(scene, sensor, seed, total, pilot, final)
             self.last_counts = dr.full(mi.UInt32, spp, pixels)
             return mi.TensorXf(dr.ravel(image), shape=(int(size.y), int(size.x), 3))
+        second = (_half(halves[1], 0) + _half(halves[1], 1)) / n_pilot
+        counts, planned = self.allocate(total / n_pilot, second, pilot, final * pixels, size)
         n = int(dr.sum(counts)[0]) if dr.width(counts) else 0
         rest, _ = self._pass(scene, sensor, sampler, _other_seed(seed), counts, n)
         image = combine(total, n_pilot, rest, mi.Float(counts), mi.Float(planned))
@@ -182,18 +186,42 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
         relative standard deviation of one sample (its luminance's: the square root of
         var / (mean^2 + ``relmse_eps``), :data:`OWN_SHARE` the pixel's own and the rest the
         mean over its 8 neighbours; for the second, the neighbours' mean alone), rounded
-        down. Also sets :attr:`last_gain`, the allocation's predicted gain at equal samples,
-        mean(r^2) / mean(r)^2 over the pixels' relative deviations r it allocates by."""
-        lum = mi.luminance(mean)
-        var = dr.maximum(second - dr.square(lum), 0.0) * dr.opaque(mi.Float,
-                                                                       pilot / (pilot - 1.0))
-        relative = var / dr.maximum(dr.square(lum) + self.relmse_eps, 1e-24)
+        down. ``mean`` is the pilot's mean RGB, ``second`` its luminance's mean square."""
+        relative = self._relative(mi.luminance(mean), second, pilot)
         neighbours = _blur(relative, int(size.x), int(size.y))
         own = dr.fma(OWN_SHARE, relative - neighbours, neighbours)
-        deviation = dr.mean(dr.sqrt(own))[0]
-        self.last_gain = float(dr.mean(own)[0] / deviation ** 2) if deviation > 0 else 1.0
         return (self._counts(dr.sqrt(own), budget, size),
                 self._counts(dr.sqrt(neighbours), budget, size))
+
+    def predicted_gain(self, halves, pilot: int, budget: int, size) -> float:
+        """The gain at equal samples that the pilot predicts for the whole render (pilot,
+        floor and rounding included): the counts :meth:`allocate` would give from one half
+        of the pilot's samples (a pixel's even-numbered ones, or its odd), judged by the
+        other half's per-pixel relative variances v, mean(v) / spp over mean(v / n) with n
+        a pixel's pilot and final samples, the mean of the two ways round. Cross-validated:
+        judged by the samples it allocated by, a pilot's noise would look like differences
+        between the pixels worth allocating to (a pixel whose few samples caught a rare
+        bright path looks dear, and is, by those samples alone)."""
+        sums, squares = halves
+        n = [(pilot + 1) // 2, pilot // 2]
+        v = [self._relative(_half(sums, h) / n[h], _half(squares, h) / n[h], n[h])
+             for h in (0, 1)]
+        spp = pilot + budget / (int(size.x) * int(size.y))
+        gains = []
+        for h in (0, 1):
+            counts, _ = self.allocate(mi.Color3f(_half(sums, h) / n[h]),
+                                      _half(squares, h) / n[h], n[h], budget, size)
+            judge = v[1 - h]
+            uniform = dr.mean(judge)[0] / spp
+            allocated = dr.mean(judge / (pilot + mi.Float(counts)))[0]
+            gains.append(uniform / allocated if allocated > 0 else 1.0)
+        return float(sum(gains) / 2)
+
+    def _relative(self, mean: mi.Float, second: mi.Float, n: int) -> mi.Float:
+        """Per pixel, the relative variance of one sample from ``n`` samples' mean
+        luminance and mean square: var / (mean^2 + ``relmse_eps``), var unbiased."""
+        var = dr.maximum(second - dr.square(mean), 0.0) * dr.opaque(mi.Float, n / (n - 1.0))
+        return var / dr.maximum(dr.square(mean) + self.relmse_eps, 1e-24)
 
     def _counts(self, ratio: mi.Float, budget: int, size) -> mi.UInt32:
         """The floor each plus the rest of ``budget`` in proportion to ``ratio``, rounded
@@ -206,9 +234,12 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
         return dr.opaque(mi.UInt32, least) + mi.UInt32(dr.floor(share *
                                                                 dr.opaque(mi.Float, spare)))
 
-    def _pass(self, scene, sensor, sampler, seed, counts: mi.UInt32, n: int):
-        """``counts[i]`` samples in pixel i: (the per-pixel sums of the samples' RGB, of
-        their luminance's squares)."""
+    def _pass(self, scene, sensor, sampler, seed, counts: mi.UInt32, n: int,
+              halves: bool = False):
+        """``counts[i]`` samples in pixel i, every count at least 1: (the per-pixel sums of
+        the samples' RGB, and with ``halves`` the per-pixel sums of their luminance and of
+        its square over each half of the pixel's samples, its even-numbered and its odd,
+        pixel i's at 2i and 2i + 1; else None)."""
         width, height = int(sensor.film().crop_size().x), int(sensor.film().crop_size().y)
         pixels = width * height
         start = dr.prefix_sum(counts)                 # exclusive: the pixel's first sample
@@ -231,10 +262,17 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
         total = dr.zeros(mi.Color3f, pixels)
         for c in range(3):
             dr.scatter_reduce(dr.ReduceOp.Add, total[c], rgb[c], index)
-        squares = dr.zeros(mi.Float, pixels)
-        dr.scatter_reduce(dr.ReduceOp.Add, squares, dr.square(mi.luminance(rgb)), index)
-        dr.eval(total, squares)
-        return total, squares
+        if not halves:
+            dr.eval(total)
+            return total, None
+        lum = mi.luminance(rgb)
+        ordinal = dr.arange(mi.UInt32, n) - dr.gather(mi.UInt32, start, index)
+        slot = 2 * index + (ordinal & 1)
+        sums, squares = dr.zeros(mi.Float, 2 * pixels), dr.zeros(mi.Float, 2 * pixels)
+        dr.scatter_reduce(dr.ReduceOp.Add, sums, lum, slot)
+        dr.scatter_reduce(dr.ReduceOp.Add, squares, dr.square(lum), slot)
+        dr.eval(total, sums, squares)
+        return total, (sums, squares)
 
     def sample(self, scene, sampler, ray, medium=None, active=True):
         """Refused: an integrator that nests this one and calls its ``sample`` (Mitsuba's
@@ -251,6 +289,12 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
         return (f"AdaptiveIntegrator[nested={self.nested}, pilot_share={self.pilot_share}, "
                 f"min_share={self.min_share}, min_spp={self.min_spp}, "
                 f"min_gain={self.min_gain}, relmse_eps={self.relmse_eps}]")
+
+
+def split(spp: int, pilot_share: float = PILOT_SHARE) -> tuple[int, int]:
+    """(the pilot's, the final pass's) samples per pixel of a render of ``spp``."""
+    pilot = max(MIN_PILOT, round(spp * pilot_share))
+    return pilot, spp - pilot
 
 
 def _check(film, sampler) -> None:
@@ -275,6 +319,12 @@ def combine(pilot: mi.Color3f, n_pilot: mi.Float, final: mi.Color3f, n_final: mi
     does) the final pass's mean is the mean of fresh samples."""
     weight = n_pilot / (n_pilot + planned)
     return weight * (pilot / n_pilot) + (1.0 - weight) * (final / n_final)
+
+
+def _half(x: mi.Float, h: int) -> mi.Float:
+    """Every pixel's entry of half ``h`` (0: its even-numbered samples, 1: its odd) of a
+    per-pixel pair of sums, pixel i's at 2i and 2i + 1 (:meth:`AdaptiveIntegrator._pass`)."""
+    return dr.gather(mi.Float, x, 2 * dr.arange(mi.UInt32, dr.width(x) // 2) + h)
 
 
 def _other_seed(seed) -> int:

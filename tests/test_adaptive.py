@@ -73,9 +73,9 @@ def even() -> dict:
 
 
 NESTED = {"type": "vr_path", "strategy": "bsdf", "emitter_sampling": True, "max_depth": 4}
-#: min_gain 1: the allocation always runs (its own tests); the default, which may render
+#: min_gain 0: the allocation always runs (its own tests); the default, which may render
 #: every pixel alike, has its own (test_where_the_pilot_predicts_little_gain_...)
-ADAPTIVE = {"type": "vr_adaptive", "nested": NESTED, "min_gain": 1.0}
+ADAPTIVE = {"type": "vr_adaptive", "nested": NESTED, "min_gain": 0.0}
 ADAPTIVE_DEFAULT = {"type": "vr_adaptive", "nested": NESTED}
 PATH = {"type": "path", "max_depth": 4}
 PATH_DEFAULT = {"type": "path"}
@@ -143,7 +143,8 @@ def rare_image_means(renders: int = 20) -> np.ndarray:
     mi.register_integrator("test_rare", lambda props: Rare(props))
     scene = mi.load_dict({"type": "scene", "sensor": {"type": "perspective", "film": {
         "type": "hdrfilm", "width": 64, "height": 64, "rfilter": {"type": "box"}}}})
-    integrator = mi.load_dict({"type": "vr_adaptive", "nested": {"type": "test_rare"}})
+    integrator = mi.load_dict({"type": "vr_adaptive", "nested": {"type": "test_rare"},
+                               "min_gain": 0.0})
     return np.array([np.mean(np.array(mi.render(scene, integrator=integrator, spp=16,
                                                 seed=s))[..., 0]) for s in range(renders)])
 
@@ -162,6 +163,26 @@ def test_a_heavy_pixel_stays_unbiased(monkeypatch):
     means = rare_image_means()
     se = means.std(ddof=1) / np.sqrt(len(means))
     assert means.mean() < 1.0 - 8 * se, (means.mean(), se)
+
+
+def test_a_pilots_noise_predicts_no_gain():
+    """Every pixel of the synthetic heavy pixel alike: no allocation gains, yet a pilot of
+    4 samples catches the rare 50 in some pixels and not in others. The prediction,
+    counts from one half of each pixel's pilot judged by the other half's variances,
+    reads that allocating by such noise loses (measured 0.41 to 0.44 over 5 renders at
+    16 spp), and every pixel gets the same count. Judged by the samples it allocated by
+    (mutant adaptive-gain-in-sample) it read 5.2 to 5.4 and allocated. Negative control:
+    on the glossy scene, whose highlight holds the variance, the prediction is over
+    min_gain (test_where_the_pilot_predicts_little_gain_...)."""
+    mi.register_integrator("test_rare", lambda props: Rare(props))
+    scene = mi.load_dict({"type": "scene", "sensor": {"type": "perspective", "film": {
+        "type": "hdrfilm", "width": 64, "height": 64, "rfilter": {"type": "box"}}}})
+    integrator = mi.load_dict({"type": "vr_adaptive", "nested": {"type": "test_rare"}})
+    for seed in range(3):
+        mi.render(scene, integrator=integrator, spp=16, seed=seed)
+        assert integrator.last_gain < 1.0 and not integrator.last_allocated, \
+            integrator.last_gain
+        assert np.all(np.array(integrator.last_counts) == 16)
 
 
 def allocation(ratio: np.ndarray, budget: int, min_spp: int = 1,
@@ -249,8 +270,8 @@ def test_bad_parameters_are_refused_with_their_values():
         mi.load_dict({**ADAPTIVE, "pilot_share": 1.5})
     with pytest.raises(Exception, match="min_share must be in"):
         mi.load_dict({**ADAPTIVE, "min_share": 1.0})
-    with pytest.raises(Exception, match="min_gain must be >= 1, got 0.5"):
-        mi.load_dict({**ADAPTIVE, "min_gain": 0.5})
+    with pytest.raises(Exception, match="min_gain must be >= 0, got -0.5"):
+        mi.load_dict({**ADAPTIVE, "min_gain": -0.5})
     with pytest.raises(Exception, match="min_spp must be >= 1"):
         mi.load_dict({**ADAPTIVE, "min_spp": 0})
     with pytest.raises(Exception, match="learns between"):

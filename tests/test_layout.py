@@ -223,8 +223,9 @@ def test_tools_imports_flow_one_way():
     cycle = find_cycle(graph)
     assert cycle is None, f"import cycle in tools: {' -> '.join(cycle)}"
     assert graph["mutant"] == set() and graph["mutant_list_guiding"] == {"mutant"}, graph
-    assert graph["mutant_list_bias"] == {"mutant"}, graph
-    assert graph["mutant_list"] == {"mutant", "mutant_list_guiding", "mutant_list_bias"}, graph
+    assert graph["mutant_list_bias"] == graph["mutant_list_adaptive"] == {"mutant"}, graph
+    assert graph["mutant_list"] == {"mutant", "mutant_list_guiding", "mutant_list_bias",
+                                    "mutant_list_adaptive"}, graph
     assert graph["markdown"] == set() and graph["docs_pages"] == {"markdown"}, graph
 
 

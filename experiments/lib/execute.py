@@ -176,6 +176,19 @@ def warm_spp(spp: int) -> int:
     return 1 if power_of_two else 3
 
 
+def _warm_count(method: Method, spp: int) -> int:
+    """The count of a warm-up render that compiles the kernels of a render of ``spp``: that
+    count where the sampler bakes it into the kernel; for an adaptive method its fewest
+    pilot samples and a final pass of the count class of the render's (the class matters
+    where the nested integrator renders the final pass itself); else :func:`warm_spp`."""
+    if method.sampler_spec.bakes_spp:
+        return spp
+    if method.adaptive:
+        from integrators import adaptive
+        return adaptive.MIN_PILOT + warm_spp(adaptive.split(spp)[1])
+    return warm_spp(spp)
+
+
 def _view(job: Job, variant: str) -> View:
     """The warmed-up :class:`View` of ``job`` (cached per process): the first time a kind
     of job meets it (a count's kernel class, :func:`warm_spp`; a method rendering in passes
@@ -194,7 +207,7 @@ def _view(job: Job, variant: str) -> View:
     key = ((variant, job.scene, job.scene_sha256), job.method, job.width, job.height,
            job_depth(job))
     method: Method = job.method
-    spp = job.passes()[0] if method.sampler_spec.bakes_spp else warm_spp(job.passes()[0])
+    spp = _warm_count(method, job.passes()[0])
     if key in _views:
         _views.move_to_end(key)
         view = _views[key]
