@@ -38,6 +38,9 @@ time; the wall-clock ratio is given next to it. On the default scene
    1024 spp, guided's training counted by the executor's one clock) with its interval
    (target >= 3, issue 31), guided's time per sample after training over path's, and the
    training's share of guided's time.
+8. (:mod:`benchmarks.adaptive`) ``bsdf+nee+adaptive`` over ``bsdf+nee`` at equal time on
+   four suite scenes, beside the ceiling an oracle's allocation of the same samples
+   reaches at equal time and at equal samples (issue 43's targets).
 
 Usage: ``python -m benchmarks.run [--reps 11] [--spp 8] [--rss-full] ...``
 """
@@ -59,7 +62,7 @@ from experiments.lib import files
 
 from . import cluster
 from . import common
-from . import guiding
+from . import adaptive, guiding
 from . import halton
 from .common import dr, mi
 
@@ -264,6 +267,9 @@ def build_rows(res: dict, args) -> list[list[str]]:
     gd = res.get("guiding")
     if gd:
         rows += guiding.rows(gd)
+    ad = res.get("adaptive")
+    if ad:
+        rows += adaptive.rows(ad)
     cp = res.get("compile")
     if cp:
         for n, c in cp["cold"].items():
@@ -354,10 +360,12 @@ def parse_args(argv=None):
     p.add_argument("--rss-full", action="store_true",
                    help="peak RSS at 1000 and 100 spp (about 15 minutes on 2 cores)")
     p.add_argument("--skip", default="", help="comma-separated parts to skip: "
-                   "vs_path,halton,halton_native,segments,rss,cluster,guiding,compile")
+                   "vs_path,halton,halton_native,segments,rss,cluster,guiding,adaptive,"
+                   "compile")
     p.add_argument("--quick", action="store_true",
-                   help="smaller images and fewer rounds for the halton_native, cluster and "
-                        "guiding parts (checks that they run; not figures to quote)")
+                   help="smaller images and fewer rounds for the halton_native, cluster, "
+                        "guiding and adaptive parts (checks that they run; not figures to "
+                        "quote)")
     p.add_argument("--out", default=os.path.join(common.ROOT, "results"))
     p.add_argument("--update-docs", action="store_true",
                    help="also put the table into docs/benchmarks.md (make bench does; by "
@@ -377,7 +385,8 @@ def main(argv=None) -> None:
     parts = [("vs_path", bench_vs_path), ("halton", bench_halton),
              ("halton_native", lambda a: halton.measure(a.quick)), ("segments", bench_segments),
              ("rss", bench_rss), ("cluster", lambda a: {"rows": cluster.rows(quick=a.quick)}),
-             ("guiding", lambda a: guiding.measure(**guiding.quick_settings(a.quick)))]
+             ("guiding", lambda a: guiding.measure(**guiding.quick_settings(a.quick))),
+             ("adaptive", lambda a: adaptive.measure(**adaptive.quick_settings(a.quick)))]
     for name, fn in parts:
         if name in args.skip:
             continue

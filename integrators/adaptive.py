@@ -236,19 +236,29 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
 
     def _pass(self, scene, sensor, sampler, seed, counts: mi.UInt32, n: int,
               halves: bool = False):
-        """``counts[i]`` samples in pixel i, every count at least 1: (the per-pixel sums of
-        the samples' RGB, and with ``halves`` the per-pixel sums of their luminance and of
-        its square over each half of the pixel's samples, its even-numbered and its odd,
-        pixel i's at 2i and 2i + 1; else None)."""
-        width, height = int(sensor.film().crop_size().x), int(sensor.film().crop_size().y)
-        pixels = width * height
+        """``counts[i]`` samples in pixel i, every count at least 1 (``n`` in all), laid out
+        pixel by pixel: :meth:`render_samples`, with ``halves`` each sample's number within
+        its pixel given."""
         start = dr.prefix_sum(counts)                 # exclusive: the pixel's first sample
         marks = dr.zeros(mi.UInt32, n)
         dr.scatter(marks, 1, start, counts > 0)
         index = dr.cumsum(marks) - 1                  # the pixel of every sample
+        ordinal = dr.arange(mi.UInt32, n) - dr.gather(mi.UInt32, start, index) \
+            if halves else None
+        return self.render_samples(scene, sensor, sampler, seed, index, ordinal)
+
+    def render_samples(self, scene, sensor, sampler, seed, pixels: mi.UInt32,
+                       ordinal: mi.UInt32 | None = None):
+        """One sample of the nested integrator per entry of ``pixels`` (a pixel's row-major
+        index on the film), seeded ``seed``: (the per-pixel sums of the samples' RGB, and
+        with ``ordinal``, each sample's number within its pixel, the per-pixel sums of
+        their luminance and of its square over each half of the pixel's samples, its
+        even-numbered and its odd, pixel i's at 2i and 2i + 1; else None)."""
+        width, height = int(sensor.film().crop_size().x), int(sensor.film().crop_size().y)
+        pixels_n, n = width * height, dr.width(pixels)
         sampler = sampler.clone()
         sampler.seed(seed, n)
-        pos = mi.Vector2f(mi.Float(index % width), mi.Float(index // width))
+        pos = mi.Vector2f(mi.Float(pixels % width), mi.Float(pixels // width))
         pos += sampler.next_2d()
         scale = dr.rcp(mi.ScalarVector2f(width, height))
         aperture = sampler.next_2d() if sensor.needs_aperture_sample() else mi.Point2f(0.5)
@@ -259,16 +269,15 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
                                                      mi.Point2f(pos * scale), aperture)
         L, valid, _ = self.nested.sample(scene, sampler, ray, None, True)
         rgb = mi.Color3f(dr.select(valid, weight * L, 0.0))
-        total = dr.zeros(mi.Color3f, pixels)
+        total = dr.zeros(mi.Color3f, pixels_n)
         for c in range(3):
-            dr.scatter_reduce(dr.ReduceOp.Add, total[c], rgb[c], index)
-        if not halves:
+            dr.scatter_reduce(dr.ReduceOp.Add, total[c], rgb[c], pixels)
+        if ordinal is None:
             dr.eval(total)
             return total, None
         lum = mi.luminance(rgb)
-        ordinal = dr.arange(mi.UInt32, n) - dr.gather(mi.UInt32, start, index)
-        slot = 2 * index + (ordinal & 1)
-        sums, squares = dr.zeros(mi.Float, 2 * pixels), dr.zeros(mi.Float, 2 * pixels)
+        slot = 2 * pixels + (ordinal & 1)
+        sums, squares = dr.zeros(mi.Float, 2 * pixels_n), dr.zeros(mi.Float, 2 * pixels_n)
         dr.scatter_reduce(dr.ReduceOp.Add, sums, lum, slot)
         dr.scatter_reduce(dr.ReduceOp.Add, squares, dr.square(lum), slot)
         dr.eval(total, sums, squares)

@@ -87,4 +87,11 @@ ADAPTIVE = [
            "an adaptive method warmed up at a plain method's count (4 spp): its pilot takes "
            "them all, the warm-up render fails and so does the cell",
            ("tests/test_adaptive.py::test_the_suite_measures_an_adaptive_cell",)),
+    Mutant("ceiling-time-uniform-cost", "benchmarks/adaptive.py",
+           '            "time": samples * float(np.mean(cost) / (np.sum(r * cost) / np.sum(r))),\n',
+           '            "time": samples * float(np.mean(cost) / np.mean(cost)),\n',
+           "the equal-time ceiling costs the allocation's samples as a uniform render's: "
+           "where the pixels that need samples are dear it reads as the equal-samples "
+           "ceiling (environment 1.61 for 1.25)",
+           ("tests/test_bench_adaptive.py::test_the_ceilings_of_known_fields",)),
 ]
