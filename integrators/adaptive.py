@@ -115,7 +115,7 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
         self.min_share = float(props.get("min_share", MIN_SHARE))
         self.relmse_eps = float(props.get("relmse_eps", RELMSE_EPS))
         self.min_gain = float(props.get("min_gain", MIN_GAIN))
-        #: The last render's predicted gain (:meth:`allocate`) and whether it allocated.
+        #: The last render's predicted gain (:meth:`predicted_gain`) and whether it allocated.
         self.last_gain, self.last_allocated = None, None
         if not 0.0 < self.pilot_share < 1.0:
             raise ValueError(f"vr_adaptive: pilot_share must be in (0, 1), got "
