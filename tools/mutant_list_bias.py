@@ -203,4 +203,17 @@ BIAS = [
            "its interval as wide as before",
            ("tests/test_suite_precision_round.py::test_the_rounds_renders_join_the_expected_"
             "error_and_not_the_costs",)),
+    Mutant("flag-unconfirmed", "experiments/lib/studies/suite/bias_renders.py",
+           '    return dataclasses.replace(first, status="unbiased", retest="not confirmed",\n',
+           '    return dataclasses.replace(first, retest="not confirmed",\n',
+           "a flag kept where fresh renders of the cell do not flag it again: a right method "
+           "called biased by its first renders' chance draw against a low reference "
+           "(mis+nee on veach_mis, +5.8%)",
+           ("tests/test_suite_bias_retest.py",)),
+    Mutant("flag-retest-pooled", "experiments/lib/studies/suite/study.py",
+           "        again = measure.bias_tests(cfg, sp, measured, chunks, level, fresh, alone=True)\n",
+           "        again = measure.bias_tests(cfg, sp, measured, chunks, level, fresh)\n",
+           "a flag tested again on the fresh renders pooled with the first ones, which chose "
+           "the cell: a chance flag comes back",
+           ("tests/test_suite_bias_retest.py",)),
 ]

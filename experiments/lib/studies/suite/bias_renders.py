@@ -1,4 +1,4 @@
-"""More renders where a cell's verdict is unsure: one more round, for two reasons.
+"""More renders where a cell's verdict is unsure: one more round, for three reasons.
 
 * **Its bias test is void.** A cell whose rare large samples void its bias test
   (:mod:`.bias_test`: reason ``heavy_tails``: its image sum's variance rests on too few
@@ -10,6 +10,14 @@
   stay heavy stays untestable. Its errors read the suite's renders alone: it was chosen by
   what its equal-time renders drew, and pooling more renders into a cell because its
   first draws caught a rare bright sample would bias its error low (optional stopping).
+* **Its test flagged it.** A flagged cell renders the same round, and its flag stands only
+  where the round's renders alone, fresh, flag it again at the same level
+  (:func:`confirmed`): a flag is a verdict that a careful re-measurement must not
+  contradict. Those renders are independent of what chose the cell, so a flag that chance
+  gave does not come back: a reference low by its missed rare bright paths (every cell
+  of veach_mis read +2.9% to +4.2% against one) with a cell's own upward draw on top of
+  it (mis+nee +5.8%, p 2.3e-5 against a level of 2.9e-5, in a default run). A wrong
+  method's bias does (its size is the same in every render).
 * **The A/A pair's error is unsure** (:func:`imprecise`): where the precision rule's factor
   is capped (:data:`.precision.MAX_PRECISION_SCALE`) and the equal-spp renders of the
   baseline or of the timed pair (:data:`.analysis.TIMED_PAIR`) predict their equal-time
@@ -17,7 +25,7 @@
   its renders join their equal-time errors (not their costs: the round is timed apart from
   the suite's interleaved renders). Chosen from the equal-spp renders alone, never from
   the equal-time errors, so the pooled error stays unbiased. Its bias test reads the
-  suite's renders: the round's "renders again" are the void cells' alone.
+  suite's renders: the round's "renders again" are the void and flagged cells' alone.
 
 The round is a declaration of its own over the engine (job keys
 ``suite-bias/SCENE/METHOD/bias``: their seeds differ from every other render's). What it
@@ -107,6 +115,34 @@ def imprecise(cfg: declare.Settings, plans: list, measured, reference_of) -> dic
     return out
 
 
+def flagged(tests: dict) -> dict:
+    """{scene: [method]} of the cells whose test ``tests`` ({scene: {method: CellBias}})
+    flagged biased: each renders the round, and its flag is tested again (:func:`confirmed`)."""
+    out = {}
+    for scene, cells in tests.items():
+        methods = [m for m, t in cells.items() if t.status == "biased"]
+        if methods:
+            out[scene] = methods
+    return out
+
+
+def confirmed(first, fresh):
+    """The verdict of a cell that its first test (``first``) flagged, tested again on the
+    round's renders alone (``fresh``: the same count, fresh seeds, at the same level): the
+    first test's numbers, ``retest`` saying whether the fresh renders flag it too (it stays
+    biased), do not (not biased) or cannot tell (their tails void the test: the flag
+    stands, as the first test, which passed every gate, found it), ``retest_p`` their
+    smallest p and ``extra`` their number."""
+    ps = [p for p in (fresh.p_blocks, fresh.p_pooled) if math.isfinite(p)]
+    p = min(ps) if ps else float("nan")
+    if fresh.status == "untestable":
+        return dataclasses.replace(first, retest="void", retest_p=p, extra=fresh.extra)
+    if fresh.status == "biased":
+        return dataclasses.replace(first, retest="confirmed", retest_p=p, extra=fresh.extra)
+    return dataclasses.replace(first, status="unbiased", retest="not confirmed",
+                               retest_p=p, extra=fresh.extra)
+
+
 def only(runs: dict, methods) -> dict:
     """``runs`` ({method: [Run]}) of ``methods`` alone: a cell's round serves the reason
     it was chosen for (a void cell's test, the pair's errors), never the other."""
@@ -123,7 +159,7 @@ def union(*cells: dict) -> dict:
 
 
 def declarations(cfg: declare.Settings, plans: list, measured, cells: dict) -> list:
-    """One declaration per scene and equal-time count of the void ``cells`` ({scene:
+    """One declaration per scene and equal-time count of the round's ``cells`` ({scene:
     [method]}): its methods at that count, :data:`MORE` x the run's repeats, the suite's
     per-pixel moments where the suite keeps them."""
     out = []
@@ -148,7 +184,7 @@ def declarations(cfg: declare.Settings, plans: list, measured, cells: dict) -> l
 
 
 def render(engine, cfg: declare.Settings, plans: list, measured, cells: dict) -> dict:
-    """Render the void ``cells`` again (:func:`declarations`); returns {scene: {method:
+    """Render the round's ``cells`` again (:func:`declarations`); returns {scene: {method:
     [Run]}} of those that rendered (a cell that fails here keeps its first test)."""
     out = {}
     for declaration in declarations(cfg, plans, measured, cells):

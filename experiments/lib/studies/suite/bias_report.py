@@ -43,6 +43,8 @@ BIAS_FINDING = (
     "{% if flagged %}BIASED: {{ flagged | join('; ') }}{% else %}no method flagged{% endif %}"
     "{% if image %}; {{ image }} cells with heavy-tailed blocks tested by their image sums "
     "alone{% endif %}"
+    "{% if retested %}; {{ retested | length }} flagged cells tested again on "
+    "{{ more }} x the repeats of fresh renders: {{ retested | join('; ') }}{% endif %}"
     "{% if again %}; {{ again }} cells whose tails voided the test rendered again "
     "({{ more }} x the repeats at their equal-time count) and tested with those renders, "
     "{{ cleared }} of them testable then{% endif %}"
@@ -103,11 +105,14 @@ def bias_finding(results: list) -> str:
     powers = [f"{r.name} {pct2(r.power)}" + (" (indicative only: heavy tails)"
                                              if power_indicative(r) else "")
               for r in results if r.power is not None]
-    again = [b for _, _, b in tested if b.extra]
+    again = [b for _, _, b in tested if b.extra and not b.retest]
+    retested = [f"{m} on {n} {b.retest} (p {b.retest_p:.2g})" for n, m, b in tested
+                if b.retest]
     return prose.say(BIAS_FINDING, block=tested[0][2].block, level=bias_test.LEVEL,
                      flagged=flagged, image=image, untestable=untestable, powers=powers,
                      table=BIAS_TABLE, again=len(again), more=bias_renders.MORE,
-                     cleared=sum(b.status != "untestable" for b in again))
+                     cleared=sum(b.status != "untestable" for b in again),
+                     retested=retested)
 
 
 #: The bias test's table of every cell (under the output folder), which the findings name.
@@ -116,7 +121,7 @@ BLOCK_HEADER = ["scene", "method", "biased", "why untestable", "tested", "varian
                 "detectable bias", "pooled difference", "smallest block p", "block level",
                 "pooled p", "pooled level", "flagged blocks", "ruled by one sample",
                 "image variance in one term", "degrees of freedom of the renders' own",
-                "renders again"]
+                "renders again", "flag tested again"]
 SCOPES = {"blocks": "blocks and pooled", "image": "image sum"}
 #: The caption of :data:`BIAS_TABLE` in the report.
 TABLE_CAPTION = (
@@ -136,7 +141,10 @@ TABLE_CAPTION = (
     f"(Welch-Satterthwaite, from their fourth moments; under {bias_image.MIN_DOF}: "
     f"untestable); 'renders again': where heavy tails voided the first test, the renders "
     f"at the cell's equal-time count added before it was tested again "
-    f"({bias_renders.MORE} times the run's repeats, in no comparison)")
+    f"({bias_renders.MORE} times the run's repeats, in no comparison), and where it "
+    f"flagged the cell, the fresh renders that tested the flag alone; 'flag tested "
+    f"again': whether they flagged it too (it stays biased), did not (not biased) or "
+    f"could not tell (void: the flag stands), with their smallest p")
 
 
 def number(x: float) -> str:
@@ -163,5 +171,6 @@ def block_bias_rows(results: dict) -> list[list]:
                          number(b.p_blocks if finite else math.nan), number(b.alpha_blocks),
                          number(b.p_pooled if finite else math.nan), number(b.alpha_pooled),
                          b.flagged_blocks, share(b.tail_share), share(b.term_share),
-                         "-" if math.isnan(b.own_dof) else f"{b.own_dof:.0f}", b.extra])
+                         "-" if math.isnan(b.own_dof) else f"{b.own_dof:.0f}", b.extra,
+                         f"{b.retest} (p {number(b.retest_p)})" if b.retest else "-"])
     return rows

@@ -74,6 +74,11 @@ class CellBias:
     own_dof: float = float("nan")      # image scope, ``moments``: its variance's dof
     own_skew: float = float("nan")     # image scope, ``moments``: its sum's skewness
     extra: int = 0                  # renders beyond the cell's own (.bias_renders)
+    #: a flag tested again on fresh renders alone (.bias_renders.confirmed): "" (not
+    #: flagged), "confirmed", "not confirmed" or "void" (their tails void it), and their
+    #: test's smallest p
+    retest: str = ""
+    retest_p: float = float("nan")
 
     @property
     def biased(self):
@@ -89,7 +94,8 @@ class CellBias:
                     self.flagged_blocks, "bias_tail_share": self.tail_share,
                 "bias_scope": self.scope, "bias_term_share": self.term_share,
                 "bias_dof": self.own_dof, "bias_skew": self.own_skew,
-                "bias_extra_renders": self.extra}
+                "bias_extra_renders": self.extra, "bias_retest": self.retest,
+                "bias_retest_p": self.retest_p}
 
 
 def cell_level(cells: int) -> float:

@@ -76,21 +76,26 @@ def _runs(runs: list, ref: references.Reference, b: list[float],
 
 
 def bias_tests(cfg: Settings, sp: ScenePlan, measured: Measurements,
-               chunks: np.ndarray | None, alpha: float, more: dict | None = None) -> dict:
+               chunks: np.ndarray | None, alpha: float, more: dict | None = None,
+               alone: bool = False) -> dict:
     """{method: :class:`.bias_test.CellBias`} of one scene's cells that rendered: each
     cell's renders at both budgets (and ``more``: {method: [Run]}, more renders at its
-    equal-time count, :mod:`.bias_renders`) against the reference's ``chunks`` (None: the
-    user's EXR) at the level ``alpha`` per cell, the test's own calibration applied
-    (:func:`.bias_test.calibrated`), and a biased verdict kept only where the cell's samples
-    could reach the light of the scene's narrowest lobe (:func:`.bias_test.unreached`)."""
+    equal-time count, :mod:`.bias_renders`; with ``alone``, the cells of ``more`` tested by
+    those renders alone, their even and odd ones the test's halves) against the
+    reference's ``chunks`` (None: the user's EXR) at the level ``alpha`` per cell, the
+    test's own calibration applied (:func:`.bias_test.calibrated`), and a biased verdict
+    kept only where the cell's samples could reach the light of the scene's narrowest
+    lobe (:func:`.bias_test.unreached`)."""
     failed = measured.failed_on(sp.name)
     methods = {m.name: m for m in measured.declaration.methods if m.name not in sp.left_out}
     out, samples = {}, {}
-    for name in [n for n in methods if n not in failed]:
+    for name in [n for n in methods if n not in failed and (not alone or n in more)]:
         extra = (more or {}).get(name, [])
+        runs = [extra[0::2], extra[1::2]] if alone else \
+            [measured.final(Cell(sp.name, name, budget)) + (extra if budget == TIME else [])
+             for budget in (SPP, TIME)]
         renders = [[(x.image, x.spp, x.variance, x.variance_var, x.third)
-                    for x in measured.final(Cell(sp.name, name, budget)) +
-                    (extra if budget == TIME else [])] for budget in (SPP, TIME)]
+                    for x in side] for side in runs]
         samples[name] = sum(r[1] * r[0].shape[0] * r[0].shape[1] for b in renders for r in b)
         out[name] = dataclasses.replace(
             bias_test.check_cell(methods[name], renders, chunks, sp.box, sp.box,

@@ -323,18 +323,17 @@ def run_suite(cfg: declare.Settings) -> dict:
         chunks = {sp.name: bias_test.reference_chunks(refs, sp.bias_ref) for sp in compared}
         tests = {sp.name: measure.bias_tests(cfg, sp, measured, chunks[sp.name], level)
                  for sp in compared}
-    # a cell whose tails void its test, and the A/A pair where its error is unsure, render
-    # on, once (bias_renders); the pair's round joins its errors
+    # a cell whose tails void its test, a flagged cell, and the A/A pair where its error is
+    # unsure, render on, once (bias_renders); the pair's round joins its errors
     unsure = bias_renders.imprecise(cfg, compared, measured,
                                     lambda sp: declare.reference_of(refs, sp, True))
-    void = bias_renders.void(tests)
+    void, flagged = bias_renders.void(tests), bias_renders.flagged(tests)
     more = timer.time("more renders", bias_renders.render, engine, cfg, compared, measured,
-                      bias_renders.union(void, unsure))
+                      bias_renders.union(void, flagged, unsure))
     with timer.part("analysis"):
-        for sp in [sp for sp in compared if sp.name in void and sp.name in more]:
-            tests[sp.name] = measure.bias_tests(cfg, sp, measured, chunks[sp.name], level,
-                                                bias_renders.only(more[sp.name],
-                                                                  void[sp.name]))
+        for sp in [sp for sp in compared if sp.name in more]:
+            tests[sp.name] = retested(cfg, sp, measured, chunks[sp.name], level,
+                                      tests[sp.name], more[sp.name], void, flagged)
         outcomes = [outcome(cfg, sp, measured, refs, tests[sp.name],
                             bias_renders.only(more.get(sp.name, {}), unsure.get(sp.name, ())))
                     for sp in compared]
@@ -342,6 +341,22 @@ def run_suite(cfg: declare.Settings) -> dict:
                              measured, {o.plan.name: o.reference.image for o in outcomes})
     return report.write(cfg, engine.study, plans, outcomes, measured, timer, guides,
                         allocations)
+
+
+def retested(cfg: declare.Settings, sp: declare.ScenePlan, measured, chunks, level: float,
+             tests: dict, more: dict, void: dict, flagged: dict) -> dict:
+    """One scene's bias ``tests`` after the round's renders ``more`` ({method: [Run]}): a
+    void cell's test with them beside its own renders, a flagged cell's flag tested again
+    on them alone (:func:`.bias_renders.confirmed`)."""
+    if sp.name in void:
+        tests = measure.bias_tests(cfg, sp, measured, chunks, level,
+                                   bias_renders.only(more, void[sp.name]))
+    fresh = bias_renders.only(more, flagged.get(sp.name, ()))
+    if fresh:
+        again = measure.bias_tests(cfg, sp, measured, chunks, level, fresh, alone=True)
+        tests = {**tests, **{m: bias_renders.confirmed(tests[m], again[m])
+                             for m in fresh if m in again}}
+    return tests
 
 
 def outcome(cfg: declare.Settings, sp: declare.ScenePlan, measured, refs,
