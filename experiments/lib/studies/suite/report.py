@@ -350,7 +350,9 @@ def matrix_blocks(cfg, outcomes: list[SceneOutcome]) -> list[dict]:
             "hypothesis of its header, vr_path's time per sample over path's, the adaptive "
             f"ceiling (how many times an oracle's allocation of {analysis.TIMED_PAIR[0]}'s "
             "samples to its pixels, by their relative standard deviations from its "
-            "equal-time renders, would lower its relMSE), the reference")]
+            "equal-time renders, would lower its relMSE at equal samples; at equal time it "
+            "is lower where the pixels that need samples are dearer, make bench rows 8), "
+            "the reference")]
     biases = bias_rows(results)
     if biases:
         blocks.append(report.write_table(
