@@ -337,6 +337,19 @@ def test_the_suite_measures_an_adaptive_cell(tmp_path):
     assert "the allocation figure of" not in section   # no failure line
 
 
+def test_a_guiding_scene_gives_the_ceiling_of_its_guide(tmp_path):
+    """The guiding scenes render no bsdf+nee: their adaptive ceiling reads guided+nee's
+    equal-time renders (what guided+nee+adaptive, refused, could reach), and says so."""
+    import json
+    from experiments.lib.studies.suite import study as S
+    S.STUDY.main(["--quick", "--out", str(tmp_path), "--scenes",
+                  scenes.path("suite/door_room.xml"), "--methods", "path,guided+nee"])
+    (scene,) = json.loads((tmp_path / "suite" / "summary.json").read_text())["scenes"]
+    assert scene["adaptive_ceiling_method"] == "guided+nee"
+    assert 1.0 <= scene["adaptive_ceiling"] < 100.0, scene["adaptive_ceiling"]
+    assert "(guided+nee)" in (tmp_path / "suite" / "scenes.md").read_text()
+
+
 def test_the_allocation_figure_reads_the_counts_the_render_used():
     """Every pixel's samples after one render on phong_highlight (48x36, 64 spp): at least
     the pilot and the floor each, together the budget less under one sample per pixel

@@ -94,4 +94,10 @@ ADAPTIVE = [
            "where the pixels that need samples are dear it reads as the equal-samples "
            "ceiling (environment 1.61 for 1.25)",
            ("tests/test_bench_adaptive.py::test_the_ceilings_of_known_fields",)),
+    Mutant("ceiling-plain-only", "experiments/lib/studies/suite/analysis.py",
+           'CEILING_METHODS = (TIMED_PAIR[0], "guided+nee")\n',
+           'CEILING_METHODS = (TIMED_PAIR[0],)\n',
+           "the adaptive ceiling read from bsdf+nee alone: the guiding scenes, which do not "
+           "render it, give none, and guided+nee+adaptive's refusal has no number",
+           ("tests/test_adaptive.py::test_a_guiding_scene_gives_the_ceiling_of_its_guide",)),
 ]

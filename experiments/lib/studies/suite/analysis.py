@@ -44,6 +44,9 @@ BIAS_LEVEL = 0.99
 FLOOR_SHARE = 0.1
 #: The vr_path method whose time per sample is compared with path's on every scene.
 TIMED_PAIR = ("bsdf+nee", "path")
+#: The methods whose adaptive sampling ceiling a scene gives (``errors.oracle_gain``): the
+#: first it renders (the guiding scenes render no ``bsdf+nee``).
+CEILING_METHODS = (TIMED_PAIR[0], "guided+nee")
 
 
 # ------------------------------------------------------------------ input
@@ -108,7 +111,8 @@ class SceneNumbers:
     failed: dict = field(default_factory=dict)    # {method: error}
     calibration: str = ""     # the method that renders the reference (its bias test is
     #                           the test's own negative control)
-    oracle_gain: float = math.nan   # errors.oracle_gain of TIMED_PAIR[0]'s equal-time renders
+    oracle_gain: float = math.nan   # errors.oracle_gain of oracle_method's equal-time renders
+    oracle_method: str = ""         # the first of CEILING_METHODS the scene renders
 
 
 # ------------------------------------------------------------------ the winner
@@ -253,6 +257,7 @@ class SceneResult:
     #: {adaptive method: Ratio of its equal-time efficiency over its twin that samples
     #: every pixel alike (Method.unadapted)}
     adapted: dict = field(default_factory=dict)
+    oracle_method: str = ""       # whose renders the ceiling reads (SceneNumbers')
 
     @property
     def reference_adequate(self) -> bool:
@@ -328,7 +333,8 @@ def analyse_scene(numbers: SceneNumbers) -> SceneResult:
     adapted = {m: compare(m, twin) for m in cells if (twin := _twin(m, "unadapted")) in cells}
     return SceneResult(numbers.name, base, results, ranking, verdict, time_ratio, share,
                        floor.known, dict(numbers.failed), power, power_method,
-                       numbers.calibration, learned, numbers.oracle_gain, adapted)
+                       numbers.calibration, learned, numbers.oracle_gain, adapted,
+                       numbers.oracle_method)
 
 
 def _twin(name: str, kind: str) -> str | None:

@@ -161,10 +161,10 @@ def measure_scene(cfg: Settings, sp: ScenePlan, measured: Measurements,
     floor = analysis.Floor(ref.relmse_floor or 0.0,
                            float(np.mean(rej_floors)) if rej_floors else 0.0,
                            ref.mse_floor or 0.0, ref.floor_known)
-    pair = analysis.TIMED_PAIR[0]
+    ceiling = next((m for m in analysis.CEILING_METHODS if m in cells), "")
     oracle = (errors.oracle_gain([errors.pixel_map(x.variance, ref.image)
-                                  for x in measured.final(Cell(sp.name, pair, TIME))])
-              if pair in cells else math.nan)
+                                  for x in measured.final(Cell(sp.name, ceiling, TIME))])
+              if ceiling else math.nan)
     header = sp.header
     exact = None
     if header is not None and header.exact is not None and cfg.max_depth is None \
@@ -174,6 +174,6 @@ def measure_scene(cfg: Settings, sp: ScenePlan, measured: Measurements,
                                  header.favours if header else (), header.over if header else (),
                                  header.hypothesis if header else "", exact, failed,
                                  cfg.reference_method.name if sp.user_ref is None else "",
-                                 oracle)
+                                 oracle, ceiling)
 
 

@@ -120,7 +120,8 @@ def scene_row(r: analysis.SceneResult, header, numbers: analysis.SceneNumbers,
                  + ("" if r.reference_adequate else " (too noisy)")
                  if ref.floor_known else f"user's EXR (own error unknown)")
     reference += f" [{note}]" if note else ""
-    ceiling = f"{r.oracle_gain:.3g}" if math.isfinite(r.oracle_gain) else "-"
+    ceiling = (f"{r.oracle_gain:.3g} ({r.oracle_method})" if math.isfinite(r.oracle_gain)
+               else "-")
     return [r.name, header.isolates if header else "(no header)", best, r.verdict.status,
             words.verdict_text(r.verdict), ratio, ceiling, reference]
 
@@ -348,8 +349,9 @@ def matrix_blocks(cfg, outcomes: list[SceneOutcome]) -> list[dict]:
              for o in outcomes],
             "Per scene: the winner (or the methods that cannot be told apart), the "
             "hypothesis of its header, vr_path's time per sample over path's, the adaptive "
-            f"ceiling (how many times an oracle's allocation of {analysis.TIMED_PAIR[0]}'s "
-            "samples to its pixels, by their relative standard deviations from its "
+            f"ceiling (how many times an oracle's allocation of the samples of the method "
+            f"named, the first of {', '.join(analysis.CEILING_METHODS)} the scene renders, "
+            "to its pixels, by their relative standard deviations from its "
             "equal-time renders, would lower its relMSE at equal samples; at equal time it "
             "is lower where the pixels that need samples are dearer, make bench rows 8), "
             "the reference")]
@@ -421,6 +423,7 @@ def summary_of(cfg, outcomes: list[SceneOutcome], found: list, failed: dict, tim
                     "hypothesis_text": words.verdict_text(r.verdict),
                     "sentences": words.sentences(r),
                     "adaptive_ceiling": r.oracle_gain,
+                    "adaptive_ceiling_method": r.oracle_method,
                     "reference_method": o.reference.method,
                     "reference_note": o.plan.reference_note,
                     "reference_spp": o.reference.spp, "reference_floor_share": r.floor_share,
