@@ -91,7 +91,7 @@ def bias_tests(cfg: Settings, sp: ScenePlan, measured: Measurements,
     out, samples = {}, {}
     for name in [n for n in methods if n not in failed and (not alone or n in more)]:
         extra = (more or {}).get(name, [])
-        runs = [extra[0::2], extra[1::2]] if alone else \
+        runs = [extra[half::2] for half in (0, 1)] if alone else \
             [measured.final(Cell(sp.name, name, budget)) + (extra if budget == TIME else [])
              for budget in (SPP, TIME)]
         renders = [[(x.image, x.spp, x.variance, x.variance_var, x.third)
