@@ -158,8 +158,10 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
             image = self._uniform(scene, sensor, seed, total, pilot, final)
             self.last_counts = dr.full(mi.UInt32, spp, pixels)
             return mi.TensorXf(dr.ravel(image), shape=(int(size.y), int(size.x), 3))
-        second = (_half(halves[1], 0) + _half(halves[1], 1)) / n_pilot
-        counts, planned = self.allocate(total / n_pilot, second, pilot, final * pixels, size)
+        sums, squares = halves
+        counts, planned = self.allocate((_half(sums, 0) + _half(sums, 1)) / n_pilot,
+                                        (_half(squares, 0) + _half(squares, 1)) / n_pilot,
+                                        pilot, final * pixels, size)
         n = int(dr.sum(counts)[0]) if dr.width(counts) else 0
         rest, _ = self._pass(scene, sensor, sampler, _other_seed(seed), counts, n)
         image = combine(total, n_pilot, rest, mi.Float(counts), mi.Float(planned))
@@ -179,15 +181,16 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
         rest = mi.Color3f(*[dr.ravel(rendered[..., c]) for c in range(3)])
         return (total + rest * float(final)) / float(pilot + final)
 
-    def allocate(self, mean: mi.Color3f, second: mi.Float, pilot: int, budget: int,
+    def allocate(self, mean: mi.Float, second: mi.Float, pilot: int, budget: int,
                  size) -> tuple[mi.UInt32, mi.UInt32]:
         """(per-pixel counts of the final pass, the counts the neighbours alone would
         give): the floor each plus the rest of ``budget`` in proportion to the pilot's
         relative standard deviation of one sample (its luminance's: the square root of
         var / (mean^2 + ``relmse_eps``), :data:`OWN_SHARE` the pixel's own and the rest the
         mean over its 8 neighbours; for the second, the neighbours' mean alone), rounded
-        down. ``mean`` is the pilot's mean RGB, ``second`` its luminance's mean square."""
-        relative = self._relative(mi.luminance(mean), second, pilot)
+        down. ``mean`` and ``second`` are the mean of the pilot's ``pilot`` luminances and
+        of their squares, per pixel."""
+        relative = self._relative(mean, second, pilot)
         neighbours = _blur(relative, int(size.x), int(size.y))
         own = dr.fma(OWN_SHARE, relative - neighbours, neighbours)
         return (self._counts(dr.sqrt(own), budget, size),
@@ -209,8 +212,8 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
         spp = pilot + budget / (int(size.x) * int(size.y))
         gains = []
         for h in (0, 1):
-            counts, _ = self.allocate(mi.Color3f(_half(sums, h) / n[h]),
-                                      _half(squares, h) / n[h], n[h], budget, size)
+            counts, _ = self.allocate(_half(sums, h) / n[h], _half(squares, h) / n[h],
+                                      n[h], budget, size)
             judge = v[1 - h]
             uniform = dr.mean(judge)[0] / spp
             allocated = dr.mean(judge / (pilot + mi.Float(counts)))[0]

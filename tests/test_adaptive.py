@@ -191,7 +191,7 @@ def allocation(ratio: np.ndarray, budget: int, min_spp: int = 1,
     pilot replaced by means 1 and second moments 1 + ratio^2, one row of pixels blurred)."""
     integ = mi.load_dict({**ADAPTIVE, "min_spp": min_spp, "min_share": min_share})
     width = len(ratio)
-    mean = mi.Color3f(mi.Float(np.ones(width)))
+    mean = mi.Float(np.ones(width))
     second = mi.Float(1.0 + np.square(ratio))
     counts, _ = integ.allocate(mean, second, 2, budget, mi.ScalarVector2u(width, 1))
     return np.array(counts)
