@@ -190,11 +190,15 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
         mean over its 8 neighbours; for the second, the neighbours' mean alone), rounded
         down. ``mean`` and ``second`` are the mean of the pilot's ``pilot`` luminances and
         of their squares, per pixel."""
-        relative = self._relative(mean, second, pilot)
+        return self._allocated(self._relative(mean, second, pilot), budget, size)
+
+    def _allocated(self, relative: mi.Float, budget: int, size, planned: bool = True):
+        """:meth:`allocate`'s counts from the pixels' relative variances ``relative``; the
+        neighbours' alone only with ``planned`` (else None)."""
         neighbours = _blur(relative, int(size.x), int(size.y))
         own = dr.fma(OWN_SHARE, relative - neighbours, neighbours)
         return (self._counts(dr.sqrt(own), budget, size),
-                self._counts(dr.sqrt(neighbours), budget, size))
+                self._counts(dr.sqrt(neighbours), budget, size) if planned else None)
 
     def predicted_gain(self, halves, pilot: int, budget: int, size) -> float:
         """The gain at equal samples that the pilot predicts for the whole render (pilot,
@@ -212,8 +216,7 @@ class AdaptiveIntegrator(mi.SamplingIntegrator):
         spp = pilot + budget / (int(size.x) * int(size.y))
         gains = []
         for h in (0, 1):
-            counts, _ = self.allocate(_half(sums, h) / n[h], _half(squares, h) / n[h],
-                                      n[h], budget, size)
+            counts, _ = self._allocated(v[h], budget, size, planned=False)
             judge = v[1 - h]
             uniform = dr.mean(judge)[0] / spp
             allocated = dr.mean(judge / (pilot + mi.Float(counts)))[0]
